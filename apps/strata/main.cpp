@@ -1,0 +1,41 @@
+// `strata`: the command line. Exit codes: 0 ok, 1 runtime error, 2 usage error.
+#include <cstdio>
+#include <exception>
+
+#include "commands.hpp"
+#include "strata/core/error.hpp"
+#include "strata/core/threads.hpp"
+
+int main(int argc, char** argv) {
+  using namespace strata;
+  CLI::App app{"Strata: compressed multiresolution volumes — store, explore and query.", "strata"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", "strata 0.1.0");
+  cli::GlobalOptions global;
+  app.add_option("--threads", global.threads, "Worker threads (default: all hardware threads)")->check(CLI::NonNegativeNumber);
+  app.add_option("--progress", global.progress, "Progress display: auto (bar on a terminal), bar, json, none")
+      ->check(CLI::IsMember({"auto", "bar", "json", "none"}));
+  app.parse_complete_callback([&] { set_thread_count(global.threads); });
+
+  cli::register_info(app, global);
+  cli::register_convert(app, global);
+  cli::register_generate(app, global);
+  cli::register_compare(app, global);
+  cli::register_demo(app, global);
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::Success& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    app.exit(e);
+    return 2;
+  } catch (const Error& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 1;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}

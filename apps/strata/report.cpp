@@ -1,0 +1,46 @@
+#include "report.hpp"
+
+#include <cstdio>
+#include <sstream>
+
+#include "strata/core/error.hpp"
+
+namespace strata::cli {
+
+void RawInputArgs::add_to(CLI::App& cmd) {
+  cmd.add_option("--dims", dims, "Raw input: dimensions X,Y,Z (else read from <file>.json)");
+  cmd.add_option("--dtype", dtype, "Raw input: sample type u8|i8|u16|i16|u32|i32|f32|f64");
+  cmd.add_option("--spacing", spacing, "Raw input: voxel spacing SX,SY,SZ");
+  cmd.add_flag("--big-endian", big_endian, "Raw input: samples are big endian");
+}
+
+io::ReadOptions RawInputArgs::to_read_options() const {
+  io::ReadOptions o;
+  if (!dims.empty()) o.raw_dims = parse_extent(dims);
+  if (!dtype.empty()) o.raw_dtype = parse_dtype(dtype, "--dtype");
+  if (!spacing.empty()) {
+    Spacing s;
+    char c1 = 0, c2 = 0;
+    std::istringstream in(spacing);
+    if (!(in >> s.x >> c1 >> s.y >> c2 >> s.z) || c1 != ',' || c2 != ',')
+      throw Error("--spacing: expected SX,SY,SZ, got '" + spacing + "'");
+    o.raw_spacing = s;
+  }
+  o.raw_big_endian = big_endian;
+  return o;
+}
+
+std::string human_bytes(std::uint64_t bytes) {
+  const char* units[] = {"B", "KiB", "MiB", "GiB", "TiB"};
+  double v = double(bytes);
+  int i = 0;
+  while (v >= 1024 && i < 4) {
+    v /= 1024;
+    ++i;
+  }
+  char buf[32];
+  std::snprintf(buf, sizeof buf, i ? "%.1f %s" : "%.0f %s", v, units[i]);
+  return buf;
+}
+
+}  // namespace strata::cli

@@ -1,0 +1,21 @@
+#pragma once
+// Small helpers shared by subcommands: raw-input flags and human-readable numbers.
+#include <CLI/CLI.hpp>
+
+#include <string>
+
+#include "strata/io/volume_io.hpp"
+
+namespace strata::cli {
+
+// --dims/--dtype/--spacing/--big-endian for raw inputs without a JSON sidecar.
+struct RawInputArgs {
+  std::string dims, dtype, spacing;
+  bool big_endian = false;
+  void add_to(CLI::App& cmd);
+  io::ReadOptions to_read_options() const;
+};
+
+std::string human_bytes(std::uint64_t bytes);
+
+}  // namespace strata::cli

@@ -1,0 +1,28 @@
+# Every dependency is a Debian package installed by ./setup.sh (see docs/architecture.md).
+find_package(Threads REQUIRED)
+find_package(OpenMP REQUIRED)
+find_package(ZLIB REQUIRED)
+find_package(TIFF REQUIRED)
+find_package(Eigen3 3.4 REQUIRED NO_MODULE)
+find_package(nlohmann_json 3 REQUIRED)
+find_package(fmt REQUIRED)
+find_package(CLI11 REQUIRED)
+find_package(PkgConfig REQUIRED)
+pkg_check_modules(ZSTD REQUIRED IMPORTED_TARGET libzstd)
+
+# libspng ships neither a CMake nor a pkg-config file: find it by hand.
+find_path(SPNG_INCLUDE_DIR spng.h REQUIRED)
+find_library(SPNG_LIBRARY spng REQUIRED)
+add_library(strata_spng INTERFACE)
+target_include_directories(strata_spng INTERFACE ${SPNG_INCLUDE_DIR})
+target_link_libraries(strata_spng INTERFACE ${SPNG_LIBRARY})
+
+add_library(strata_options INTERFACE)
+target_compile_options(strata_options INTERFACE -Wall -Wextra -Wno-unused-parameter)
+if(STRATA_NATIVE)
+  target_compile_options(strata_options INTERFACE -march=native)
+endif()
+if(STRATA_SANITIZE)
+  target_compile_options(strata_options INTERFACE -fsanitize=address,undefined -fno-omit-frame-pointer)
+  target_link_options(strata_options INTERFACE -fsanitize=address,undefined)
+endif()

@@ -1,0 +1,25 @@
+# strata_add_module(name "deps"): one static library per folder src/<name>, public headers in
+# include/strata/<name>. Sources are globbed so a new file needs no CMake edit.
+function(strata_add_module name deps)
+  file(GLOB _sources CONFIGURE_DEPENDS ${PROJECT_SOURCE_DIR}/src/${name}/*.cpp)
+  if(NOT _sources)
+    return()
+  endif()
+  add_library(strata_${name} STATIC ${_sources})
+  target_include_directories(strata_${name} PUBLIC ${PROJECT_SOURCE_DIR}/include
+                                             PRIVATE ${PROJECT_SOURCE_DIR}/src)
+  target_link_libraries(strata_${name} PUBLIC ${deps} strata_options OpenMP::OpenMP_CXX
+                        Threads::Threads nlohmann_json::nlohmann_json fmt::fmt)
+  if(name STREQUAL "io")
+    target_link_libraries(strata_${name} PRIVATE ZLIB::ZLIB TIFF::TIFF)
+  endif()
+  if(name MATCHES "^(tensor|ta|quant)$")
+    target_link_libraries(strata_${name} PUBLIC Eigen3::Eigen)
+  endif()
+  if(name MATCHES "^(store|mixture)$")
+    target_link_libraries(strata_${name} PRIVATE PkgConfig::ZSTD)
+  endif()
+  if(name STREQUAL "render")
+    target_link_libraries(strata_${name} PRIVATE strata_spng)
+  endif()
+endfunction()

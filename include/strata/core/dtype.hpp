@@ -1,0 +1,61 @@
+#pragma once
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <type_traits>
+
+#include "strata/core/error.hpp"
+
+namespace strata {
+
+// Voxel sample types. Storage is always native little endian in memory.
+enum class DType : std::uint8_t { u8, i8, u16, i16, u32, i32, f32, f64 };
+
+constexpr std::size_t dtype_size(DType t) {
+  switch (t) {
+    case DType::u8: case DType::i8: return 1;
+    case DType::u16: case DType::i16: return 2;
+    case DType::u32: case DType::i32: case DType::f32: return 4;
+    case DType::f64: return 8;
+  }
+  return 0;
+}
+constexpr bool dtype_is_float(DType t) { return t == DType::f32 || t == DType::f64; }
+constexpr bool dtype_is_signed(DType t) {
+  return t == DType::i8 || t == DType::i16 || t == DType::i32 || dtype_is_float(t);
+}
+constexpr bool dtype_is_integer(DType t) { return !dtype_is_float(t); }
+
+std::string_view dtype_name(DType t);
+// Accepts our names (u8, i16, f32, ...) and common spellings (uint8, int16, float, double).
+// Throws Error naming `context` when the name is unknown.
+DType parse_dtype(std::string_view name, std::string_view context = "dtype");
+
+template <class T> constexpr DType dtype_of();
+template <> constexpr DType dtype_of<std::uint8_t>() { return DType::u8; }
+template <> constexpr DType dtype_of<std::int8_t>() { return DType::i8; }
+template <> constexpr DType dtype_of<std::uint16_t>() { return DType::u16; }
+template <> constexpr DType dtype_of<std::int16_t>() { return DType::i16; }
+template <> constexpr DType dtype_of<std::uint32_t>() { return DType::u32; }
+template <> constexpr DType dtype_of<std::int32_t>() { return DType::i32; }
+template <> constexpr DType dtype_of<float>() { return DType::f32; }
+template <> constexpr DType dtype_of<double>() { return DType::f64; }
+
+// Calls f(T{}) with the C++ type of `t`, so typed kernels are written once as templates.
+template <class F>
+decltype(auto) visit_dtype(DType t, F&& f) {
+  switch (t) {
+    case DType::u8: return f(std::uint8_t{});
+    case DType::i8: return f(std::int8_t{});
+    case DType::u16: return f(std::uint16_t{});
+    case DType::i16: return f(std::int16_t{});
+    case DType::u32: return f(std::uint32_t{});
+    case DType::i32: return f(std::int32_t{});
+    case DType::f32: return f(float{});
+    case DType::f64: return f(double{});
+  }
+  throw Error("visit_dtype: invalid dtype value");
+}
+
+}  // namespace strata

@@ -1,0 +1,50 @@
+#pragma once
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <unordered_map>
+#include <vector>
+
+#include "strata/core/volume.hpp"
+
+namespace strata {
+
+// Summary statistics of a volume, accumulated slab by slab (streaming).
+struct VolumeStatistics {
+  std::uint64_t voxel_count = 0;
+  double min = 0, max = 0, mean = 0, stddev = 0;
+  // 16-bin histogram over [min, max].
+  std::array<std::uint64_t, 16> histogram{};
+  // Integer volumes only: distinct values (unset when more than the tracking cap) and the
+  // fraction of voxels equal to 0 (the background of a label volume).
+  std::optional<std::uint64_t> distinct_values;
+  double zero_fraction = 0;
+};
+
+class StatisticsAccumulator {
+ public:
+  // Distinct integer values are tracked up to this many; beyond it they are reported unknown.
+  static constexpr std::size_t kDistinctCap = 1u << 22;
+  // Values kept (evenly thinned) for the histogram when exact counts are not available.
+  static constexpr std::size_t kSampleCap = 1u << 20;
+
+  void add(const Volume& slab);
+  VolumeStatistics result() const;
+
+ private:
+  template <class T> void add_typed(const T* v, std::int64_t n);
+  void add_sample(double v);
+  std::uint64_t n_ = 0, zeros_ = 0;
+  double sum_ = 0, sum_sq_ = 0;
+  double min_ = 0, max_ = 0;
+  bool seen_float_ = false, distinct_overflow_ = false;
+  std::vector<std::uint64_t> small_counts_;  // 8/16-bit: value + small_offset_ -> count
+  std::int64_t small_offset_ = 0;
+  std::unordered_map<std::int64_t, std::uint64_t> counts_;    // 32-bit integers
+  std::vector<double> samples_;                               // floats / overflowed integers
+  std::uint64_t sample_stride_ = 1, sample_phase_ = 0;
+};
+
+VolumeStatistics compute_statistics(const Volume& v);
+
+}  // namespace strata

@@ -1,0 +1,46 @@
+#pragma once
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <string_view>
+
+#include "strata/core/progress.hpp"
+#include "strata/core/volume.hpp"
+
+namespace strata::gen {
+
+// Synthetic volumes. Every generator is deterministic for a seed and evaluates any slab
+// independently, so volumes of any size stream to disk slab by slab.
+enum class Kind {
+  prisms,          // scalar: smooth blobs + thin curved fibre bundles + noise (enamel-like), u16
+  marschner_lobb,  // scalar: the Marschner–Lobb test signal in [-1,1]^3, f32 in [0,1]
+  sphere,          // scalar: analytic solid sphere (value 1 inside, smooth 1-voxel edge), f32
+  voronoi,         // labels: N warped Voronoi cells separated by thin background membranes, u32
+  fibres,          // labels: N curved tubes on ~85% background, u32
+};
+
+Kind parse_kind(std::string_view name);  // "prisms", "marschner-lobb", "sphere", "voronoi", "fibres"
+std::string_view kind_name(Kind k);
+bool is_label_kind(Kind k);
+
+struct Params {
+  Kind kind = Kind::prisms;
+  Extent dims{64, 64, 64};
+  std::uint64_t seed = 1;
+  std::int64_t count = 0;  // number of blobs/fibres/cells; 0 = the kind's default
+};
+
+class Generator {
+ public:
+  virtual ~Generator() = default;
+  virtual const VolumeInfo& info() const = 0;
+  // Slices [z0, z1); thread-safe and deterministic (same bytes for any slab partition).
+  virtual Volume slab(std::int64_t z0, std::int64_t z1) const = 0;
+};
+
+std::unique_ptr<Generator> make_generator(const Params& params);
+Volume generate(const Params& params);  // whole volume in memory (small sizes)
+// Streams the volume to any format io can write, slab by slab, with progress.
+void generate_to_file(const Params& params, const std::filesystem::path& out, ProgressSink& progress);
+
+}  // namespace strata::gen

@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# Installs every Debian package Strata uses, then configures and builds the release preset.
+# Idempotent: on a machine that is already set up it only runs an incremental build.
+set -euo pipefail
+cd "$(dirname "$0")"
+
+PACKAGES=(
+  cmake ninja-build g++ pkg-config            # build
+  libeigen3-dev                               # linear algebra
+  zlib1g-dev libzstd-dev                      # gzip (NRRD, .nii.gz), zstd
+  libtiff-dev                                 # TIFF stacks
+  libspng-dev                                 # PNG output
+  libcli11-dev nlohmann-json3-dev libfmt-dev  # CLI, JSON, formatting
+  libgtest-dev libbenchmark-dev               # tests and benchmarks
+  mricron-data                                # sample MRI and brain atlases
+)
+
+missing=()
+for p in "${PACKAGES[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]})); then
+  echo "setup: installing ${missing[*]}"
+  SUDO=""
+  if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fi
+
+if [ ! -f build/release/build.ninja ]; then
+  cmake --preset release
+fi
+cmake --build --preset release

@@ -1,0 +1,114 @@
+#include "strata/core/statistics.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace strata {
+
+
+void StatisticsAccumulator::add_sample(double v) {
+  // Keep every stride-th value; when full, drop every other one and double the stride, so
+  // the kept values stay evenly spread over the whole stream.
+  if (++sample_phase_ < sample_stride_) return;
+  sample_phase_ = 0;
+  samples_.push_back(v);
+  if (samples_.size() >= kSampleCap) {
+    std::size_t j = 0;
+    for (std::size_t i = 0; i < samples_.size(); i += 2) samples_[j++] = samples_[i];
+    samples_.resize(j);
+    sample_stride_ *= 2;
+  }
+}
+
+template <class T>
+void StatisticsAccumulator::add_typed(const T* v, std::int64_t n) {
+  double sum = 0, sum_sq = 0, lo = n ? double(v[0]) : 0, hi = lo;
+  std::uint64_t zeros = 0;
+#pragma omp parallel for reduction(+ : sum, sum_sq, zeros) reduction(min : lo) reduction(max : hi) schedule(static)
+  for (std::int64_t i = 0; i < n; ++i) {
+    const double x = double(v[i]);
+    sum += x;
+    sum_sq += x * x;
+    zeros += (v[i] == T(0));
+    lo = std::min(lo, x);
+    hi = std::max(hi, x);
+  }
+  if (n == 0) return;
+  min_ = n_ ? std::min(min_, lo) : lo;
+  max_ = n_ ? std::max(max_, hi) : hi;
+  n_ += std::uint64_t(n);
+  sum_ += sum;
+  sum_sq_ += sum_sq;
+  zeros_ += zeros;
+
+  if constexpr (std::is_floating_point_v<T>) {
+    seen_float_ = true;
+    for (std::int64_t i = 0; i < n; ++i) add_sample(double(v[i]));
+  } else if constexpr (sizeof(T) <= 2) {
+    // Signed types are shifted by 32768 so every 8/16-bit value has its own table entry.
+    small_offset_ = std::is_signed_v<T> ? 32768 : 0;
+    if (small_counts_.empty()) small_counts_.assign(65536, 0);
+    for (std::int64_t i = 0; i < n; ++i) ++small_counts_[std::size_t(std::int64_t(v[i]) + small_offset_)];
+  } else {
+    // Label volumes come in long runs of one id: count runs, not voxels, in the hash map.
+    std::int64_t i = 0;
+    while (i < n && !distinct_overflow_) {
+      std::int64_t j = i + 1;
+      while (j < n && v[j] == v[i]) ++j;
+      counts_[std::int64_t(v[i])] += std::uint64_t(j - i);
+      if (counts_.size() > kDistinctCap) distinct_overflow_ = true;
+      i = j;
+    }
+    for (std::int64_t k = 0; k < n; ++k) add_sample(double(v[k]));
+  }
+}
+
+void StatisticsAccumulator::add(const Volume& slab) {
+  visit_dtype(slab.dtype(), [&](auto tag) {
+    using T = decltype(tag);
+    add_typed(slab.samples<T>().data(), slab.voxel_count());
+  });
+}
+
+VolumeStatistics StatisticsAccumulator::result() const {
+  VolumeStatistics s;
+  s.voxel_count = n_;
+  if (n_ == 0) return s;
+  s.min = min_;
+  s.max = max_;
+  s.mean = sum_ / double(n_);
+  s.stddev = std::sqrt(std::max(0.0, sum_sq_ / double(n_) - s.mean * s.mean));
+  s.zero_fraction = double(zeros_) / double(n_);
+  const double range = max_ - min_;
+  auto bin_of = [&](double v) {
+    if (range <= 0) return std::size_t(0);
+    return std::min<std::size_t>(s.histogram.size() - 1, std::size_t((v - min_) / range * double(s.histogram.size())));
+  };
+  if (!small_counts_.empty()) {
+    std::uint64_t distinct = 0;
+    for (std::size_t i = 0; i < small_counts_.size(); ++i) {
+      if (!small_counts_[i]) continue;
+      ++distinct;
+      s.histogram[bin_of(double(std::int64_t(i) - small_offset_))] += small_counts_[i];
+    }
+    s.distinct_values = distinct;
+  } else if (!seen_float_ && !distinct_overflow_) {
+    for (const auto& [value, count] : counts_) s.histogram[bin_of(double(value))] += count;
+    s.distinct_values = counts_.size();
+  } else {
+    // Histogram from the evenly thinned sample, scaled to the voxel count.
+    std::array<std::uint64_t, 16> sampled{};
+    for (double v : samples_) ++sampled[bin_of(v)];
+    const double scale = samples_.empty() ? 0 : double(n_) / double(samples_.size());
+    for (std::size_t b = 0; b < sampled.size(); ++b) s.histogram[b] = std::uint64_t(std::llround(sampled[b] * scale));
+  }
+  return s;
+}
+
+VolumeStatistics compute_statistics(const Volume& v) {
+  StatisticsAccumulator acc;
+  acc.add(v);
+  return acc.result();
+}
+
+}  // namespace strata

@@ -1,0 +1,414 @@
+// Building blocks shared by the format readers and writers: mmap, atomic output, gzip streams
+// and the memory-mapped VolumeSource.
+#include "io/io_detail.hpp"
+
+#include <fcntl.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <unistd.h>
+#include <zlib.h>
+
+#include <algorithm>
+#include <bit>
+#include <cerrno>
+#include <cstring>
+#include <functional>
+
+#include <fmt/format.h>
+
+namespace strata::io::detail {
+
+namespace {
+
+std::string system_error_text() { return std::strerror(errno); }
+
+// zlib counts in 32-bit uInt; feeding at most this much per call keeps 64-bit sizes safe.
+constexpr std::uint64_t kZlibChunk = std::uint64_t(1) << 30;
+constexpr std::size_t kInflateBufferBytes = std::size_t(1) << 20;
+
+std::uint64_t page_size() {
+  static const std::uint64_t size = std::uint64_t(sysconf(_SC_PAGESIZE));
+  return size;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// MappedFile
+
+MappedFile::MappedFile(const std::filesystem::path& path) {
+  int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) throw Error(fmt::format("{}: cannot open: {}", path.string(), system_error_text()));
+  struct stat st {};
+  if (::fstat(fd, &st) != 0) {
+    std::string why = system_error_text();
+    ::close(fd);
+    throw Error(fmt::format("{}: cannot stat: {}", path.string(), why));
+  }
+  size_ = std::uint64_t(st.st_size);
+  // mmap rejects a zero length; an empty file simply has no bytes to map.
+  if (size_ > 0) {
+    // MAP_SHARED so that pages dropped by release() are refilled from the file if touched again.
+    void* p = ::mmap(nullptr, size_, PROT_READ, MAP_SHARED, fd, 0);
+    if (p == MAP_FAILED) {
+      std::string why = system_error_text();
+      ::close(fd);
+      throw Error(fmt::format("{}: cannot memory-map {} bytes: {}", path.string(), size_, why));
+    }
+    data_ = static_cast<const std::byte*>(p);
+  }
+  ::close(fd);  // the mapping keeps the file alive
+}
+
+MappedFile::~MappedFile() {
+  if (data_) ::munmap(const_cast<std::byte*>(data_), size_);
+}
+
+void MappedFile::release(std::uint64_t offset, std::uint64_t length) const {
+  if (!data_ || length == 0 || offset >= size_) return;
+  // Rounding outward is safe: a dropped page of a read-only shared mapping is re-read from the
+  // page cache on the next touch, so a neighbour's data is never lost, only re-faulted.
+  std::uint64_t end = std::min(size_, offset + length);
+  std::uint64_t first = offset / page_size() * page_size();
+  std::uint64_t last = (end + page_size() - 1) / page_size() * page_size();
+  ::madvise(const_cast<std::byte*>(data_) + first, last - first, MADV_DONTNEED);
+}
+
+// ---------------------------------------------------------------------------------------------
+// AtomicOutputFile
+
+AtomicOutputFile::AtomicOutputFile(std::filesystem::path path) : path_(std::move(path)) {
+  tmp_ = path_;
+  tmp_ += ".tmp";
+  file_ = std::fopen(tmp_.c_str(), "wb");
+  if (!file_) throw Error(fmt::format("{}: cannot create: {}", tmp_.string(), system_error_text()));
+}
+
+AtomicOutputFile::~AtomicOutputFile() {
+  if (!file_) return;  // committed (or failed in commit, which cleaned up)
+  std::fclose(file_);
+  std::error_code ignored;
+  std::filesystem::remove(tmp_, ignored);
+}
+
+void AtomicOutputFile::write(const void* data, std::size_t bytes) {
+  if (!file_) throw Error(fmt::format("{}: write after commit", path_.string()));
+  if (bytes == 0) return;
+  if (std::fwrite(data, 1, bytes, file_) != bytes)
+    throw Error(fmt::format("{}: write failed: {}", tmp_.string(), system_error_text()));
+}
+
+void AtomicOutputFile::commit() {
+  if (!file_) throw Error(fmt::format("{}: committed twice", path_.string()));
+  std::FILE* f = file_;
+  file_ = nullptr;
+  // fclose flushes the buffer; a full disk shows up here, so its result decides the commit.
+  bool flushed = std::fflush(f) == 0 && ::fsync(::fileno(f)) == 0;
+  std::string why = flushed ? "" : system_error_text();
+  if (std::fclose(f) != 0 && flushed) {
+    flushed = false;
+    why = system_error_text();
+  }
+  std::error_code ec;
+  if (flushed) std::filesystem::rename(tmp_, path_, ec);
+  if (!flushed || ec) {
+    std::error_code ignored;
+    std::filesystem::remove(tmp_, ignored);
+    throw Error(fmt::format("{}: cannot finish writing: {}", path_.string(), flushed ? ec.message() : why));
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// GzipWriter
+
+struct GzipWriter::Impl {
+  AtomicOutputFile& out;
+  z_stream stream{};
+  std::vector<unsigned char> buffer = std::vector<unsigned char>(kInflateBufferBytes);
+  bool finished = false;
+
+  Impl(AtomicOutputFile& o, int level) : out(o) {
+    // windowBits 15 + 16 asks zlib for a gzip header and trailer instead of a zlib wrapper.
+    if (deflateInit2(&stream, level, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY) != Z_OK)
+      throw Error(fmt::format("{}: cannot initialise gzip compression", out.path().string()));
+  }
+  ~Impl() { deflateEnd(&stream); }
+
+  // Runs deflate over the pending input with `flush`, writing every produced byte.
+  int pump(int flush) {
+    int status = Z_OK;
+    do {
+      stream.next_out = buffer.data();
+      stream.avail_out = uInt(buffer.size());
+      status = deflate(&stream, flush);
+      if (status == Z_STREAM_ERROR) throw Error(fmt::format("{}: gzip compression failed", out.path().string()));
+      out.write(buffer.data(), buffer.size() - stream.avail_out);
+    } while (stream.avail_out == 0 || (flush == Z_FINISH && status != Z_STREAM_END));
+    return status;
+  }
+};
+
+GzipWriter::GzipWriter(AtomicOutputFile& out, int level) : impl_(std::make_unique<Impl>(out, level)) {}
+GzipWriter::~GzipWriter() = default;
+
+void GzipWriter::write(const void* data, std::size_t bytes) {
+  if (impl_->finished) throw Error(fmt::format("{}: gzip write after finish", impl_->out.path().string()));
+  auto* p = static_cast<const unsigned char*>(data);
+  while (bytes > 0) {
+    std::size_t n = std::size_t(std::min<std::uint64_t>(bytes, kZlibChunk));
+    impl_->stream.next_in = const_cast<unsigned char*>(p);
+    impl_->stream.avail_in = uInt(n);
+    impl_->pump(Z_NO_FLUSH);
+    p += n;
+    bytes -= n;
+  }
+}
+
+void GzipWriter::finish() {
+  if (impl_->finished) return;
+  impl_->stream.next_in = nullptr;
+  impl_->stream.avail_in = 0;
+  impl_->pump(Z_FINISH);
+  impl_->finished = true;
+}
+
+// ---------------------------------------------------------------------------------------------
+// TempFile
+
+TempFile::TempFile(const std::filesystem::path& dir, const std::string& stem) {
+  std::string pattern = (dir / (stem + "-XXXXXX")).string();
+  std::vector<char> name(pattern.begin(), pattern.end());
+  name.push_back('\0');
+  int fd = ::mkstemp(name.data());
+  if (fd < 0) throw Error(fmt::format("{}: cannot create a temporary file: {}", dir.string(), system_error_text()));
+  ::close(fd);
+  path_ = name.data();
+}
+
+TempFile::~TempFile() {
+  std::error_code ignored;
+  std::filesystem::remove(path_, ignored);
+}
+
+// ---------------------------------------------------------------------------------------------
+// gzip decoding
+
+namespace {
+
+using ChunkSink = std::function<void(const unsigned char*, std::size_t)>;
+
+// Inflates gzip members back to back (as `gzip` and `cat a.gz b.gz` produce), handing every
+// decoded chunk to `sink`. Throws FormatError on corrupt data and on a stream that stops
+// before its end-of-member marker (a truncated file).
+void inflate_gzip(const std::byte* data, std::uint64_t size, const std::string& file, const std::string& field,
+                  ProgressSink& progress, const ChunkSink& sink) {
+  if (!looks_gzipped(data, size)) throw FormatError(file, field, "not a gzip stream (missing the 1f 8b signature)");
+  z_stream stream{};
+  // windowBits 15 + 32: accept gzip (and zlib) headers, detected automatically.
+  if (inflateInit2(&stream, 15 + 32) != Z_OK) throw Error(file + ": cannot initialise gzip decompression");
+  struct End { z_stream* s; ~End() { inflateEnd(s); } } end_guard{&stream};
+
+  ProgressTask task(progress, "decompress", size, "bytes");
+  std::vector<unsigned char> out(kInflateBufferBytes);
+  std::uint64_t consumed = 0;
+  bool member_ended = false;
+  while (consumed < size) {
+    if (member_ended) {
+      inflateReset(&stream);
+      member_ended = false;
+    }
+    std::uint64_t chunk = std::min(size - consumed, kZlibChunk);
+    stream.next_in = reinterpret_cast<Bytef*>(const_cast<std::byte*>(data + consumed));
+    stream.avail_in = uInt(chunk);
+    // Keep calling while input remains or the last call filled the buffer: zlib may hold
+    // decoded bytes (and the end-of-member marker) back until it gets more output space.
+    bool output_full = true;
+    while (!member_ended && (stream.avail_in > 0 || output_full)) {
+      stream.next_out = out.data();
+      stream.avail_out = uInt(out.size());
+      int status = inflate(&stream, Z_NO_FLUSH);
+      if (status == Z_NEED_DICT || status == Z_DATA_ERROR || status == Z_STREAM_ERROR || status == Z_MEM_ERROR) {
+        throw FormatError(file, field,
+                          fmt::format("corrupt gzip stream near compressed byte {}: {}",
+                                      consumed + (chunk - stream.avail_in), stream.msg ? stream.msg : "invalid data"));
+      }
+      sink(out.data(), out.size() - stream.avail_out);
+      output_full = stream.avail_out == 0;
+      if (status == Z_STREAM_END) member_ended = true;
+      // Z_BUF_ERROR: no progress without more input; the outer loop feeds the next chunk or,
+      // at the end of the data, reports truncation.
+      if (status == Z_BUF_ERROR) break;
+    }
+    std::uint64_t used = chunk - stream.avail_in;
+    consumed += used;
+    task.advance(used);
+    // Bytes after a finished member that do not start another gzip member are padding some
+    // tools append (often zeros); gzip(1) ignores them, and so do we.
+    if (member_ended && consumed < size && !looks_gzipped(data + consumed, size - consumed)) return;
+  }
+  if (!member_ended)
+    throw FormatError(file, field, fmt::format("truncated gzip stream: ended after {} compressed bytes", size));
+}
+
+}  // namespace
+
+void gunzip_to_file(const std::byte* data, std::uint64_t size, const std::filesystem::path& out,
+                    const std::string& file_for_errors, const std::string& field, ProgressSink& progress) {
+  std::FILE* f = std::fopen(out.c_str(), "wb");
+  if (!f) throw Error(fmt::format("{}: cannot create: {}", out.string(), system_error_text()));
+  struct Close { std::FILE* f; ~Close() { if (f) std::fclose(f); } } closer{f};
+  inflate_gzip(data, size, file_for_errors, field, progress, [&](const unsigned char* p, std::size_t n) {
+    if (n > 0 && std::fwrite(p, 1, n, f) != n)
+      throw Error(fmt::format("{}: write failed while decoding {}: {}", out.string(), file_for_errors,
+                              system_error_text()));
+  });
+  closer.f = nullptr;
+  if (std::fclose(f) != 0)
+    throw Error(fmt::format("{}: write failed while decoding {}: {}", out.string(), file_for_errors,
+                            system_error_text()));
+}
+
+std::vector<std::byte> gunzip_to_memory(const std::byte* data, std::uint64_t size, const std::string& file_for_errors,
+                                        const std::string& field) {
+  std::vector<std::byte> result;
+  inflate_gzip(data, size, file_for_errors, field, silent_progress(), [&](const unsigned char* p, std::size_t n) {
+    auto* b = reinterpret_cast<const std::byte*>(p);
+    result.insert(result.end(), b, b + n);
+  });
+  return result;
+}
+
+bool looks_gzipped(const std::byte* data, std::uint64_t size) {
+  return size >= 2 && data[0] == std::byte{0x1f} && data[1] == std::byte{0x8b};
+}
+
+// ---------------------------------------------------------------------------------------------
+// Byte order
+
+void byte_swap(std::byte* data, std::size_t count, std::size_t sample_size) {
+  switch (sample_size) {
+    case 1: return;
+    case 2:
+      for (std::size_t i = 0; i < count; ++i) {
+        std::uint16_t v;
+        std::memcpy(&v, data + i * 2, 2);
+        v = __builtin_bswap16(v);
+        std::memcpy(data + i * 2, &v, 2);
+      }
+      return;
+    case 4:
+      for (std::size_t i = 0; i < count; ++i) {
+        std::uint32_t v;
+        std::memcpy(&v, data + i * 4, 4);
+        v = __builtin_bswap32(v);
+        std::memcpy(data + i * 4, &v, 4);
+      }
+      return;
+    case 8:
+      for (std::size_t i = 0; i < count; ++i) {
+        std::uint64_t v;
+        std::memcpy(&v, data + i * 8, 8);
+        v = __builtin_bswap64(v);
+        std::memcpy(data + i * 8, &v, 8);
+      }
+      return;
+    default:
+      throw Error(fmt::format("byte_swap: unsupported sample size {}", sample_size));
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Memory-mapped VolumeSource
+
+namespace {
+
+class MappedSource final : public VolumeSource {
+ public:
+  MappedSource(std::shared_ptr<MappedFile> file, std::uint64_t offset, const VolumeInfo& info, bool swap,
+               std::filesystem::path path, std::shared_ptr<TempFile> keep_alive)
+      : file_(std::move(file)), offset_(offset), info_(info), swap_(swap), path_(std::move(path)),
+        keep_alive_(std::move(keep_alive)) {}
+
+  const VolumeInfo& info() const override { return info_; }
+  const std::filesystem::path& path() const override { return path_; }
+
+  Volume read_box(const Box& box) override {
+    if (box.empty() || !Box::whole(info_.dims).contains(box))
+      throw Error(fmt::format("{}: box {} is empty or outside the volume {}", path_.string(), box.to_string(),
+                              info_.dims.to_string()));
+    Volume result(box.size(), info_.dtype, info_.spacing);
+    copy_box(box, result.bytes());
+    if (swap_) byte_swap(result.bytes(), result.byte_size() / dtype_size(info_.dtype), dtype_size(info_.dtype));
+    release_box(box);
+    return result;
+  }
+
+ private:
+  std::uint64_t byte_offset(std::int64_t x, std::int64_t y, std::int64_t z) const {
+    auto index = std::uint64_t((z * info_.dims.y + y) * info_.dims.x + x);
+    return offset_ + index * dtype_size(info_.dtype);
+  }
+
+  void copy_box(const Box& box, std::byte* out) const {
+    const Extent size = box.size();
+    const std::uint64_t row_bytes = std::uint64_t(size.x) * dtype_size(info_.dtype);
+    // Full-width boxes are contiguous per slice, so they copy in one piece per slice.
+    const bool full_rows = size.x == info_.dims.x;
+    for (std::int64_t z = box.lo.z; z < box.hi.z; ++z) {
+      if (full_rows) {
+        std::uint64_t n = row_bytes * std::uint64_t(size.y);
+        std::memcpy(out, file_->data() + byte_offset(0, box.lo.y, z), n);
+        out += n;
+        continue;
+      }
+      for (std::int64_t y = box.lo.y; y < box.hi.y; ++y) {
+        std::memcpy(out, file_->data() + byte_offset(box.lo.x, y, z), row_bytes);
+        out += row_bytes;
+      }
+    }
+  }
+
+  // Drops the pages just read, slice by slice, so streaming a file far larger than memory
+  // keeps the resident set at about one request instead of growing to the whole file.
+  void release_box(const Box& box) const {
+    const std::uint64_t sample = dtype_size(info_.dtype);
+    for (std::int64_t z = box.lo.z; z < box.hi.z; ++z) {
+      std::uint64_t first = byte_offset(box.lo.x, box.lo.y, z);
+      std::uint64_t end = byte_offset(box.hi.x - 1, box.hi.y - 1, z) + sample;
+      file_->release(first, end - first);
+    }
+  }
+
+  std::shared_ptr<MappedFile> file_;
+  std::uint64_t offset_;
+  VolumeInfo info_;
+  bool swap_;
+  std::filesystem::path path_;
+  std::shared_ptr<TempFile> keep_alive_;  // a decoded temporary lives as long as its mapping
+};
+
+void check_mapped_info(const VolumeInfo& info, const std::filesystem::path& path, const std::string& field) {
+  if (info.dims.x <= 0 || info.dims.y <= 0 || info.dims.z <= 0)
+    throw FormatError(path.string(), field, fmt::format("dims {} must all be positive", info.dims.to_string()));
+}
+
+}  // namespace
+
+std::unique_ptr<VolumeSource> make_mapped_source(std::shared_ptr<MappedFile> file, std::uint64_t offset,
+                                                 const VolumeInfo& info, bool big_endian,
+                                                 std::filesystem::path path, const std::string& field,
+                                                 std::shared_ptr<TempFile> keep_alive) {
+  check_mapped_info(info, path, field);
+  const std::uint64_t needed = std::uint64_t(info.dims.voxel_count()) * dtype_size(info.dtype);
+  if (offset > file->size() || file->size() - offset < needed) {
+    std::uint64_t available = offset > file->size() ? 0 : file->size() - offset;
+    throw FormatError(path.string(), field,
+                      fmt::format("expected {} bytes of samples for {} {} at byte {}, found {}", needed,
+                                  info.dims.to_string(), dtype_name(info.dtype), offset, available));
+  }
+  const bool file_is_big = big_endian;
+  const bool swap = file_is_big != (std::endian::native == std::endian::big);
+  return std::make_unique<MappedSource>(std::move(file), offset, info, swap, std::move(path), std::move(keep_alive));
+}
+
+}  // namespace strata::io::detail

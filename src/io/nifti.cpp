@@ -1,0 +1,346 @@
+// NIfTI-1 single-file volumes (.nii, .nii.gz): a 348-byte header, 4 extension bytes, then the
+// samples at vox_offset. Plain files are memory-mapped; gzip files are decoded once to a
+// temporary file and mapped from there, so both give random access without loading the volume.
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cctype>
+#include <cmath>
+#include <cstring>
+#include <optional>
+
+#include <fmt/format.h>
+
+#include "io/io_detail.hpp"
+
+namespace strata::io::detail {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+// Samples are kept native little endian in memory (dtype.hpp); the writer relies on that.
+static_assert(std::endian::native == std::endian::little, "the NIfTI writer assumes a little-endian host");
+
+constexpr std::uint64_t kHeaderBytes = 348;
+// The header plus the 4-byte extension flag: where single-file data starts when there are no
+// extensions, and what we write.
+constexpr std::uint64_t kDataOffset = 352;
+
+// Byte offsets of the header fields we use (nifti1.h, struct nifti_1_header).
+namespace field_at {
+constexpr std::size_t sizeof_hdr = 0;
+constexpr std::size_t dim = 40;  // int16[8]
+constexpr std::size_t datatype = 70;
+constexpr std::size_t bitpix = 72;
+constexpr std::size_t pixdim = 76;  // float[8]
+constexpr std::size_t vox_offset = 108;
+constexpr std::size_t scl_slope = 112;
+constexpr std::size_t scl_inter = 116;
+constexpr std::size_t magic = 344;
+}  // namespace field_at
+
+// NIfTI-1 datatype codes (nifti1.h DT_*) of the sample types we read.
+struct DatatypeCode {
+  std::int16_t code;
+  DType dtype;
+};
+constexpr std::array<DatatypeCode, 8> kDatatypeCodes{{{2, DType::u8},
+                                                      {256, DType::i8},
+                                                      {4, DType::i16},
+                                                      {512, DType::u16},
+                                                      {8, DType::i32},
+                                                      {768, DType::u32},
+                                                      {16, DType::f32},
+                                                      {64, DType::f64}}};
+
+std::int16_t datatype_code(DType t) {
+  for (const auto& entry : kDatatypeCodes)
+    if (entry.dtype == t) return entry.code;
+  throw Error(fmt::format("NIfTI-1: no datatype code for {}", dtype_name(t)));
+}
+
+// value = stored * slope + inter, from scl_slope/scl_inter.
+struct Scaling {
+  double slope = 1.0, inter = 0.0;
+};
+
+struct NiftiHeader {
+  VolumeInfo stored;  // dims, the stored sample type and spacing
+  bool big_endian = false;
+  std::uint64_t vox_offset = kDataOffset;
+  std::optional<Scaling> scaling;
+};
+
+// Reads header fields of either byte order.
+class HeaderBytes {
+ public:
+  HeaderBytes(const std::byte* data, bool swap) : data_(data), swap_(swap) {}
+  template <class T>
+  T get(std::size_t offset) const {
+    T value;
+    std::memcpy(&value, data_ + offset, sizeof(T));
+    if (swap_) byte_swap(reinterpret_cast<std::byte*>(&value), 1, sizeof(T));
+    return value;
+  }
+
+ private:
+  const std::byte* data_;
+  bool swap_;
+};
+
+// NIfTI has no byte-order flag: sizeof_hdr is 348 when read in the file's order, so reading
+// it both ways tells the order (the method nifti1.h recommends).
+bool detect_big_endian(const std::byte* data, std::uint64_t size, const std::string& file) {
+  if (size < kHeaderBytes)
+    throw FormatError(file, "sizeof_hdr",
+                      fmt::format("file has {} bytes, shorter than the 348-byte NIfTI-1 header", size));
+  const auto as_little = HeaderBytes(data, std::endian::native == std::endian::big).get<std::int32_t>(field_at::sizeof_hdr);
+  const auto as_big = HeaderBytes(data, std::endian::native == std::endian::little).get<std::int32_t>(field_at::sizeof_hdr);
+  if (as_little == std::int32_t(kHeaderBytes)) return false;
+  if (as_big == std::int32_t(kHeaderBytes)) return true;
+  throw FormatError(file, "sizeof_hdr",
+                    fmt::format("is {} (read little endian); expected 348 (NIfTI-1; NIfTI-2 is not supported)", as_little));
+}
+
+void check_magic(const std::byte* data, const std::string& file) {
+  char magic[4];
+  std::memcpy(magic, data + field_at::magic, 4);
+  if (std::memcmp(magic, "n+1\0", 4) == 0) return;
+  if (std::memcmp(magic, "ni1\0", 4) == 0)
+    throw FormatError(file, "magic", "is \"ni1\" (separate .hdr/.img pair); only single-file \"n+1\" is supported");
+  std::string shown;
+  for (char c : magic) shown += std::isprint(static_cast<unsigned char>(c)) ? std::string(1, c) : fmt::format("\\x{:02x}", static_cast<unsigned char>(c));
+  throw FormatError(file, "magic", fmt::format("is \"{}\"; expected \"n+1\"", shown));
+}
+
+Extent read_dims(const HeaderBytes& h, const std::string& file) {
+  std::array<std::int16_t, 8> dim{};
+  for (std::size_t i = 0; i < dim.size(); ++i) dim[i] = h.get<std::int16_t>(field_at::dim + 2 * i);
+  // A 4D file with a single time point is still one 3D volume; anything else is not.
+  const bool single_volume = dim[0] == 3 || (dim[0] == 4 && dim[4] == 1);
+  if (!single_volume)
+    throw FormatError(file, "dim[0]",
+                      fmt::format("is {} (dim[4] = {}); expected 3, or 4 with dim[4] == 1: only single 3D volumes "
+                                  "are supported",
+                                  dim[0], dim[4]));
+  for (int i = 1; i <= 3; ++i)
+    if (dim[i] < 1) throw FormatError(file, fmt::format("dim[{}]", i), fmt::format("is {}; expected >= 1", dim[i]));
+  return {dim[1], dim[2], dim[3]};
+}
+
+DType read_dtype(const HeaderBytes& h, const std::string& file) {
+  const auto code = h.get<std::int16_t>(field_at::datatype);
+  const auto it = std::find_if(kDatatypeCodes.begin(), kDatatypeCodes.end(), [&](const auto& e) { return e.code == code; });
+  if (it == kDatatypeCodes.end())
+    throw FormatError(file, "datatype",
+                      fmt::format("code {} is not supported; expected one of 2 (u8), 256 (i8), 4 (i16), 512 (u16), "
+                                  "8 (i32), 768 (u32), 16 (f32), 64 (f64)",
+                                  code));
+  const auto bitpix = h.get<std::int16_t>(field_at::bitpix);
+  const auto expected_bits = std::int16_t(8 * dtype_size(it->dtype));
+  if (bitpix != expected_bits)
+    throw FormatError(file, "bitpix",
+                      fmt::format("is {}; datatype {} ({}) has {} bits", bitpix, code, dtype_name(it->dtype), expected_bits));
+  return it->dtype;
+}
+
+// Spacing from pixdim[1..3]. Some writers store 0 (unknown) or a negative size (a flip that
+// belongs in the orientation, not the size): unknown means 1, a size is its magnitude.
+Spacing read_spacing(const HeaderBytes& h) {
+  auto size_at = [&](int axis) {
+    const double v = std::fabs(double(h.get<float>(field_at::pixdim + 4 * std::size_t(axis))));
+    return std::isfinite(v) && v > 0 ? v : 1.0;
+  };
+  return {size_at(1), size_at(2), size_at(3)};
+}
+
+std::uint64_t read_vox_offset(const HeaderBytes& h, const std::string& file) {
+  const double offset = h.get<float>(field_at::vox_offset);
+  if (!std::isfinite(offset) || offset < double(kHeaderBytes) || offset != std::floor(offset))
+    throw FormatError(file, "vox_offset", fmt::format("is {}; expected a whole number >= 348", offset));
+  return std::uint64_t(offset);
+}
+
+// Scaling is "set" only when it changes values: slope 0 means unused (nifti1.h), and 1/0 is
+// the identity many writers store by default. Non-finite values count as unset, like 0.
+std::optional<Scaling> read_scaling(const HeaderBytes& h) {
+  const double slope = h.get<float>(field_at::scl_slope);
+  double inter = h.get<float>(field_at::scl_inter);
+  if (!std::isfinite(slope) || slope == 0.0) return std::nullopt;
+  if (!std::isfinite(inter)) inter = 0.0;
+  if (slope == 1.0 && inter == 0.0) return std::nullopt;
+  return Scaling{slope, inter};
+}
+
+NiftiHeader parse_header(const std::byte* data, std::uint64_t size, const std::string& file) {
+  NiftiHeader header;
+  header.big_endian = detect_big_endian(data, size, file);
+  const HeaderBytes h(data, header.big_endian != (std::endian::native == std::endian::big));
+  check_magic(data, file);
+  header.stored.dims = read_dims(h, file);
+  header.stored.dtype = read_dtype(h, file);
+  header.stored.spacing = read_spacing(h);
+  header.vox_offset = read_vox_offset(h, file);
+  header.scaling = read_scaling(h);
+  return header;
+}
+
+// The type scaled values are returned in: f32, or f64 when the stored samples are f64 so no
+// precision is lost.
+DType scaled_dtype(DType stored) { return stored == DType::f64 ? DType::f64 : DType::f32; }
+
+template <class Out>
+void scale_samples(const Volume& stored, const Scaling& s, Volume& out) {
+  auto dst = out.samples<Out>();
+  visit_dtype(stored.dtype(), [&](auto tag) {
+    using In = decltype(tag);
+    auto src = stored.samples<In>();
+    for (std::size_t i = 0; i < src.size(); ++i) dst[i] = Out(double(src[i]) * s.slope + s.inter);
+  });
+}
+
+// Applies scl_slope/scl_inter to boxes read from the stored samples.
+class ScaledSource final : public VolumeSource {
+ public:
+  ScaledSource(std::unique_ptr<VolumeSource> stored, const Scaling& scaling)
+      : stored_(std::move(stored)), scaling_(scaling), info_(stored_->info()) {
+    info_.dtype = scaled_dtype(stored_->info().dtype);
+  }
+  const VolumeInfo& info() const override { return info_; }
+  const fs::path& path() const override { return stored_->path(); }
+
+  Volume read_box(const Box& box) override {
+    const Volume stored = stored_->read_box(box);
+    Volume out(stored.dims(), info_.dtype, stored.spacing());
+    if (info_.dtype == DType::f64)
+      scale_samples<double>(stored, scaling_, out);
+    else
+      scale_samples<float>(stored, scaling_, out);
+    return out;
+  }
+
+ private:
+  std::unique_ptr<VolumeSource> stored_;
+  Scaling scaling_;
+  VolumeInfo info_;
+};
+
+std::string lowercase(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  return s;
+}
+
+bool has_gz_name(const fs::path& path) { return lowercase(path.filename().string()).ends_with(".gz"); }
+
+// `file` holds a whole uncompressed NIfTI-1 file; `shown_path` is what the user named.
+std::unique_ptr<VolumeSource> source_over(std::shared_ptr<MappedFile> file, const fs::path& shown_path,
+                                          std::shared_ptr<TempFile> keep_alive) {
+  const NiftiHeader header = parse_header(file->data(), file->size(), shown_path.string());
+  auto stored = make_mapped_source(std::move(file), header.vox_offset, header.stored, header.big_endian, shown_path,
+                                   "dim", std::move(keep_alive));
+  if (!header.scaling) return stored;
+  return std::make_unique<ScaledSource>(std::move(stored), *header.scaling);
+}
+
+std::unique_ptr<VolumeSource> open_gzipped(const fs::path& path, const MappedFile& compressed,
+                                           const ReadOptions& options) {
+  const fs::path dir = options.temp_dir.value_or(fs::temp_directory_path());
+  auto decoded = std::make_shared<TempFile>(dir, "strata-" + path.filename().string());
+  ProgressSink& progress = options.progress ? *options.progress : silent_progress();
+  gunzip_to_file(compressed.data(), compressed.size(), decoded->path(), path.string(), "gzip", progress);
+  return source_over(std::make_shared<MappedFile>(decoded->path()), path, decoded);
+}
+
+// Writes the 352-byte prefix (header + empty extension flag) for `info`, little endian.
+std::array<std::byte, kDataOffset> make_header(const VolumeInfo& info) {
+  std::array<std::byte, kDataOffset> bytes{};
+  auto put = [&](std::size_t offset, auto value) { std::memcpy(bytes.data() + offset, &value, sizeof(value)); };
+  put(field_at::sizeof_hdr, std::int32_t(kHeaderBytes));
+  const std::array<std::int16_t, 8> dim{3, std::int16_t(info.dims.x), std::int16_t(info.dims.y),
+                                        std::int16_t(info.dims.z), 1, 1, 1, 1};
+  for (std::size_t i = 0; i < dim.size(); ++i) put(field_at::dim + 2 * i, dim[i]);
+  put(field_at::datatype, datatype_code(info.dtype));
+  put(field_at::bitpix, std::int16_t(8 * dtype_size(info.dtype)));
+  // pixdim[0] is qfac (orientation handedness); 1 is the neutral value, unused axes get 1.
+  const std::array<float, 8> pixdim{1.0f, float(info.spacing.x), float(info.spacing.y), float(info.spacing.z),
+                                    1.0f, 1.0f, 1.0f, 1.0f};
+  for (std::size_t i = 0; i < pixdim.size(); ++i) put(field_at::pixdim + 4 * i, pixdim[i]);
+  put(field_at::vox_offset, float(kDataOffset));
+  put(field_at::scl_slope, 0.0f);  // 0: samples are the values (no scaling)
+  put(field_at::scl_inter, 0.0f);
+  // qform_code and sform_code stay 0: no orientation is claimed.
+  std::memcpy(bytes.data() + field_at::magic, "n+1\0", 4);
+  return bytes;
+}
+
+void check_writable(const fs::path& path, const VolumeInfo& info) {
+  if (info.dtype == DType::i8)
+    throw Error(fmt::format("{}: NIfTI-1 writing does not support i8 (many readers reject it); convert to i16",
+                            path.string()));
+  const auto fits = [](std::int64_t n) { return n >= 1 && n <= 32767; };
+  if (!fits(info.dims.x) || !fits(info.dims.y) || !fits(info.dims.z))
+    throw Error(fmt::format("{}: dims {}: NIfTI-1 stores each dimension as a 16-bit count (1..32767)", path.string(),
+                            info.dims.to_string()));
+}
+
+// Streams slabs after the header into `<path>.tmp`, gzip-compressed for *.gz names, and
+// renames on finish(); an unfinished writer leaves nothing behind.
+class NiftiWriter final : public VolumeWriter {
+ public:
+  NiftiWriter(const fs::path& path, const VolumeInfo& info) : path_(path), info_(info), out_(path) {
+    if (has_gz_name(path)) gzip_ = std::make_unique<GzipWriter>(out_);
+    const auto header = make_header(info_);
+    write_bytes(header.data(), header.size());
+  }
+
+  void write_slab(const Volume& slab) override {
+    if (slab.dims().x != info_.dims.x || slab.dims().y != info_.dims.y || slab.dtype() != info_.dtype)
+      throw Error(fmt::format("{}: slab {} {} does not match the volume {} {}", path_.string(), slab.dims().to_string(),
+                              dtype_name(slab.dtype()), info_.dims.to_string(), dtype_name(info_.dtype)));
+    if (slices_written_ + slab.dims().z > info_.dims.z)
+      throw Error(fmt::format("{}: slab of {} slices after {} would exceed the volume's {} slices", path_.string(),
+                              slab.dims().z, slices_written_, info_.dims.z));
+    write_bytes(slab.bytes(), slab.byte_size());
+    slices_written_ += slab.dims().z;
+  }
+
+  void finish() override {
+    if (slices_written_ != info_.dims.z)
+      throw Error(fmt::format("{}: finish() after {} of {} slices", path_.string(), slices_written_, info_.dims.z));
+    if (gzip_) gzip_->finish();
+    out_.commit();
+  }
+
+ private:
+  void write_bytes(const void* data, std::size_t size) {
+    if (gzip_)
+      gzip_->write(data, size);
+    else
+      out_.write(data, size);
+  }
+
+  fs::path path_;
+  VolumeInfo info_;
+  std::int64_t slices_written_ = 0;
+  AtomicOutputFile out_;               // declared before gzip_: the compressor dies first
+  std::unique_ptr<GzipWriter> gzip_;
+};
+
+}  // namespace
+
+std::unique_ptr<VolumeSource> open_nifti(const std::filesystem::path& path, const ReadOptions& options) {
+  auto file = std::make_shared<MappedFile>(path);
+  // Content decides, so a compressed file named .nii still opens; a .gz name that is not gzip
+  // is reported by the decoder as a bad gzip stream rather than as a bad NIfTI header.
+  if (has_gz_name(path) || looks_gzipped(file->data(), file->size())) return open_gzipped(path, *file, options);
+  return source_over(std::move(file), path, nullptr);
+}
+
+std::unique_ptr<VolumeWriter> create_nifti_writer(const std::filesystem::path& path, const VolumeInfo& info,
+                                                  const WriteOptions& options) {
+  check_writable(path, info);
+  return std::make_unique<NiftiWriter>(path, info);
+}
+
+}  // namespace strata::io::detail

@@ -1,0 +1,179 @@
+// Raw volumes: bare x-fastest samples whose dims and dtype come from ReadOptions or from a JSON
+// sidecar (`<file>.json`, or `<stem>.json` beside the file).
+#include <fstream>
+#include <sstream>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "io/io_detail.hpp"
+
+namespace strata::io::detail {
+
+namespace {
+
+// What a sidecar says; every field optional so ReadOptions can supply the rest.
+struct RawDescription {
+  std::optional<Extent> dims;
+  std::optional<DType> dtype;
+  std::optional<Spacing> spacing;
+  std::optional<bool> big_endian;
+  std::optional<std::uint64_t> header_bytes;
+};
+
+std::optional<std::filesystem::path> find_sidecar(const std::filesystem::path& path) {
+  std::filesystem::path beside = path;
+  beside += ".json";  // volume.raw.json
+  std::filesystem::path stem_json = path;
+  stem_json.replace_extension(".json");  // volume.json
+  for (const auto& candidate : {beside, stem_json}) {
+    std::error_code ec;
+    if (std::filesystem::is_regular_file(candidate, ec)) return candidate;
+  }
+  return std::nullopt;
+}
+
+nlohmann::json load_json(const std::filesystem::path& sidecar) {
+  std::ifstream in(sidecar);
+  if (!in) throw Error(fmt::format("{}: cannot open", sidecar.string()));
+  try {
+    return nlohmann::json::parse(in);
+  } catch (const nlohmann::json::exception& e) {
+    throw FormatError(sidecar.string(), "json", e.what());
+  }
+}
+
+std::array<double, 3> read_triple(const nlohmann::json& j, const std::filesystem::path& sidecar, const char* field) {
+  if (!j.is_array() || j.size() != 3 || !std::all_of(j.begin(), j.end(), [](auto& v) { return v.is_number(); }))
+    throw FormatError(sidecar.string(), field, fmt::format("expected 3 numbers, found {}", j.dump()));
+  return {j[0].get<double>(), j[1].get<double>(), j[2].get<double>()};
+}
+
+Extent read_dims(const nlohmann::json& j, const std::filesystem::path& sidecar) {
+  if (!j.is_array() || j.size() != 3 ||
+      !std::all_of(j.begin(), j.end(), [](auto& v) { return v.is_number_integer() && v.template get<std::int64_t>() > 0; }))
+    throw FormatError(sidecar.string(), "dims", fmt::format("expected 3 positive integers [x,y,z], found {}", j.dump()));
+  return {j[0].get<std::int64_t>(), j[1].get<std::int64_t>(), j[2].get<std::int64_t>()};
+}
+
+DType read_dtype(const nlohmann::json& j, const std::filesystem::path& sidecar) {
+  if (!j.is_string()) throw FormatError(sidecar.string(), "dtype", fmt::format("expected a string, found {}", j.dump()));
+  try {
+    return parse_dtype(j.get<std::string>(), "dtype");
+  } catch (const Error&) {
+    throw FormatError(sidecar.string(), "dtype",
+                      fmt::format("unknown dtype \"{}\" (expected u8, i8, u16, i16, u32, i32, f32 or f64)",
+                                  j.get<std::string>()));
+  }
+}
+
+bool read_endian(const nlohmann::json& j, const std::filesystem::path& sidecar) {
+  if (j == "little") return false;
+  if (j == "big") return true;
+  throw FormatError(sidecar.string(), "endian", fmt::format("expected \"little\" or \"big\", found {}", j.dump()));
+}
+
+RawDescription parse_sidecar(const std::filesystem::path& sidecar) {
+  const nlohmann::json j = load_json(sidecar);
+  if (!j.is_object()) throw FormatError(sidecar.string(), "json", "expected an object {\"dims\": ..., \"dtype\": ...}");
+  RawDescription d;
+  if (j.contains("dims")) d.dims = read_dims(j["dims"], sidecar);
+  if (j.contains("dtype")) d.dtype = read_dtype(j["dtype"], sidecar);
+  if (j.contains("spacing")) {
+    auto s = read_triple(j["spacing"], sidecar, "spacing");
+    d.spacing = Spacing{s[0], s[1], s[2]};
+  }
+  if (j.contains("endian")) d.big_endian = read_endian(j["endian"], sidecar);
+  if (j.contains("header_bytes")) {
+    if (!j["header_bytes"].is_number_unsigned())
+      throw FormatError(sidecar.string(), "header_bytes", "expected a non-negative integer");
+    d.header_bytes = j["header_bytes"].get<std::uint64_t>();
+  }
+  return d;
+}
+
+// Explicit options win over the sidecar, field by field.
+struct RawLayout {
+  VolumeInfo info;
+  bool big_endian = false;
+  std::uint64_t header_bytes = 0;
+};
+
+RawLayout resolve_layout(const std::filesystem::path& path, const ReadOptions& options) {
+  RawDescription d;
+  if (!(options.raw_dims && options.raw_dtype)) {
+    if (auto sidecar = find_sidecar(path)) d = parse_sidecar(*sidecar);
+  }
+  if (options.raw_dims) d.dims = options.raw_dims;
+  if (options.raw_dtype) d.dtype = options.raw_dtype;
+  if (options.raw_spacing) d.spacing = options.raw_spacing;
+  if (!d.dims || !d.dtype)
+    throw FormatError(path.string(), "dims/dtype",
+                      fmt::format("a raw file needs its dims and dtype: pass them as options (e.g. --dims 256,256,128 "
+                                  "--dtype u16) or write a sidecar {}.json like "
+                                  "{{\"dims\":[256,256,128],\"dtype\":\"u16\",\"spacing\":[1,1,1]}}",
+                                  path.filename().string()));
+  if (d.dims->x <= 0 || d.dims->y <= 0 || d.dims->z <= 0)
+    throw FormatError(path.string(), "dims", fmt::format("{} must all be positive", d.dims->to_string()));
+  RawLayout layout;
+  layout.info = VolumeInfo{*d.dims, *d.dtype, d.spacing.value_or(Spacing{})};
+  layout.big_endian = options.raw_big_endian || d.big_endian.value_or(false);
+  layout.header_bytes = options.raw_header_bytes != 0 ? options.raw_header_bytes : d.header_bytes.value_or(0);
+  return layout;
+}
+
+// ---------------------------------------------------------------------------------------------
+
+class RawWriter final : public VolumeWriter {
+ public:
+  RawWriter(const std::filesystem::path& path, const VolumeInfo& info)
+      : data_(path), info_(info), sidecar_path_(std::filesystem::path(path) += ".json") {}
+
+  void write_slab(const Volume& slab) override { data_.write(slab.bytes(), slab.byte_size()); }
+
+  void finish() override {
+    // Both files are complete as temporaries before either is renamed, so a failure while
+    // writing leaves neither; the sidecar goes first so a visible .raw always has its dims.
+    AtomicOutputFile sidecar(sidecar_path_);
+    const std::string text = sidecar_text();
+    sidecar.write(text.data(), text.size());
+    sidecar.commit();
+    data_.commit();
+  }
+
+ private:
+  std::string sidecar_text() const {
+    nlohmann::json j;
+    j["dims"] = {info_.dims.x, info_.dims.y, info_.dims.z};
+    j["dtype"] = std::string(dtype_name(info_.dtype));
+    j["spacing"] = {info_.spacing.x, info_.spacing.y, info_.spacing.z};
+    j["endian"] = std::endian::native == std::endian::big ? "big" : "little";
+    return j.dump(2) + "\n";
+  }
+
+  AtomicOutputFile data_;
+  VolumeInfo info_;
+  std::filesystem::path sidecar_path_;
+};
+
+}  // namespace
+
+std::unique_ptr<VolumeSource> open_raw(const std::filesystem::path& path, const ReadOptions& options) {
+  const RawLayout layout = resolve_layout(path, options);
+  auto file = std::make_shared<MappedFile>(path);
+  const std::uint64_t expected = layout.header_bytes + layout.info.byte_size();
+  if (file->size() != expected)
+    throw FormatError(path.string(), "size",
+                      fmt::format("expected {} bytes for {} {}{}, found {}", expected, layout.info.dims.to_string(),
+                                  dtype_name(layout.info.dtype),
+                                  layout.header_bytes ? fmt::format(" after a {}-byte header", layout.header_bytes) : "",
+                                  file->size()));
+  return make_mapped_source(std::move(file), layout.header_bytes, layout.info, layout.big_endian, path, "size");
+}
+
+std::unique_ptr<VolumeWriter> create_raw_writer(const std::filesystem::path& path, const VolumeInfo& info,
+                                                const WriteOptions& options) {
+  return std::make_unique<RawWriter>(path, info);
+}
+
+}  // namespace strata::io::detail

@@ -1,0 +1,142 @@
+// Format detection and dispatch; the checks every writer shares.
+#include "strata/io/volume_io.hpp"
+
+#include <algorithm>
+#include <cctype>
+
+#include <fmt/format.h>
+
+#include "io/io_detail.hpp"
+
+namespace strata::io {
+
+namespace {
+
+std::string lower(std::string text) {
+  std::transform(text.begin(), text.end(), text.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  return text;
+}
+
+bool ends_with(const std::string& text, const std::string& suffix) {
+  return text.size() >= suffix.size() && text.compare(text.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+// Wraps a format writer so that every format gets the same slab checks: a mismatched slab or
+// a wrong slice count is an error, never a silently malformed file.
+class CheckedWriter final : public VolumeWriter {
+ public:
+  CheckedWriter(std::unique_ptr<VolumeWriter> inner, std::filesystem::path path, const VolumeInfo& info)
+      : inner_(std::move(inner)), path_(std::move(path)), info_(info) {}
+
+  void write_slab(const Volume& slab) override {
+    if (finished_) throw Error(fmt::format("{}: write_slab after finish", path_.string()));
+    check_slab_shape(slab);
+    if (slices_written_ + slab.dims().z > info_.dims.z)
+      throw Error(fmt::format("{}: slab of {} slices after {} would exceed the {} slices of the volume",
+                              path_.string(), slab.dims().z, slices_written_, info_.dims.z));
+    inner_->write_slab(slab);
+    slices_written_ += slab.dims().z;
+  }
+
+  void finish() override {
+    if (finished_) return;
+    if (slices_written_ != info_.dims.z)
+      throw Error(fmt::format("{}: wrote {} slices, expected {}", path_.string(), slices_written_, info_.dims.z));
+    inner_->finish();
+    finished_ = true;
+  }
+
+ private:
+  void check_slab_shape(const Volume& slab) const {
+    if (slab.dtype() != info_.dtype)
+      throw Error(fmt::format("{}: slab dtype {} does not match the volume dtype {}", path_.string(),
+                              dtype_name(slab.dtype()), dtype_name(info_.dtype)));
+    if (slab.dims().x != info_.dims.x || slab.dims().y != info_.dims.y)
+      throw Error(fmt::format("{}: slab {} does not match the slice size {}x{}", path_.string(),
+                              slab.dims().to_string(), info_.dims.x, info_.dims.y));
+  }
+
+  std::unique_ptr<VolumeWriter> inner_;
+  std::filesystem::path path_;
+  VolumeInfo info_;
+  std::int64_t slices_written_ = 0;
+  bool finished_ = false;
+};
+
+}  // namespace
+
+FileFormat detect_format(const std::filesystem::path& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) return FileFormat::tiff;
+  const std::string name = lower(path.filename().string());
+  if (ends_with(name, ".raw") || ends_with(name, ".bin")) return FileFormat::raw;
+  if (ends_with(name, ".nrrd") || ends_with(name, ".nhdr")) return FileFormat::nrrd;
+  if (ends_with(name, ".nii") || ends_with(name, ".nii.gz")) return FileFormat::nifti;
+  if (ends_with(name, ".tif") || ends_with(name, ".tiff")) return FileFormat::tiff;
+  throw Error(fmt::format("{}: unknown volume format (expected .raw, .bin, .nrrd, .nhdr, .nii, .nii.gz, .tif, "
+                          ".tiff or a directory of TIFF slices)",
+                          path.string()));
+}
+
+const char* format_name(FileFormat f) {
+  switch (f) {
+    case FileFormat::raw: return "raw";
+    case FileFormat::nrrd: return "nrrd";
+    case FileFormat::nifti: return "nifti";
+    case FileFormat::tiff: return "tiff";
+  }
+  return "unknown";
+}
+
+bool format_supports(FileFormat f, DType t) {
+  // NIfTI-1 has an int8 code, but many readers mishandle it, so we never write i8 there.
+  if (f == FileFormat::nifti) return t != DType::i8;
+  return true;
+}
+
+Volume VolumeSource::read_slab(std::int64_t z0, std::int64_t z1) {
+  const Extent& dims = info().dims;
+  return read_box({{0, 0, z0}, {dims.x, dims.y, z1}});
+}
+
+Volume VolumeSource::read_all() { return read_box(Box::whole(info().dims)); }
+
+std::unique_ptr<VolumeSource> open_volume(const std::filesystem::path& path, const ReadOptions& options) {
+  switch (detect_format(path)) {
+    case FileFormat::raw: return detail::open_raw(path, options);
+    case FileFormat::nrrd: return detail::open_nrrd(path, options);
+    case FileFormat::nifti: return detail::open_nifti(path, options);
+    case FileFormat::tiff: return detail::open_tiff(path, options);
+  }
+  throw Error(fmt::format("{}: unknown volume format", path.string()));
+}
+
+Volume read_volume(const std::filesystem::path& path, const ReadOptions& options) {
+  return open_volume(path, options)->read_all();
+}
+
+std::unique_ptr<VolumeWriter> create_volume_writer(const std::filesystem::path& path, const VolumeInfo& info,
+                                                   const WriteOptions& options) {
+  const FileFormat format = options.format ? *options.format : detect_format(path);
+  if (!format_supports(format, info.dtype))
+    throw Error(fmt::format("{}: the {} format cannot store {} samples", path.string(), format_name(format),
+                            dtype_name(info.dtype)));
+  if (info.dims.x <= 0 || info.dims.y <= 0 || info.dims.z <= 0)
+    throw Error(fmt::format("{}: cannot write a volume of dims {}", path.string(), info.dims.to_string()));
+  std::unique_ptr<VolumeWriter> inner;
+  switch (format) {
+    case FileFormat::raw: inner = detail::create_raw_writer(path, info, options); break;
+    case FileFormat::nrrd: inner = detail::create_nrrd_writer(path, info, options); break;
+    case FileFormat::nifti: inner = detail::create_nifti_writer(path, info, options); break;
+    case FileFormat::tiff: inner = detail::create_tiff_writer(path, info, options); break;
+  }
+  return std::make_unique<CheckedWriter>(std::move(inner), path, info);
+}
+
+void write_volume(const std::filesystem::path& path, const Volume& volume, const WriteOptions& options) {
+  auto writer = create_volume_writer(path, volume.info(), options);
+  writer->write_slab(volume);
+  writer->finish();
+}
+
+}  // namespace strata::io

@@ -1,0 +1,120 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "strata/core/dtype.hpp"
+#include "strata/core/extent.hpp"
+#include "strata/core/metrics.hpp"
+#include "strata/core/statistics.hpp"
+#include "strata/core/threads.hpp"
+#include "strata/core/volume.hpp"
+
+using namespace strata;
+
+TEST(DType, ParsesNamesAndRejectsUnknown) {
+  EXPECT_EQ(parse_dtype("uint16"), DType::u16);
+  EXPECT_EQ(parse_dtype("F32"), DType::f32);
+  EXPECT_EQ(parse_dtype("double"), DType::f64);
+  try {
+    parse_dtype("complex", "sidecar.json: dtype");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("sidecar.json: dtype"), std::string::npos);
+    EXPECT_NE(std::string(e.what()).find("complex"), std::string::npos);
+  }
+  for (DType t : {DType::u8, DType::i8, DType::u16, DType::i16, DType::u32, DType::i32, DType::f32, DType::f64})
+    EXPECT_EQ(parse_dtype(dtype_name(t)), t);
+}
+
+TEST(Extent, ParsesSizesAndBoxes) {
+  EXPECT_EQ(parse_extent("64"), (Extent{64, 64, 64}));
+  EXPECT_EQ(parse_extent("1024,1024,512"), (Extent{1024, 1024, 512}));
+  EXPECT_EQ(parse_extent("3x4x5"), (Extent{3, 4, 5}));
+  EXPECT_THROW(parse_extent("3,4"), Error);
+  EXPECT_THROW(parse_extent("0,4,4"), Error);
+  EXPECT_THROW(parse_extent("4,,4"), Error);
+  Box b = parse_box("1,2,3:4,6,8");
+  EXPECT_EQ(b.size(), (Extent{3, 4, 5}));
+  EXPECT_EQ(b.voxel_count(), 60);
+  EXPECT_THROW(parse_box("4,2,3:1,6,8"), Error);
+  EXPECT_EQ(Box::whole({10, 10, 10}).intersect(parse_box("5,5,5:20,20,20")).size(), (Extent{5, 5, 5}));
+}
+
+TEST(Volume, CropAndConvert) {
+  Volume v({4, 3, 2}, DType::i16);
+  auto view = v.view<std::int16_t>();
+  for (int z = 0; z < 2; ++z)
+    for (int y = 0; y < 3; ++y)
+      for (int x = 0; x < 4; ++x) view(x, y, z) = std::int16_t(x + 10 * y + 100 * z - 50);
+  Volume c = v.crop({{1, 1, 1}, {3, 3, 2}});
+  EXPECT_EQ(c.dims(), (Extent{2, 2, 1}));
+  EXPECT_EQ(c.value(0, 0, 0), 1 + 10 + 100 - 50);
+  EXPECT_EQ(c.value(1, 1, 0), 2 + 20 + 100 - 50);
+  EXPECT_THROW(v.view<float>(), Error);
+  Volume u8 = v.converted(DType::u8);  // negative values clamp to 0, not wrap
+  EXPECT_EQ(u8.value(0, 0, 0), 0);
+  EXPECT_EQ(u8.value(3, 2, 1), 3 + 20 + 100 - 50);
+}
+
+TEST(Metrics, MatchPaperDefinitions) {
+  // A = [3, 4] (rms = sqrt(12.5)), Ã = [3, 5]: rmse = sqrt(0.5), SNR = 20 log10(5) = 13.979 dB.
+  Volume a({2, 1, 1}, DType::f32), b({2, 1, 1}, DType::f32);
+  a.set_value(0, 0, 0, 3); a.set_value(1, 0, 0, 4);
+  b.set_value(0, 0, 0, 3); b.set_value(1, 0, 0, 5);
+  ErrorMetrics m = compare_volumes(a, b);
+  EXPECT_NEAR(m.signal_rms, std::sqrt(12.5), 1e-12);
+  EXPECT_NEAR(m.rmse, std::sqrt(0.5), 1e-12);
+  EXPECT_NEAR(m.snr_db, 20 * std::log10(5.0), 1e-9);
+  EXPECT_NEAR(m.psnr_db, 20 * std::log10(1.0 / std::sqrt(0.5)), 1e-9);  // range 1
+  EXPECT_NEAR(m.nrmse, std::sqrt(0.5), 1e-12);
+  EXPECT_EQ(m.max_abs_error, 1.0);
+  EXPECT_TRUE(std::isinf(compare_volumes(a, a).snr_db));
+  EXPECT_DOUBLE_EQ(bits_per_voxel(1000, 4000), 2.0);
+}
+
+TEST(Metrics, SlabAccumulationEqualsWhole) {
+  Volume a({8, 8, 8}, DType::u8), b({8, 8, 8}, DType::f32);
+  for (int i = 0; i < 512; ++i) {
+    a.samples<std::uint8_t>()[i] = std::uint8_t((i * 37) % 251);
+    b.samples<float>()[i] = float((i * 37) % 251) + float((i % 7) - 3) * 0.25f;
+  }
+  ErrorAccumulator acc;
+  for (int z = 0; z < 8; z += 3) {
+    Box slab{{0, 0, z}, {8, 8, std::min(8, z + 3)}};
+    acc.add(a.crop(slab), b.crop(slab));
+  }
+  ErrorMetrics whole = compare_volumes(a, b), parts = acc.result();
+  EXPECT_NEAR(whole.snr_db, parts.snr_db, 1e-9);
+  EXPECT_EQ(whole.max_abs_error, parts.max_abs_error);
+  EXPECT_EQ(parts.voxel_count, 512u);
+}
+
+TEST(Statistics, LabelsAndRanges) {
+  Volume v({10, 10, 10}, DType::u32);
+  auto s = v.samples<std::uint32_t>();
+  for (std::size_t i = 0; i < s.size(); ++i) s[i] = (i % 4 == 0) ? std::uint32_t(1 + i % 7) : 0u;
+  VolumeStatistics st = compute_statistics(v);
+  EXPECT_EQ(st.voxel_count, 1000u);
+  EXPECT_EQ(st.min, 0);
+  ASSERT_TRUE(st.distinct_values.has_value());
+  EXPECT_EQ(*st.distinct_values, 8u);  // 0 and 1..7 (i%4==0 reaches every residue mod 7)
+  EXPECT_DOUBLE_EQ(st.zero_fraction, 0.75);
+  std::uint64_t total = 0;
+  for (auto c : st.histogram) total += c;
+  EXPECT_EQ(total, 1000u);
+
+  Volume w({300, 1, 1}, DType::u16);
+  for (int x = 0; x < 300; ++x) w.set_value(x, 0, 0, 40000 + x);
+  VolumeStatistics ws = compute_statistics(w);
+  EXPECT_EQ(*ws.distinct_values, 300u);
+  EXPECT_EQ(ws.min, 40000);
+  EXPECT_EQ(ws.max, 40299);
+  EXPECT_EQ(ws.histogram[0], 19u);  // values 40000..40018 fall in the first of 16 bins of 299/16
+}
+
+TEST(Threads, CountIsConfigurable) {
+  set_thread_count(1);
+  EXPECT_EQ(thread_count(), 1);
+  set_thread_count(0);
+  EXPECT_GE(thread_count(), 1);
+}

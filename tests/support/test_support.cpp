@@ -1,0 +1,52 @@
+#include "support/test_support.hpp"
+
+#include <array>
+#include <cstdio>
+#include <random>
+#include <sys/wait.h>
+
+namespace strata::test {
+
+TempDir::TempDir() {
+  std::random_device rd;
+  for (int attempt = 0; attempt < 100; ++attempt) {
+    auto candidate = std::filesystem::temp_directory_path() / ("strata-test-" + std::to_string(rd()));
+    if (std::filesystem::create_directory(candidate)) {
+      path_ = candidate;
+      return;
+    }
+  }
+  throw std::runtime_error("TempDir: could not create a temporary directory");
+}
+
+TempDir::~TempDir() {
+  std::error_code ec;
+  std::filesystem::remove_all(path_, ec);
+}
+
+std::optional<std::filesystem::path> shared_data(const std::string& name) {
+  std::filesystem::path p = std::filesystem::path(STRATA_SHARED_DATA_DIR) / name;
+  if (std::filesystem::exists(p)) return p;
+  return std::nullopt;
+}
+
+std::optional<std::filesystem::path> mricron_data(const std::string& name) {
+  std::filesystem::path p = std::filesystem::path("/usr/share/mricron/templates") / name;
+  if (std::filesystem::exists(p)) return p;
+  return std::nullopt;
+}
+
+int run_command(const std::string& command, std::string* output) {
+  std::string full = command + " 2>&1";
+  FILE* pipe = popen(full.c_str(), "r");
+  if (!pipe) return -1;
+  std::array<char, 4096> buffer;
+  std::string text;
+  size_t n;
+  while ((n = fread(buffer.data(), 1, buffer.size(), pipe)) > 0) text.append(buffer.data(), n);
+  int status = pclose(pipe);
+  if (output) *output = text;
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+}  // namespace strata::test

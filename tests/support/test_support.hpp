@@ -1,0 +1,28 @@
+#pragma once
+// Helpers shared by all test programs: temporary directories and locating sample data.
+#include <filesystem>
+#include <optional>
+#include <string>
+
+namespace strata::test {
+
+// A fresh directory under the system temp dir, removed when the object dies.
+class TempDir {
+ public:
+  TempDir();
+  ~TempDir();
+  const std::filesystem::path& path() const { return path_; }
+  std::filesystem::path operator/(const std::string& name) const { return path_ / name; }
+ private:
+  std::filesystem::path path_;
+};
+
+// `../shared/data/<name>` if present (tests on real data skip otherwise).
+std::optional<std::filesystem::path> shared_data(const std::string& name);
+// `/usr/share/mricron/templates/<name>` if the mricron-data package is installed.
+std::optional<std::filesystem::path> mricron_data(const std::string& name);
+
+// Runs a shell command, capturing stdout+stderr; returns the exit code.
+int run_command(const std::string& command, std::string* output = nullptr);
+
+}  // namespace strata::test
