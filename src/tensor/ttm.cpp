@@ -1,5 +1,6 @@
 #include "strata/tensor/ttm.hpp"
 
+#include <algorithm>
 #include <string>
 
 namespace strata {

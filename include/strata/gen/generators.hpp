@@ -2,6 +2,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <span>
 #include <string_view>
 
 #include "strata/core/progress.hpp"
@@ -22,6 +23,11 @@ enum class Kind {
 Kind parse_kind(std::string_view name);  // "prisms", "marschner-lobb", "sphere", "voronoi", "fibres"
 std::string_view kind_name(Kind k);
 bool is_label_kind(Kind k);
+std::span<const std::string_view> kind_names();  // every valid name, in Kind order
+// What count = 0 means: prisms 40 blobs (plus count/4 fibre bundles), voronoi 64 cells,
+// fibres 200 tubes; marschner-lobb ignores count; sphere uses count as its radius in voxels
+// when > 0 (default 0.4 * the smallest dimension).
+std::int64_t default_count(Kind k);
 
 struct Params {
   Kind kind = Kind::prisms;
@@ -38,6 +44,7 @@ class Generator {
   virtual Volume slab(std::int64_t z0, std::int64_t z1) const = 0;
 };
 
+// Throws Error when dims are not positive or count is negative (or too large for u32 ids).
 std::unique_ptr<Generator> make_generator(const Params& params);
 Volume generate(const Params& params);  // whole volume in memory (small sizes)
 // Streams the volume to any format io can write, slab by slab, with progress.

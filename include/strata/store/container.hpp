@@ -1,0 +1,125 @@
+#pragma once
+// The .strata container (byte-level spec: docs/format.md). One file holds a fixed header,
+// 64-byte-aligned payloads written as they are produced, then the JSON metadata and a
+// fixed-size brick index at the tail (the header points to both, so a writer can stream
+// bricks without knowing their count in advance).
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <span>
+#include <unordered_map>
+#include <vector>
+
+namespace strata::io::detail {
+class MappedFile;
+class AtomicOutputFile;
+}  // namespace strata::io::detail
+
+namespace strata::store {
+
+inline constexpr std::uint16_t kFormatVersionMajor = 1;
+inline constexpr std::uint16_t kFormatVersionMinor = 0;
+inline constexpr std::size_t kHeaderSize = 64;
+inline constexpr std::size_t kIndexEntrySize = 64;
+inline constexpr std::size_t kPayloadAlignment = 64;
+
+// What a brick's payload holds. New codecs add kinds; readers reject kinds they do not know.
+enum class PayloadKind : std::uint8_t {
+  constant = 1,  // no payload bytes: every voxel equals `min` (== `max`)
+  tucker = 2,    // quantized rank-reduced Tucker brick (ta module, docs/format.md)
+};
+const char* payload_kind_name(PayloadKind k);
+
+struct BrickKey {
+  std::uint8_t level = 0;  // 0 = full resolution
+  std::int32_t x = 0, y = 0, z = 0;  // brick coordinates in that level's grid
+  bool operator==(const BrickKey&) const = default;
+};
+
+struct BrickKeyHash {
+  std::size_t operator()(const BrickKey& k) const {
+    std::uint64_t h = k.level;
+    h = h * 0x9E3779B97F4A7C15ull ^ std::uint32_t(k.x);
+    h = h * 0x9E3779B97F4A7C15ull ^ std::uint32_t(k.y);
+    h = h * 0x9E3779B97F4A7C15ull ^ std::uint32_t(k.z);
+    return std::size_t(h ^ (h >> 29));
+  }
+};
+
+// One index entry. `histogram` bit i is set when some voxel falls into bin i of 64 equal
+// bins over the volume's value range (metadata "value_range"), for transfer-function culling.
+struct BrickEntry {
+  BrickKey key;
+  PayloadKind kind = PayloadKind::constant;
+  std::uint64_t offset = 0, size = 0;
+  std::uint32_t crc32c = 0;
+  float min = 0, max = 0;
+  std::uint64_t histogram = 0;
+};
+
+// A named blob outside the brick index (e.g. global factor matrices, a mixture graph).
+struct Section {
+  std::uint64_t offset = 0, size = 0;
+  std::uint32_t crc32c = 0;
+};
+
+// Streams payloads into `<path>.tmp`; finish() writes metadata, index and header, then
+// renames to `path`. add_brick/add_section are thread-safe. Without finish() nothing is left.
+class ContainerWriter {
+ public:
+  explicit ContainerWriter(const std::filesystem::path& path);
+  ~ContainerWriter();
+  ContainerWriter(const ContainerWriter&) = delete;
+  ContainerWriter& operator=(const ContainerWriter&) = delete;
+
+  // Fills entry.offset/size/crc32c from the payload; the rest comes from the caller.
+  void add_brick(BrickEntry entry, std::span<const std::byte> payload);
+  void add_section(const std::string& name, std::span<const std::byte> payload);
+  std::uint64_t bytes_written() const;
+  // `metadata` gets a "sections" object added; returns the final file size.
+  std::uint64_t finish(nlohmann::json metadata);
+
+ private:
+  std::uint64_t append_aligned(std::span<const std::byte> payload);
+  std::unique_ptr<io::detail::AtomicOutputFile> out_;
+  mutable std::mutex mutex_;
+  std::uint64_t position_ = 0;
+  std::vector<BrickEntry> entries_;
+  std::vector<std::pair<std::string, Section>> sections_;
+};
+
+// Memory-maps a container and validates header, metadata and index. Payload checksums are
+// verified on every payload() call; a mismatch raises an Error naming the brick.
+class ContainerReader {
+ public:
+  explicit ContainerReader(const std::filesystem::path& path);
+  ~ContainerReader();
+
+  const std::filesystem::path& path() const { return path_; }
+  const nlohmann::json& metadata() const { return metadata_; }
+  const std::vector<BrickEntry>& bricks() const { return entries_; }
+  const BrickEntry* find(const BrickKey& key) const;  // nullptr when absent
+  std::span<const std::byte> payload(const BrickEntry& entry) const;
+  bool has_section(const std::string& name) const;
+  std::span<const std::byte> section(const std::string& name) const;
+  std::uint64_t file_size() const;
+  std::uint64_t metadata_bytes() const { return metadata_size_; }
+  std::uint64_t index_bytes() const { return entries_.size() * kIndexEntrySize; }
+
+ private:
+  std::span<const std::byte> checked_range(std::uint64_t offset, std::uint64_t size, const std::string& what) const;
+  std::filesystem::path path_;
+  std::shared_ptr<io::detail::MappedFile> file_;
+  nlohmann::json metadata_;
+  std::uint64_t metadata_size_ = 0;
+  std::vector<BrickEntry> entries_;
+  std::unordered_map<BrickKey, std::size_t, BrickKeyHash> lookup_;
+  std::unordered_map<std::string, Section> sections_;
+};
+
+// True when the file starts with the .strata magic (cheap; for format dispatch in the CLI).
+bool is_strata_file(const std::filesystem::path& path);
+
+}  // namespace strata::store

@@ -1,0 +1,116 @@
+// The generator registry (names, defaults, validation) and the in-memory / streaming drivers.
+#include "strata/gen/generators.hpp"
+
+#include <algorithm>
+#include <array>
+#include <future>
+#include <limits>
+#include <string>
+
+#include "gen/slice_generator.hpp"
+#include "strata/core/error.hpp"
+#include "strata/io/volume_io.hpp"
+
+namespace strata::gen {
+
+namespace {
+constexpr std::array<std::string_view, 5> kKindNames = {"prisms", "marschner-lobb", "sphere", "voronoi", "fibres"};
+
+std::string joined_kind_names() {
+  std::string all;
+  for (std::string_view name : kKindNames) all += (all.empty() ? "" : ", ") + std::string(name);
+  return all;
+}
+
+void validate(const Params& params) {
+  const Extent& d = params.dims;
+  if (d.x <= 0 || d.y <= 0 || d.z <= 0) {
+    throw Error("generate " + std::string(kind_name(params.kind)) + ": dims must be positive, got " + d.to_string());
+  }
+  if (params.count < 0) {
+    throw Error("generate " + std::string(kind_name(params.kind)) + ": count must be >= 0, got " +
+                std::to_string(params.count));
+  }
+  // Label ids are u32, and object indices are stored in 32 bits.
+  if (params.count > std::int64_t(std::numeric_limits<std::uint32_t>::max())) {
+    throw Error("generate " + std::string(kind_name(params.kind)) + ": count " + std::to_string(params.count) +
+                " exceeds the u32 label range");
+  }
+}
+
+// Slabs of ~16M voxels, 16..64 slices: bounded memory at any size (32 MB of u16 for a
+// 1024x1024 slab) while each slab still has enough work for every thread.
+std::int64_t stream_slab_depth(const Extent& dims) {
+  const std::int64_t slice = std::max<std::int64_t>(dims.x * dims.y, 1);
+  return std::clamp<std::int64_t>((std::int64_t(1) << 24) / slice, 16, 64);
+}
+}  // namespace
+
+Kind parse_kind(std::string_view name) {
+  for (std::size_t i = 0; i < kKindNames.size(); ++i) {
+    if (name == kKindNames[i]) return Kind(i);
+  }
+  throw Error("unknown generator kind '" + std::string(name) + "' (expected one of: " + joined_kind_names() + ")");
+}
+
+std::string_view kind_name(Kind k) {
+  const auto i = std::size_t(k);
+  if (i >= kKindNames.size()) throw Error("kind_name: invalid generator kind " + std::to_string(i));
+  return kKindNames[i];
+}
+
+bool is_label_kind(Kind k) { return k == Kind::voronoi || k == Kind::fibres; }
+
+std::span<const std::string_view> kind_names() { return kKindNames; }
+
+std::int64_t default_count(Kind k) {
+  switch (k) {
+    case Kind::prisms: return 40;
+    case Kind::voronoi: return 64;
+    case Kind::fibres: return 200;
+    case Kind::marschner_lobb:
+    case Kind::sphere: return 0;
+  }
+  return 0;
+}
+
+std::unique_ptr<Generator> make_generator(const Params& params) {
+  validate(params);
+  Params p = params;
+  if (p.count == 0) p.count = default_count(p.kind);
+  switch (p.kind) {
+    case Kind::prisms: return detail::make_prisms(p);
+    case Kind::marschner_lobb: return detail::make_marschner_lobb(p);
+    case Kind::sphere: return detail::make_sphere(p);
+    case Kind::voronoi: return detail::make_voronoi(p);
+    case Kind::fibres: return detail::make_fibres(p);
+  }
+  throw Error("make_generator: invalid generator kind " + std::to_string(int(p.kind)));
+}
+
+Volume generate(const Params& params) {
+  auto generator = make_generator(params);
+  return generator->slab(0, generator->info().dims.z);
+}
+
+void generate_to_file(const Params& params, const std::filesystem::path& out, ProgressSink& progress) {
+  auto generator = make_generator(params);
+  const VolumeInfo& info = generator->info();
+  auto writer = io::create_volume_writer(out, info);
+  const std::int64_t depth = stream_slab_depth(info.dims);
+  const auto slice_voxels = std::uint64_t(info.dims.x * info.dims.y);
+  ProgressTask task(progress, "generate", std::uint64_t(info.dims.voxel_count()), "voxels");
+  // Writing (and compressing) slab k overlaps computing slab k+1; at most two slabs are alive.
+  std::future<void> pending;
+  for (std::int64_t z0 = 0; z0 < info.dims.z; z0 += depth) {
+    const std::int64_t z1 = std::min(info.dims.z, z0 + depth);
+    auto slab = std::make_shared<Volume>(generator->slab(z0, z1));
+    if (pending.valid()) pending.get();
+    pending = std::async(std::launch::async, [&writer, slab] { writer->write_slab(*slab); });
+    task.advance(slice_voxels * std::uint64_t(z1 - z0));
+  }
+  if (pending.valid()) pending.get();
+  writer->finish();
+}
+
+}  // namespace strata::gen

@@ -1,0 +1,37 @@
+#pragma once
+// Private base of all generators: a slab is assembled from independent tasks (one slice, a
+// block of rows), each computed only from its coordinates, so any slab partition and any
+// thread schedule give the same bytes.
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+
+#include "strata/gen/generators.hpp"
+
+namespace strata::gen::detail {
+
+class SliceGenerator : public Generator {
+ public:
+  explicit SliceGenerator(const VolumeInfo& info) : info_(info) {}
+  const VolumeInfo& info() const override { return info_; }
+  Volume slab(std::int64_t z0, std::int64_t z1) const override;
+
+ protected:
+  // Fills rows [y0, y1) of slice z; `rows` points at row y0 (dims.x samples per row).
+  virtual void fill_rows(std::int64_t z, std::int64_t y0, std::int64_t y1, std::byte* rows) const = 0;
+
+ private:
+  VolumeInfo info_;
+};
+
+// Factories of the individual kinds; params are validated by make_generator.
+std::unique_ptr<Generator> make_prisms(const Params& params);
+std::unique_ptr<Generator> make_marschner_lobb(const Params& params);
+std::unique_ptr<Generator> make_sphere(const Params& params);
+std::unique_ptr<Generator> make_voronoi(const Params& params);
+std::unique_ptr<Generator> make_fibres(const Params& params);
+
+// Geometric mean of the dimensions: the length scale object sizes are chosen from.
+double mean_extent(const Extent& dims);
+
+}  // namespace strata::gen::detail

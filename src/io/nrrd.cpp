@@ -1,0 +1,446 @@
+// NRRD (teem.sourceforge.net/nrrd/format.html): attached (.nrrd) and detached (.nhdr) headers,
+// raw and gzip encodings, either byte order. Raw data is memory-mapped in place; gzip data is
+// decoded once to a temporary file which is then memory-mapped.
+#include <algorithm>
+#include <bit>
+#include <charconv>
+#include <cmath>
+#include <cstring>
+#include <map>
+#include <sstream>
+
+#include <fmt/format.h>
+
+#include "io/io_detail.hpp"
+
+namespace strata::io::detail {
+
+namespace {
+
+enum class Encoding { raw, gzip };
+
+// The header fields we use, as written; validated together by make_layout().
+struct NrrdHeader {
+  std::optional<DType> dtype;
+  std::optional<int> dimension;
+  std::vector<std::int64_t> sizes;
+  std::vector<double> spacings;          // NaN where the header says nan
+  std::vector<double> direction_norms;   // from `space directions`; NaN for `none`
+  std::optional<Encoding> encoding;
+  std::optional<bool> big_endian;
+  std::int64_t byte_skip = 0;
+  std::int64_t line_skip = 0;
+  std::optional<std::string> data_file;
+  std::optional<std::uint64_t> data_start;  // first byte after the blank line (attached data)
+};
+
+struct HeaderParser {
+  std::string file;  // for error messages
+  NrrdHeader header;
+
+  [[noreturn]] void fail(const std::string& field, const std::string& problem) const {
+    throw FormatError(file, field, problem);
+  }
+
+  static std::string trim(std::string_view s) {
+    auto first = s.find_first_not_of(" \t\r");
+    if (first == std::string_view::npos) return {};
+    auto last = s.find_last_not_of(" \t\r");
+    return std::string(s.substr(first, last - first + 1));
+  }
+
+  static std::string lower(std::string s) {
+    std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    return s;
+  }
+
+  static std::vector<std::string> words(const std::string& value) {
+    std::istringstream in(value);
+    std::vector<std::string> out;
+    for (std::string w; in >> w;) out.push_back(w);
+    return out;
+  }
+
+  std::int64_t parse_int(const std::string& text, const std::string& field) const {
+    std::int64_t v = 0;
+    auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
+    if (ec != std::errc{} || end != text.data() + text.size())
+      fail(field, fmt::format("expected an integer, found \"{}\"", text));
+    return v;
+  }
+
+  double parse_double(const std::string& text, const std::string& field) const {
+    if (lower(text) == "nan") return std::nan("");
+    double v = 0;
+    auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
+    if (ec != std::errc{} || end != text.data() + text.size() || !std::isfinite(v))
+      fail(field, fmt::format("expected a number, found \"{}\"", text));
+    return v;
+  }
+
+  DType parse_type(const std::string& value) const {
+    static const std::map<std::string, DType> kTypes = {
+        {"uchar", DType::u8},        {"unsigned char", DType::u8},      {"uint8", DType::u8},
+        {"uint8_t", DType::u8},      {"signed char", DType::i8},        {"int8", DType::i8},
+        {"int8_t", DType::i8},       {"short", DType::i16},             {"short int", DType::i16},
+        {"signed short", DType::i16}, {"signed short int", DType::i16}, {"int16", DType::i16},
+        {"int16_t", DType::i16},     {"ushort", DType::u16},            {"unsigned short", DType::u16},
+        {"unsigned short int", DType::u16}, {"uint16", DType::u16},     {"uint16_t", DType::u16},
+        {"int", DType::i32},         {"signed int", DType::i32},        {"int32", DType::i32},
+        {"int32_t", DType::i32},     {"uint", DType::u32},              {"unsigned int", DType::u32},
+        {"uint32", DType::u32},      {"uint32_t", DType::u32},          {"float", DType::f32},
+        {"double", DType::f64},
+    };
+    static const std::vector<std::string> kUnsupported = {
+        "longlong", "long long", "long long int", "signed long long", "signed long long int", "int64", "int64_t",
+        "ulonglong", "unsigned long long", "unsigned long long int", "uint64", "uint64_t", "block"};
+    // Spellings may use several spaces ("unsigned  char"); normalise to single spaces.
+    std::string key;
+    for (const auto& w : words(lower(value))) key += (key.empty() ? "" : " ") + w;
+    if (auto it = kTypes.find(key); it != kTypes.end()) return it->second;
+    if (std::find(kUnsupported.begin(), kUnsupported.end(), key) != kUnsupported.end())
+      fail("type", fmt::format("\"{}\" samples are not supported (64-bit integers and blocks have no dtype here)", value));
+    fail("type", fmt::format("unknown type \"{}\" (expected e.g. uint8, int16, uint16, int32, uint32, float, double)",
+                             value));
+  }
+
+  Encoding parse_encoding(const std::string& value) const {
+    const std::string v = lower(value);
+    if (v == "raw") return Encoding::raw;
+    if (v == "gzip" || v == "gz") return Encoding::gzip;
+    fail("encoding", fmt::format("\"{}\" is not supported (supported: raw, gzip)", value));
+  }
+
+  bool parse_endian(const std::string& value) const {
+    const std::string v = lower(value);
+    if (v == "little") return false;
+    if (v == "big") return true;
+    fail("endian", fmt::format("expected little or big, found \"{}\"", value));
+  }
+
+  // "(1,0,0) (0,1,0) none" -> the length of each vector (the voxel spacing along that axis).
+  std::vector<double> parse_direction_norms(const std::string& value) const {
+    std::vector<double> norms;
+    std::size_t i = 0;
+    while (true) {
+      i = value.find_first_not_of(" \t", i);
+      if (i == std::string::npos) return norms;
+      if (value.compare(i, 4, "none") == 0) {
+        norms.push_back(std::nan(""));
+        i += 4;
+        continue;
+      }
+      std::size_t close = value.find(')', i);
+      if (value[i] != '(' || close == std::string::npos)
+        fail("space directions", fmt::format("expected vectors like (1,0,0) or none, found \"{}\"", value));
+      std::string inside = value.substr(i + 1, close - i - 1);
+      std::replace(inside.begin(), inside.end(), ',', ' ');
+      double sum_sq = 0;
+      for (const auto& w : words(inside)) {
+        double c = parse_double(w, "space directions");
+        sum_sq += c * c;
+      }
+      norms.push_back(std::sqrt(sum_sq));
+      i = close + 1;
+    }
+  }
+
+  std::vector<double> parse_doubles(const std::string& value, const std::string& field) const {
+    std::vector<double> out;
+    for (const auto& w : words(value)) out.push_back(parse_double(w, field));
+    return out;
+  }
+
+  void apply_field(const std::string& field, const std::string& value) {
+    if (field == "type") header.dtype = parse_type(value);
+    else if (field == "dimension") header.dimension = int(parse_int(value, field));
+    else if (field == "sizes") {
+      header.sizes.clear();
+      for (const auto& w : words(value)) header.sizes.push_back(parse_int(w, field));
+    } else if (field == "spacings") header.spacings = parse_doubles(value, field);
+    else if (field == "space directions") header.direction_norms = parse_direction_norms(value);
+    else if (field == "encoding") header.encoding = parse_encoding(value);
+    else if (field == "endian") header.big_endian = parse_endian(value);
+    else if (field == "byte skip" || field == "byteskip") header.byte_skip = parse_int(value, "byte skip");
+    else if (field == "line skip" || field == "lineskip") header.line_skip = parse_int(value, "line skip");
+    else if (field == "data file" || field == "datafile") header.data_file = value;
+    // Every other field (content, kinds, units, space origin, ...) does not affect the samples.
+  }
+
+  void parse_line(const std::string& line, std::size_t line_number) {
+    if (line.empty() || line[0] == '#') return;
+    const std::size_t colon = line.find(':');
+    if (colon == std::string::npos)
+      fail("header", fmt::format("line {} is neither \"field: value\", \"key:=value\" nor a # comment: \"{}\"",
+                                 line_number, line.substr(0, 80)));
+    if (colon + 1 < line.size() && line[colon + 1] == '=') return;  // key:=value pairs carry no layout
+    apply_field(lower(trim(std::string_view(line).substr(0, colon))), trim(std::string_view(line).substr(colon + 1)));
+  }
+
+  // Reads the magic line and then fields up to the blank line that starts attached data, or
+  // to the end of a detached header.
+  void parse(const std::byte* data, std::uint64_t size) {
+    const std::string_view text(reinterpret_cast<const char*>(data), size);
+    std::uint64_t pos = 0;
+    std::size_t line_number = 0;
+    while (pos < size) {
+      std::size_t newline = text.find('\n', pos);
+      std::uint64_t end = newline == std::string_view::npos ? size : newline;
+      std::string line(text.substr(pos, end - pos));
+      if (!line.empty() && line.back() == '\r') line.pop_back();
+      pos = newline == std::string_view::npos ? size : newline + 1;
+      if (++line_number == 1) {
+        check_magic(line);
+        continue;
+      }
+      if (line.empty()) {
+        header.data_start = pos;
+        return;
+      }
+      parse_line(line, line_number);
+    }
+    if (line_number == 0) check_magic("");
+  }
+
+  void check_magic(const std::string& line) const {
+    const bool ok = line.size() == 8 && line.compare(0, 7, "NRRD000") == 0 && line[7] >= '1' && line[7] <= '9';
+    if (!ok) fail("magic", fmt::format("not a NRRD file: the first line is \"{}\", expected NRRD0001..NRRD0005",
+                                      line.substr(0, 40)));
+  }
+};
+
+// The validated meaning of a header.
+struct NrrdLayout {
+  VolumeInfo info;
+  Encoding encoding = Encoding::raw;
+  bool big_endian = false;
+  std::int64_t byte_skip = 0;
+  std::int64_t line_skip = 0;
+  std::filesystem::path data_path;
+  std::uint64_t data_start = 0;
+};
+
+// A 4-D header whose first axis has one sample (e.g. a one-component vector field) is a 3-D volume.
+void drop_leading_unit_axis(NrrdHeader& h) {
+  if (h.dimension != 4 || h.sizes.size() != 4 || h.sizes[0] != 1) return;
+  h.sizes.erase(h.sizes.begin());
+  if (h.spacings.size() == 4) h.spacings.erase(h.spacings.begin());
+  if (h.direction_norms.size() == 4) h.direction_norms.erase(h.direction_norms.begin());
+  h.dimension = 3;
+}
+
+Spacing spacing_of(const NrrdHeader& h) {
+  // `spacings` and `space directions` are alternatives; an unknown (nan) axis keeps 1.
+  const std::vector<double>& s = !h.spacings.empty() ? h.spacings : h.direction_norms;
+  if (s.size() != 3) return {};
+  auto pick = [](double v) { return std::isfinite(v) && v > 0 ? v : 1.0; };
+  return {pick(s[0]), pick(s[1]), pick(s[2])};
+}
+
+void check_required(const NrrdHeader& h, const std::string& file) {
+  if (!h.dtype) throw FormatError(file, "type", "missing");
+  if (!h.dimension) throw FormatError(file, "dimension", "missing");
+  if (h.sizes.empty()) throw FormatError(file, "sizes", "missing");
+  if (!h.encoding) throw FormatError(file, "encoding", "missing");
+  if (*h.dimension != 3)
+    throw FormatError(file, "dimension", fmt::format("{} is not supported (a 3-D volume is expected)", *h.dimension));
+  if (h.sizes.size() != 3)
+    throw FormatError(file, "sizes", fmt::format("{} values given, expected 3 for dimension 3", h.sizes.size()));
+  if (std::any_of(h.sizes.begin(), h.sizes.end(), [](std::int64_t s) { return s <= 0; }))
+    throw FormatError(file, "sizes", fmt::format("{} {} {} must all be positive", h.sizes[0], h.sizes[1], h.sizes[2]));
+  if (!h.spacings.empty() && h.spacings.size() != 3)
+    throw FormatError(file, "spacings", fmt::format("{} values given, expected 3", h.spacings.size()));
+  if (!h.direction_norms.empty() && h.direction_norms.size() != 3)
+    throw FormatError(file, "space directions", fmt::format("{} vectors given, expected 3", h.direction_norms.size()));
+  if (dtype_size(*h.dtype) > 1 && !h.big_endian)
+    throw FormatError(file, "endian", "missing (required for samples wider than one byte)");
+  if (h.byte_skip < -1) throw FormatError(file, "byte skip", fmt::format("{} is negative", h.byte_skip));
+  if (h.byte_skip == -1 && *h.encoding != Encoding::raw)
+    throw FormatError(file, "byte skip", "-1 (data at the end of the file) only works with raw encoding");
+  if (h.line_skip < 0) throw FormatError(file, "line skip", fmt::format("{} is negative", h.line_skip));
+}
+
+std::filesystem::path resolve_data_file(const std::string& value, const std::filesystem::path& header_path) {
+  const std::string file = header_path.string();
+  if (value.rfind("LIST", 0) == 0 || HeaderParser::words(value).size() != 1)
+    throw FormatError(file, "data file",
+                      fmt::format("\"{}\": data split over several files is not supported", value));
+  std::filesystem::path p(value);
+  return p.is_absolute() ? p : header_path.parent_path() / p;
+}
+
+NrrdLayout make_layout(NrrdHeader h, const std::filesystem::path& path) {
+  const std::string file = path.string();
+  drop_leading_unit_axis(h);
+  check_required(h, file);
+  NrrdLayout layout;
+  layout.info = VolumeInfo{{h.sizes[0], h.sizes[1], h.sizes[2]}, *h.dtype, spacing_of(h)};
+  layout.encoding = *h.encoding;
+  layout.big_endian = h.big_endian.value_or(false);
+  layout.byte_skip = h.byte_skip;
+  layout.line_skip = h.line_skip;
+  if (h.data_file) {
+    layout.data_path = resolve_data_file(*h.data_file, path);
+  } else if (h.data_start) {
+    layout.data_path = path;
+    layout.data_start = *h.data_start;
+  } else {
+    throw FormatError(file, "data file",
+                      "missing: a detached header (.nhdr) must name its data file, and an attached header must end "
+                      "with a blank line before the data");
+  }
+  return layout;
+}
+
+NrrdLayout read_layout(const std::filesystem::path& path) {
+  MappedFile header_file(path);
+  HeaderParser parser{path.string(), {}};
+  parser.parse(header_file.data(), header_file.size());
+  return make_layout(std::move(parser.header), path);
+}
+
+// Position after `lines` newline-terminated lines starting at `start`.
+std::uint64_t skip_lines(const MappedFile& file, std::uint64_t start, std::int64_t lines, const std::string& name) {
+  std::uint64_t pos = start;
+  for (std::int64_t i = 0; i < lines; ++i) {
+    const void* hit = pos < file.size() ? std::memchr(file.data() + pos, '\n', file.size() - pos) : nullptr;
+    if (!hit) throw FormatError(name, "line skip", fmt::format("the data has fewer than {} lines to skip", lines));
+    pos = std::uint64_t(static_cast<const std::byte*>(hit) - file.data()) + 1;
+  }
+  return pos;
+}
+
+// Exact sizes: extra or missing bytes mean `sizes` or `type` disagree with the data, and
+// reading anyway would silently scramble the volume.
+void check_data_bytes(const std::string& file, const NrrdLayout& layout, std::uint64_t available,
+                      const char* where) {
+  const std::uint64_t needed = layout.info.byte_size();
+  if (available == needed) return;
+  throw FormatError(file, "data",
+                    fmt::format("{} holds {} bytes of samples, but sizes {} of type {} need {}{}", where, available,
+                                layout.info.dims.to_string(), dtype_name(layout.info.dtype), needed,
+                                available < needed ? " (truncated file or wrong sizes)" : " (wrong sizes or type)"));
+}
+
+std::unique_ptr<VolumeSource> open_raw_encoded(const std::filesystem::path& path, const NrrdLayout& layout) {
+  auto data = std::make_shared<MappedFile>(layout.data_path);
+  const std::uint64_t start = skip_lines(*data, layout.data_start, layout.line_skip, path.string());
+  std::uint64_t offset = 0;
+  if (layout.byte_skip == -1) {
+    // -1: the samples are the last bytes of the file, whatever precedes them.
+    if (data->size() - start < layout.info.byte_size()) check_data_bytes(path.string(), layout, data->size() - start, "the data file");
+    offset = data->size() - layout.info.byte_size();
+  } else {
+    offset = start + std::uint64_t(layout.byte_skip);
+    check_data_bytes(path.string(), layout, offset > data->size() ? 0 : data->size() - offset,
+                     layout.data_path == path ? "the file after its header" : "the data file");
+  }
+  return make_mapped_source(std::move(data), offset, layout.info, layout.big_endian, path, "data");
+}
+
+std::unique_ptr<VolumeSource> open_gzip_encoded(const std::filesystem::path& path, const NrrdLayout& layout,
+                                                const ReadOptions& options) {
+  const std::filesystem::path dir = options.temp_dir.value_or(std::filesystem::temp_directory_path());
+  auto decoded = std::make_shared<TempFile>(dir, "strata-nrrd");
+  {
+    MappedFile compressed(layout.data_path);
+    const std::uint64_t start = skip_lines(compressed, layout.data_start, layout.line_skip, path.string());
+    if (start >= compressed.size())
+      throw FormatError(path.string(), "data", "no gzip data follows the header (truncated file)");
+    ProgressSink& progress = options.progress ? *options.progress : silent_progress();
+    gunzip_to_file(compressed.data() + start, compressed.size() - start, decoded->path(), path.string(), "data",
+                   progress);
+  }
+  auto data = std::make_shared<MappedFile>(decoded->path());
+  // For compressed encodings the byte skip counts decoded bytes (as teem does).
+  const auto skip = std::uint64_t(layout.byte_skip);
+  check_data_bytes(path.string(), layout, skip > data->size() ? 0 : data->size() - skip, "the decoded gzip stream");
+  return make_mapped_source(std::move(data), skip, layout.info, layout.big_endian, path, "data", std::move(decoded));
+}
+
+// ---------------------------------------------------------------------------------------------
+
+const char* nrrd_type_name(DType t) {
+  switch (t) {
+    case DType::u8: return "uint8";
+    case DType::i8: return "int8";
+    case DType::u16: return "uint16";
+    case DType::i16: return "int16";
+    case DType::u32: return "uint32";
+    case DType::i32: return "int32";
+    case DType::f32: return "float";
+    case DType::f64: return "double";
+  }
+  throw Error("nrrd: invalid dtype");
+}
+
+std::string header_text(const VolumeInfo& info, bool compress, const std::string& data_file) {
+  std::string h = "NRRD0004\n# Complete NRRD file format specification at:\n"
+                  "# http://teem.sourceforge.net/nrrd/format.html\n";
+  h += fmt::format("type: {}\ndimension: 3\n", nrrd_type_name(info.dtype));
+  h += fmt::format("sizes: {} {} {}\n", info.dims.x, info.dims.y, info.dims.z);
+  // "{}" prints the shortest text that parses back to the same double.
+  h += fmt::format("spacings: {} {} {}\n", info.spacing.x, info.spacing.y, info.spacing.z);
+  h += fmt::format("endian: {}\n", std::endian::native == std::endian::big ? "big" : "little");
+  h += fmt::format("encoding: {}\n", compress ? "gzip" : "raw");
+  if (!data_file.empty()) return h + fmt::format("data file: {}\n", data_file);
+  return h + "\n";  // the blank line that separates an attached header from its data
+}
+
+bool is_detached_name(const std::filesystem::path& path) {
+  return HeaderParser::lower(path.extension().string()) == ".nhdr";
+}
+
+// Attached: header then data in one file. For a .nhdr name the data goes to `<stem>.raw` or
+// `<stem>.raw.gz` beside it, and the header is written last so it never names missing data.
+class NrrdWriter final : public VolumeWriter {
+ public:
+  NrrdWriter(const std::filesystem::path& path, const VolumeInfo& info, bool compress)
+      : path_(path), info_(info), compress_(compress) {
+    if (is_detached_name(path)) data_name_ = path.stem().string() + (compress ? ".raw.gz" : ".raw");
+    out_ = std::make_unique<AtomicOutputFile>(data_name_.empty() ? path : path.parent_path() / data_name_);
+    if (data_name_.empty()) {
+      const std::string h = header_text(info_, compress_, "");
+      out_->write(h.data(), h.size());
+    }
+    if (compress_) gzip_ = std::make_unique<GzipWriter>(*out_);
+  }
+
+  void write_slab(const Volume& slab) override {
+    if (gzip_) gzip_->write(slab.bytes(), slab.byte_size());
+    else out_->write(slab.bytes(), slab.byte_size());
+  }
+
+  void finish() override {
+    if (gzip_) gzip_->finish();
+    out_->commit();
+    if (data_name_.empty()) return;
+    AtomicOutputFile header(path_);
+    const std::string h = header_text(info_, compress_, data_name_);
+    header.write(h.data(), h.size());
+    header.commit();
+  }
+
+ private:
+  std::filesystem::path path_;
+  VolumeInfo info_;
+  bool compress_;
+  std::string data_name_;  // empty for an attached header
+  std::unique_ptr<AtomicOutputFile> out_;
+  std::unique_ptr<GzipWriter> gzip_;  // declared after out_: destroyed first, it refers to out_
+};
+
+}  // namespace
+
+std::unique_ptr<VolumeSource> open_nrrd(const std::filesystem::path& path, const ReadOptions& options) {
+  const NrrdLayout layout = read_layout(path);
+  if (layout.encoding == Encoding::gzip) return open_gzip_encoded(path, layout, options);
+  return open_raw_encoded(path, layout);
+}
+
+std::unique_ptr<VolumeWriter> create_nrrd_writer(const std::filesystem::path& path, const VolumeInfo& info,
+                                                 const WriteOptions& options) {
+  return std::make_unique<NrrdWriter>(path, info, options.compress);
+}
+
+}  // namespace strata::io::detail

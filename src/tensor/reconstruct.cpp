@@ -1,0 +1,167 @@
+#include "strata/tensor/reconstruct.hpp"
+
+#include <cstdlib>
+#include <new>
+#include <string>
+
+#include "tensor/reconstruct_kernel.hpp"
+
+namespace strata {
+
+TuckerView view_of(const Tucker& model) {
+  TuckerView v;
+  v.core = model.core.data();
+  v.ranks = model.ranks();
+  for (std::size_t n = 0; n < 3; ++n) {
+    v.factors[n] = model.factors[n].data();
+    if (model.factors[n].cols() != v.ranks[n]) {
+      throw Error("view_of: factor U" + std::to_string(n + 1) + " has " + std::to_string(model.factors[n].cols()) +
+                  " columns but the core has rank " + std::to_string(v.ranks[n]));
+    }
+  }
+  v.dims = model.dims();
+  return v;
+}
+
+std::string_view kernel_isa_name(KernelIsa isa) {
+  switch (isa) {
+    case KernelIsa::automatic: return "automatic";
+    case KernelIsa::generic: return "generic";
+    case KernelIsa::avx2: return "avx2";
+    case KernelIsa::avx512: return "avx512";
+  }
+  return "unknown";
+}
+
+bool kernel_isa_supported(KernelIsa isa) {
+  switch (isa) {
+    case KernelIsa::automatic:
+    case KernelIsa::generic: return true;
+    case KernelIsa::avx2: return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+    case KernelIsa::avx512:
+      return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") &&
+             kernel_isa_supported(KernelIsa::avx2);
+  }
+  return false;
+}
+
+KernelIsa best_kernel_isa() {
+  static const KernelIsa best = kernel_isa_supported(KernelIsa::avx512) ? KernelIsa::avx512
+                                : kernel_isa_supported(KernelIsa::avx2) ? KernelIsa::avx2
+                                                                        : KernelIsa::generic;
+  return best;
+}
+
+namespace {
+
+using KernelFn = void (*)(const detail::ReconstructArgs&);
+
+KernelFn kernel_for(KernelIsa isa) {
+  switch (isa) {
+    case KernelIsa::avx512: return detail::reconstruct_avx512;
+    case KernelIsa::avx2: return detail::reconstruct_avx2;
+    default: return detail::reconstruct_generic;
+  }
+}
+
+// A float buffer aligned to a cache line (also the AVX-512 vector size), grown on demand and
+// never shrunk, so repeated reconstructions of same-sized bricks do not allocate.
+class AlignedFloats {
+ public:
+  AlignedFloats() = default;
+  AlignedFloats(const AlignedFloats&) = delete;
+  AlignedFloats& operator=(const AlignedFloats&) = delete;
+  ~AlignedFloats() { std::free(data_); }
+
+  float* reserve(std::size_t count) {
+    if (count > capacity_) {
+      const std::size_t bytes = (count * sizeof(float) + kAlign - 1) / kAlign * kAlign;
+      void* p = std::aligned_alloc(kAlign, bytes);
+      if (!p) throw std::bad_alloc();
+      std::free(data_);
+      data_ = static_cast<float*>(p);
+      capacity_ = bytes / sizeof(float);
+    }
+    return data_;
+  }
+
+ private:
+  static constexpr std::size_t kAlign = 64;
+  float* data_ = nullptr;
+  std::size_t capacity_ = 0;
+};
+
+void check_view(const TuckerView& m, const Ranks3& k, std::size_t out_size) {
+  if (!m.core || !m.factors[0] || !m.factors[1] || !m.factors[2]) throw Error("reconstruct: null model pointer");
+  check_ranks(m.dims, m.ranks, "reconstruct (model ranks)");
+  for (std::size_t n = 0; n < 3; ++n) {
+    if (k[n] < 1 || k[n] > m.ranks[n]) {
+      throw Error("reconstruct: leading rank K" + std::to_string(n + 1) + " = " + std::to_string(k[n]) +
+                  " must be in [1, " + std::to_string(m.ranks[n]) + "]");
+    }
+  }
+  if (std::int64_t(out_size) != m.dims[0] * m.dims[1] * m.dims[2]) {
+    throw Error("reconstruct: output buffer holds " + std::to_string(out_size) + " floats, the " +
+                to_string(m.dims) + " brick needs " + std::to_string(m.dims[0] * m.dims[1] * m.dims[2]));
+  }
+}
+
+// Copies the leading k1 x k2 x k3 block of an r1 x r2 x r3 core into contiguous storage, so the
+// first product reads it as a plain k1 x (k2 k3) matrix.
+void copy_leading_core(const float* core, const Ranks3& r, const Ranks3& k, float* dst) {
+  for (int r3 = 0; r3 < k[2]; ++r3)
+    for (int r2 = 0; r2 < k[1]; ++r2) {
+      const float* src = core + std::int64_t(r[0]) * (r2 + std::int64_t(r[1]) * r3);
+      for (int r1 = 0; r1 < k[0]; ++r1) *dst++ = src[r1];
+    }
+}
+
+}  // namespace
+
+struct BrickReconstructor::Scratch {
+  AlignedFloats core, t1, t2;
+};
+
+BrickReconstructor::BrickReconstructor(KernelIsa isa)
+    : isa_(isa == KernelIsa::automatic ? best_kernel_isa() : isa), scratch_(std::make_unique<Scratch>()) {
+  if (!kernel_isa_supported(isa_)) {
+    throw Error("BrickReconstructor: this CPU does not support the " + std::string(kernel_isa_name(isa_)) + " kernel");
+  }
+}
+BrickReconstructor::~BrickReconstructor() = default;
+BrickReconstructor::BrickReconstructor(BrickReconstructor&&) noexcept = default;
+BrickReconstructor& BrickReconstructor::operator=(BrickReconstructor&&) noexcept = default;
+
+void BrickReconstructor::reconstruct(const TuckerView& model, const Ranks3& k, std::span<float> out) {
+  check_view(model, k, out.size());
+  const Dims3& d = model.dims;
+  detail::ReconstructArgs a;
+  a.i1 = d[0], a.i2 = d[1], a.i3 = d[2];
+  a.k1 = k[0], a.k2 = k[1], a.k3 = k[2];
+  // Truncating mode 1 only shortens each core row and keeps its stride, but the kernel wants
+  // the sub-core contiguous; copying K1 K2 K3 floats is negligible next to the products.
+  if (k == model.ranks) {
+    a.core = model.core;
+  } else {
+    float* sub = scratch_->core.reserve(std::size_t(k[0]) * k[1] * k[2]);
+    copy_leading_core(model.core, model.ranks, k, sub);
+    a.core = sub;
+  }
+  a.u1 = model.factors[0], a.u2 = model.factors[1], a.u3 = model.factors[2];
+  a.t1 = scratch_->t1.reserve(std::size_t(d[0]) * k[1] * k[2]);
+  a.t2 = scratch_->t2.reserve(std::size_t(d[0] * d[1]) * k[2]);
+  a.out = out.data();
+  kernel_for(isa_)(a);
+}
+
+void BrickReconstructor::reconstruct(const TuckerView& model, std::span<float> out) {
+  reconstruct(model, model.ranks, out);
+}
+
+Tensor3 BrickReconstructor::reconstruct(const Tucker& model, const Ranks3& leading_ranks) {
+  Tensor3 out(model.dims());
+  reconstruct(view_of(model), leading_ranks, out.values());
+  return out;
+}
+
+}  // namespace strata

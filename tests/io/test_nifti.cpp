@@ -1,0 +1,492 @@
+// NIfTI-1 reading and writing: round trips for every writable dtype (.nii and .nii.gz), the
+// header we write, scl_slope/scl_inter, big-endian files, corrupt inputs and real atlases.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <fstream>
+#include <limits>
+#include <random>
+#include <set>
+
+#include "io/io_detail.hpp"
+#include "strata/io/volume_io.hpp"
+#include "support/test_support.hpp"
+
+namespace strata {
+namespace {
+
+namespace fs = std::filesystem;
+using test::TempDir;
+
+// Every bit pattern for integers (so extremes and negatives occur) and spread-out floats;
+// the first two samples are the type's lowest and highest values.
+Volume random_volume(Extent dims, DType dtype, std::uint64_t seed, Spacing spacing = {0.5, 1.25, 2.0}) {
+  Volume v(dims, dtype, spacing);
+  std::mt19937_64 rng(seed);
+  visit_dtype(dtype, [&](auto tag) {
+    using T = decltype(tag);
+    auto s = v.samples<T>();
+    for (T& x : s) {
+      if constexpr (std::is_floating_point_v<T>)
+        x = T(std::uniform_real_distribution<double>(-1e4, 1e4)(rng));
+      else
+        x = T(rng());
+    }
+    s[0] = std::numeric_limits<T>::lowest();
+    s[1] = std::numeric_limits<T>::max();
+  });
+  return v;
+}
+
+std::vector<std::byte> read_file(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::vector<char> chars((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::vector<std::byte> bytes(chars.size());
+  std::memcpy(bytes.data(), chars.data(), chars.size());
+  return bytes;
+}
+
+void write_file(const fs::path& p, const std::vector<std::byte>& bytes) {
+  std::ofstream out(p, std::ios::binary);
+  out.write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
+}
+
+void write_gzipped(const fs::path& p, const std::vector<std::byte>& bytes) {
+  io::detail::AtomicOutputFile out(p);
+  io::detail::GzipWriter gz(out);
+  gz.write(bytes.data(), bytes.size());
+  gz.finish();
+  out.commit();
+}
+
+template <class F>
+std::string error_message(F&& action) {
+  try {
+    action();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  ADD_FAILURE() << "expected a strata::Error";
+  return {};
+}
+
+void expect_mentions(const std::string& message, std::initializer_list<std::string> parts) {
+  for (const auto& part : parts) EXPECT_NE(message.find(part), std::string::npos) << "'" << part << "' not in: " << message;
+}
+
+// A NIfTI-1 header written field by field, independently of the writer under test, in either
+// byte order. Defaults: a 4x3x2 volume of `datatype`, data at 352.
+struct HandHeader {
+  std::int32_t sizeof_hdr = 348;
+  std::array<std::int16_t, 8> dim{3, 4, 3, 2, 1, 1, 1, 1};
+  std::int16_t datatype = 4;  // i16
+  std::int16_t bitpix = 16;
+  std::array<float, 8> pixdim{1, 0.75f, 1.5f, 3.0f, 1, 1, 1, 1};
+  float vox_offset = 352;
+  float scl_slope = 0, scl_inter = 0;
+  std::array<char, 4> magic{'n', '+', '1', '\0'};
+  bool big_endian = false;
+
+  template <class T>
+  void put(std::vector<std::byte>& b, std::size_t offset, T value) const {
+    std::memcpy(b.data() + offset, &value, sizeof(T));
+    if (big_endian) std::reverse(b.begin() + std::ptrdiff_t(offset), b.begin() + std::ptrdiff_t(offset + sizeof(T)));
+  }
+
+  std::vector<std::byte> bytes() const {
+    std::vector<std::byte> b(352);
+    put(b, 0, sizeof_hdr);
+    for (std::size_t i = 0; i < 8; ++i) put(b, 40 + 2 * i, dim[i]);
+    put(b, 70, datatype);
+    put(b, 72, bitpix);
+    for (std::size_t i = 0; i < 8; ++i) put(b, 76 + 4 * i, pixdim[i]);
+    put(b, 108, vox_offset);
+    put(b, 112, scl_slope);
+    put(b, 116, scl_inter);
+    std::memcpy(b.data() + 344, magic.data(), 4);
+    return b;
+  }
+};
+
+// Appends samples to a header in the header's byte order.
+template <class T>
+std::vector<std::byte> with_samples(const HandHeader& h, const std::vector<T>& samples) {
+  std::vector<std::byte> b = h.bytes();
+  for (T v : samples) {
+    std::byte raw[sizeof(T)];
+    std::memcpy(raw, &v, sizeof(T));
+    if (h.big_endian) std::reverse(raw, raw + sizeof(T));
+    b.insert(b.end(), raw, raw + sizeof(T));
+  }
+  return b;
+}
+
+std::vector<std::int16_t> ramp_i16(std::size_t n) {
+  std::vector<std::int16_t> v(n);
+  for (std::size_t i = 0; i < n; ++i) v[i] = std::int16_t(int(i) * 37 - 300);
+  return v;
+}
+
+// ---------------------------------------------------------------------------------------------
+
+class NiftiRoundTrip : public ::testing::TestWithParam<std::tuple<DType, const char*>> {};
+
+TEST_P(NiftiRoundTrip, IsBitExactWithSpacingAndBoxes) {
+  const auto [dtype, suffix] = GetParam();
+  TempDir dir;
+  const fs::path path = dir / (std::string("v") + suffix);
+  const Volume original = random_volume({7, 5, 6}, dtype, 42);
+  {
+    // Two slabs, as a streaming conversion would write them.
+    auto writer = io::create_volume_writer(path, original.info());
+    writer->write_slab(original.crop({{0, 0, 0}, {7, 5, 2}}));
+    writer->write_slab(original.crop({{0, 0, 2}, {7, 5, 6}}));
+    writer->finish();
+  }
+  const Volume back = io::read_volume(path);
+  EXPECT_EQ(back.dtype(), dtype);
+  EXPECT_EQ(back.dims(), original.dims());
+  EXPECT_EQ(back.spacing(), original.spacing());
+  EXPECT_TRUE(back == original);
+  const Box box{{1, 2, 3}, {6, 4, 5}};
+  EXPECT_TRUE(io::open_volume(path)->read_box(box) == original.crop(box));
+}
+
+INSTANTIATE_TEST_SUITE_P(AllWritableTypes, NiftiRoundTrip,
+                         ::testing::Combine(::testing::Values(DType::u8, DType::u16, DType::i16, DType::u32, DType::i32,
+                                                              DType::f32, DType::f64),
+                                            ::testing::Values(".nii", ".nii.gz")),
+                         [](const auto& info) {
+                           return std::string(dtype_name(std::get<0>(info.param))) +
+                                  (std::string(std::get<1>(info.param)) == ".nii" ? "_nii" : "_nii_gz");
+                         });
+
+TEST(Nifti, WrittenHeaderFollowsTheNifti1Layout) {
+  TempDir dir;
+  const Volume v = random_volume({7, 5, 3}, DType::u16, 3, {0.5, 1.25, 2.0});
+  io::write_volume(dir / "v.nii", v);
+  const auto bytes = read_file(dir / "v.nii");
+  ASSERT_EQ(bytes.size(), 352 + v.byte_size());
+  auto get = [&](std::size_t offset, auto value) {
+    std::memcpy(&value, bytes.data() + offset, sizeof(value));
+    return value;
+  };
+  EXPECT_EQ(get(0, std::int32_t{}), 348);
+  EXPECT_EQ(std::memcmp(bytes.data() + 344, "n+1\0", 4), 0);
+  EXPECT_EQ(get(108, float{}), 352.0f);
+  EXPECT_EQ(get(40, std::int16_t{}), 3);
+  EXPECT_EQ(get(42, std::int16_t{}), 7);
+  EXPECT_EQ(get(44, std::int16_t{}), 5);
+  EXPECT_EQ(get(46, std::int16_t{}), 3);
+  EXPECT_EQ(get(70, std::int16_t{}), 512);  // DT_UINT16
+  EXPECT_EQ(get(72, std::int16_t{}), 16);
+  EXPECT_EQ(get(80, float{}), 0.5f);
+  EXPECT_EQ(get(84, float{}), 1.25f);
+  EXPECT_EQ(get(88, float{}), 2.0f);
+  EXPECT_EQ(get(112, float{}), 0.0f);         // scl_slope: no scaling
+  EXPECT_EQ(get(252, std::int16_t{}), 0);     // qform_code
+  EXPECT_EQ(get(254, std::int16_t{}), 0);     // sform_code
+  EXPECT_EQ(std::memcmp(bytes.data() + 352, v.bytes(), v.byte_size()), 0);
+}
+
+TEST(Nifti, GzOutputIsTheSameFileGzipped) {
+  TempDir dir;
+  const Volume v = random_volume({6, 4, 3}, DType::f32, 5);
+  io::write_volume(dir / "v.nii", v);
+  io::write_volume(dir / "v.nii.gz", v);
+  const auto plain = read_file(dir / "v.nii");
+  const auto gz = read_file(dir / "v.nii.gz");
+  ASSERT_TRUE(io::detail::looks_gzipped(gz.data(), gz.size()));
+  EXPECT_EQ(io::detail::gunzip_to_memory(gz.data(), gz.size(), "v.nii.gz", "gzip"), plain);
+}
+
+TEST(Nifti, WriterRejectsI8) {
+  TempDir dir;
+  EXPECT_THROW(io::detail::create_nifti_writer(dir / "v.nii", VolumeInfo{{2, 2, 2}, DType::i8, {}}, {}), Error);
+  EXPECT_FALSE(fs::exists(dir / "v.nii.tmp"));
+}
+
+TEST(Nifti, ReadsI8) {
+  TempDir dir;
+  HandHeader h;
+  h.datatype = 256;
+  h.bitpix = 8;
+  std::vector<std::int8_t> samples(24);
+  for (std::size_t i = 0; i < samples.size(); ++i) samples[i] = std::int8_t(int(i) * 11 - 128);
+  write_file(dir / "i8.nii", with_samples(h, samples));
+  const Volume v = io::read_volume(dir / "i8.nii");
+  ASSERT_EQ(v.dtype(), DType::i8);
+  EXPECT_EQ(v.dims(), (Extent{4, 3, 2}));
+  EXPECT_EQ(v.spacing(), (Spacing{0.75, 1.5, 3.0}));
+  auto s = v.samples<std::int8_t>();
+  EXPECT_TRUE(std::equal(s.begin(), s.end(), samples.begin()));
+}
+
+TEST(Nifti, SlopeAndInterceptGiveF32) {
+  TempDir dir;
+  HandHeader h;
+  h.scl_slope = 2;
+  h.scl_inter = 1;
+  const auto stored = ramp_i16(24);
+  write_file(dir / "scaled.nii", with_samples(h, stored));
+  auto source = io::open_volume(dir / "scaled.nii");
+  EXPECT_EQ(source->info().dtype, DType::f32);
+  const Volume v = source->read_all();
+  ASSERT_EQ(v.dtype(), DType::f32);
+  auto s = v.samples<float>();
+  for (std::size_t i = 0; i < stored.size(); ++i) EXPECT_EQ(s[i], 2.0f * stored[i] + 1.0f) << i;
+  // A box is scaled too: voxel (1,2,1) is index 1 + 2*4 + 1*12 = 21.
+  const Volume box = source->read_box({{1, 2, 1}, {2, 3, 2}});
+  EXPECT_EQ(box.samples<float>()[0], 2.0f * stored[21] + 1.0f);
+}
+
+TEST(Nifti, SlopeAppliedToGzippedInput) {
+  TempDir dir;
+  HandHeader h;
+  h.datatype = 2;
+  h.bitpix = 8;
+  h.scl_slope = 0.5f;
+  h.scl_inter = -10;
+  std::vector<std::uint8_t> stored(24);
+  for (std::size_t i = 0; i < stored.size(); ++i) stored[i] = std::uint8_t(i * 10);
+  write_gzipped(dir / "scaled.nii.gz", with_samples(h, stored));
+  const Volume v = io::read_volume(dir / "scaled.nii.gz");
+  ASSERT_EQ(v.dtype(), DType::f32);
+  for (std::size_t i = 0; i < stored.size(); ++i) EXPECT_EQ(v.samples<float>()[i], 0.5f * stored[i] - 10.0f);
+}
+
+TEST(Nifti, IdentityOrZeroSlopeKeepsTheStoredType) {
+  TempDir dir;
+  const auto stored = ramp_i16(24);
+  for (auto [slope, inter] : {std::pair{1.0f, 0.0f}, std::pair{0.0f, 5.0f}}) {
+    HandHeader h;
+    h.scl_slope = slope;
+    h.scl_inter = inter;
+    write_file(dir / "plain.nii", with_samples(h, stored));
+    const Volume v = io::read_volume(dir / "plain.nii");
+    ASSERT_EQ(v.dtype(), DType::i16) << "slope " << slope << " inter " << inter;
+    auto s = v.samples<std::int16_t>();
+    EXPECT_TRUE(std::equal(s.begin(), s.end(), stored.begin()));
+  }
+}
+
+TEST(Nifti, SlopeOnF64StaysF64) {
+  TempDir dir;
+  HandHeader h;
+  h.datatype = 64;
+  h.bitpix = 64;
+  h.scl_slope = 0.5f;
+  h.scl_inter = -3;
+  std::vector<double> stored(24);
+  for (std::size_t i = 0; i < stored.size(); ++i) stored[i] = 1e10 + double(i) * 0.25;
+  write_file(dir / "f64.nii", with_samples(h, stored));
+  const Volume v = io::read_volume(dir / "f64.nii");
+  ASSERT_EQ(v.dtype(), DType::f64);
+  for (std::size_t i = 0; i < stored.size(); ++i) EXPECT_EQ(v.samples<double>()[i], stored[i] * 0.5 - 3.0);
+}
+
+TEST(Nifti, ReadsBigEndianFiles) {
+  TempDir dir;
+  HandHeader h;
+  h.big_endian = true;
+  const auto stored = ramp_i16(24);
+  write_file(dir / "be16.nii", with_samples(h, stored));
+  const Volume v = io::read_volume(dir / "be16.nii");
+  ASSERT_EQ(v.dtype(), DType::i16);
+  EXPECT_EQ(v.dims(), (Extent{4, 3, 2}));
+  EXPECT_EQ(v.spacing(), (Spacing{0.75, 1.5, 3.0}));
+  auto s = v.samples<std::int16_t>();
+  EXPECT_TRUE(std::equal(s.begin(), s.end(), stored.begin()));
+
+  h.datatype = 16;
+  h.bitpix = 32;
+  h.scl_slope = 3;  // scaling read big endian too
+  std::vector<float> floats(24);
+  for (std::size_t i = 0; i < floats.size(); ++i) floats[i] = float(i) * -1.5f + 0.125f;
+  write_file(dir / "be32.nii", with_samples(h, floats));
+  const Volume f = io::read_volume(dir / "be32.nii");
+  ASSERT_EQ(f.dtype(), DType::f32);
+  for (std::size_t i = 0; i < floats.size(); ++i) EXPECT_EQ(f.samples<float>()[i], floats[i] * 3.0f);
+}
+
+TEST(Nifti, DimZeroMayBeFourWithOneVolume) {
+  TempDir dir;
+  HandHeader h;
+  h.dim = {4, 4, 3, 2, 1, 1, 1, 1};
+  write_file(dir / "4d.nii", with_samples(h, ramp_i16(24)));
+  EXPECT_EQ(io::open_volume(dir / "4d.nii")->info().dims, (Extent{4, 3, 2}));
+
+  h.dim = {4, 4, 3, 2, 2, 1, 1, 1};
+  write_file(dir / "4d2.nii", with_samples(h, ramp_i16(48)));
+  expect_mentions(error_message([&] { io::open_volume(dir / "4d2.nii"); }), {"4d2.nii", "dim[0]"});
+
+  h.dim = {2, 4, 3, 1, 1, 1, 1, 1};
+  write_file(dir / "2d.nii", with_samples(h, ramp_i16(12)));
+  expect_mentions(error_message([&] { io::open_volume(dir / "2d.nii"); }), {"2d.nii", "dim[0]"});
+}
+
+TEST(Nifti, HonoursVoxOffsetBeyondTheHeader) {
+  TempDir dir;
+  HandHeader h;
+  h.vox_offset = 400;  // room for extensions, which we skip
+  auto bytes = h.bytes();
+  bytes.resize(400, std::byte{0x7f});
+  const auto stored = ramp_i16(24);
+  const auto data = with_samples(HandHeader{}, stored);
+  bytes.insert(bytes.end(), data.begin() + 352, data.end());
+  write_file(dir / "ext.nii", bytes);
+  const Volume v = io::read_volume(dir / "ext.nii");
+  auto s = v.samples<std::int16_t>();
+  EXPECT_TRUE(std::equal(s.begin(), s.end(), stored.begin()));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Corrupt inputs: the message names the file and the header field.
+
+TEST(NiftiErrors, TruncatedData) {
+  TempDir dir;
+  auto bytes = with_samples(HandHeader{}, ramp_i16(24));
+  bytes.resize(bytes.size() - 5);
+  write_file(dir / "short.nii", bytes);
+  expect_mentions(error_message([&] { io::read_volume(dir / "short.nii"); }), {"short.nii", "dim"});
+}
+
+TEST(NiftiErrors, TruncatedHeader) {
+  TempDir dir;
+  auto bytes = HandHeader{}.bytes();
+  bytes.resize(200);
+  write_file(dir / "stub.nii", bytes);
+  expect_mentions(error_message([&] { io::read_volume(dir / "stub.nii"); }), {"stub.nii", "sizeof_hdr"});
+}
+
+TEST(NiftiErrors, BadMagic) {
+  TempDir dir;
+  HandHeader h;
+  h.magic = {'x', 'y', 'z', '\0'};
+  write_file(dir / "magic.nii", with_samples(h, ramp_i16(24)));
+  expect_mentions(error_message([&] { io::read_volume(dir / "magic.nii"); }), {"magic.nii", "magic"});
+  h.magic = {'n', 'i', '1', '\0'};  // a .hdr/.img pair header is not a single file
+  write_file(dir / "pair.nii", with_samples(h, ramp_i16(24)));
+  expect_mentions(error_message([&] { io::read_volume(dir / "pair.nii"); }), {"pair.nii", "magic"});
+}
+
+TEST(NiftiErrors, BadSizeofHdr) {
+  TempDir dir;
+  HandHeader h;
+  h.sizeof_hdr = 540;  // NIfTI-2
+  write_file(dir / "hdr.nii", with_samples(h, ramp_i16(24)));
+  expect_mentions(error_message([&] { io::read_volume(dir / "hdr.nii"); }), {"hdr.nii", "sizeof_hdr"});
+}
+
+TEST(NiftiErrors, UnsupportedDatatypeAndWrongBitpix) {
+  TempDir dir;
+  HandHeader h;
+  h.datatype = 128;  // RGB24
+  h.bitpix = 24;
+  write_file(dir / "rgb.nii", with_samples(h, std::vector<std::uint8_t>(72)));
+  expect_mentions(error_message([&] { io::read_volume(dir / "rgb.nii"); }), {"rgb.nii", "datatype"});
+  h.datatype = 4;  // i16 claimed as 8 bits would read the wrong byte count
+  h.bitpix = 8;
+  write_file(dir / "bitpix.nii", with_samples(h, ramp_i16(24)));
+  expect_mentions(error_message([&] { io::read_volume(dir / "bitpix.nii"); }), {"bitpix.nii", "bitpix"});
+}
+
+TEST(NiftiErrors, BadGzip) {
+  TempDir dir;
+  // gzip signature followed by garbage
+  std::vector<std::byte> garbage{std::byte{0x1f}, std::byte{0x8b}};
+  for (int i = 0; i < 100; ++i) garbage.push_back(std::byte(i * 7));
+  write_file(dir / "garbage.nii.gz", garbage);
+  expect_mentions(error_message([&] { io::read_volume(dir / "garbage.nii.gz"); }), {"garbage.nii.gz", "gzip"});
+
+  // a valid stream cut in half
+  io::write_volume(dir / "whole.nii.gz", random_volume({16, 16, 8}, DType::u16, 9));
+  auto gz = read_file(dir / "whole.nii.gz");
+  gz.resize(gz.size() / 2);
+  write_file(dir / "cut.nii.gz", gz);
+  expect_mentions(error_message([&] { io::read_volume(dir / "cut.nii.gz"); }), {"cut.nii.gz", "gzip"});
+
+  // a .gz name over uncompressed content
+  write_file(dir / "plain.nii.gz", with_samples(HandHeader{}, ramp_i16(24)));
+  expect_mentions(error_message([&] { io::read_volume(dir / "plain.nii.gz"); }), {"plain.nii.gz", "gzip"});
+}
+
+// ---------------------------------------------------------------------------------------------
+// Gzip decoding goes to the requested temp dir, reports progress, and cleans up.
+
+class RecordingProgress : public ProgressSink {
+ public:
+  void begin(std::string_view, std::uint64_t total, std::string_view) override {
+    ++begun;
+    this->total = total;
+  }
+  void advance(std::uint64_t units) override { advanced += units; }
+  void end() override { ++ended; }
+  int begun = 0, ended = 0;
+  std::uint64_t total = 0, advanced = 0;
+};
+
+TEST(Nifti, GzipDecodesIntoTempDirWithProgress) {
+  TempDir dir;
+  const Volume v = random_volume({20, 10, 5}, DType::i16, 11);
+  io::write_volume(dir / "v.nii.gz", v);
+  fs::create_directory(dir / "scratch");
+  RecordingProgress progress;
+  io::ReadOptions options;
+  options.temp_dir = dir / "scratch";
+  options.progress = &progress;
+  {
+    auto source = io::open_volume(dir / "v.nii.gz", options);
+    EXPECT_EQ(std::distance(fs::directory_iterator(dir / "scratch"), fs::directory_iterator{}), 1);
+    EXPECT_EQ(source->path(), dir / "v.nii.gz");
+    EXPECT_TRUE(source->read_all() == v);
+  }
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir / "scratch"), fs::directory_iterator{}), 0);
+  EXPECT_EQ(progress.begun, 1);
+  EXPECT_EQ(progress.ended, 1);
+  EXPECT_EQ(progress.advanced, fs::file_size(dir / "v.nii.gz"));
+}
+
+TEST(Nifti, UnfinishedWriterLeavesNoFile) {
+  TempDir dir;
+  const Volume v = random_volume({4, 4, 4}, DType::u8, 1);
+  for (const char* name : {"a.nii", "a.nii.gz"}) {
+    {
+      auto writer = io::create_volume_writer(dir / name, v.info());
+      writer->write_slab(v.crop({{0, 0, 0}, {4, 4, 2}}));
+      EXPECT_THROW(writer->finish(), Error);  // 2 of 4 slices
+    }
+    EXPECT_FALSE(fs::exists(dir / name));
+    EXPECT_FALSE(fs::exists(dir / (std::string(name) + ".tmp")));
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Real data from Debian's mricron-data package (skipped when it is not installed).
+
+TEST(NiftiRealData, Colin27) {
+  const auto path = test::mricron_data("ch2better.nii.gz");
+  if (!path) GTEST_SKIP() << "mricron-data not installed";
+  auto source = io::open_volume(*path);
+  EXPECT_EQ(source->info().dims, (Extent{301, 370, 316}));
+  EXPECT_EQ(source->info().dtype, DType::u8);
+  EXPECT_EQ(source->info().spacing, (Spacing{0.5, 0.5, 0.5}));
+  const Volume slab = source->read_slab(150, 160);
+  const auto s = slab.samples<std::uint8_t>();
+  EXPECT_GT(*std::max_element(s.begin(), s.end()), 0);  // the middle of a brain is not empty
+}
+
+TEST(NiftiRealData, AalAtlasLabels) {
+  const auto path = test::mricron_data("aal.nii.gz");
+  if (!path) GTEST_SKIP() << "mricron-data not installed";
+  const Volume v = io::read_volume(*path);
+  EXPECT_EQ(v.dims(), (Extent{181, 217, 181}));
+  ASSERT_EQ(v.dtype(), DType::u8);
+  const auto s = v.samples<std::uint8_t>();
+  const std::set<std::uint8_t> labels(s.begin(), s.end());
+  EXPECT_EQ(labels.size(), 117u);
+  EXPECT_TRUE(labels.count(0));
+}
+
+}  // namespace
+}  // namespace strata
