@@ -21,6 +21,9 @@ void register_info(CLI::App& app, const GlobalOptions& global);
 void register_convert(CLI::App& app, const GlobalOptions& global);
 void register_generate(CLI::App& app, const GlobalOptions& global);
 void register_compare(CLI::App& app, const GlobalOptions& global);
+void register_compress(CLI::App& app, const GlobalOptions& global);
+void register_decompress(CLI::App& app, const GlobalOptions& global);
+void register_eval(CLI::App& app, const GlobalOptions& global);
 void register_demo(CLI::App& app, const GlobalOptions& global);
 
 }  // namespace strata::cli

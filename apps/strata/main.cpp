@@ -21,6 +21,9 @@ int main(int argc, char** argv) {
   cli::register_convert(app, global);
   cli::register_generate(app, global);
   cli::register_compare(app, global);
+  cli::register_compress(app, global);
+  cli::register_decompress(app, global);
+  cli::register_eval(app, global);
   cli::register_demo(app, global);
 
   try {

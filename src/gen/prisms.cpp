@@ -33,7 +33,7 @@ Blob random_blob(Random& rng, const Extent& dims) {
   const Vec3 axes[3] = {axis, e1, e2};
   double cov[3][3] = {};
   for (const Vec3& a : axes) {
-    const double sigma = g * rng.uniform(0.02, 0.09);
+    const double sigma = g * rng.uniform(0.03, 0.11);
     const double inv = 1.0 / (sigma * sigma);
     const double v[3] = {a.x, a.y, a.z};
     b.mxx += inv * v[0] * v[0], b.mxy += inv * v[0] * v[1], b.mxz += inv * v[0] * v[2];
@@ -70,6 +70,14 @@ void add_blob(const Blob& b, std::int64_t z, std::int64_t y0, std::int64_t y1, s
       if (q <= float(kBlobCutoff)) row[x] += scale * (std::exp(-0.5f * q) - floor_value);
     }
   }
+}
+
+// Identity up to 0.85, then bends smoothly (matching slope) towards 1: bright tubes crossing
+// bright blobs keep their texture instead of clipping to a flat plateau.
+float soft_limit(float v) {
+  constexpr float knee = 0.85f, room = 1.0f - knee;
+  if (v <= knee) return std::max(v, 0.0f);
+  return knee + room * (1.0f - std::exp(-(v - knee) / room));
 }
 
 struct Tube {
@@ -129,11 +137,12 @@ void PrismsGenerator::add_bundle(Random& rng, Vec3 main_dir, Vec3 side, int inde
   const BentLine line = BentLine::random(rng, centre, dir, length, 0.03);
   const double radius = rng.uniform(1.0, 3.0), spacing = 2.0 * radius + 1.5;
   const double bundle_radius = std::max(g * rng.uniform(0.03, 0.07), 2.5 * spacing);
-  const double amp = rng.uniform(0.2, 0.35);
+  const double amp = rng.uniform(0.25, 0.4);
   const double step = std::clamp(g / 64.0, 2.0, 8.0);
   // Tubes on a jittered hexagonal lattice over the bundle's disc, a few left out.
+  // Rows j of the lattice are sheared by j / 2, so i needs twice the range to cover the disc.
   const int n = int(std::ceil(bundle_radius / spacing)) + 1;
-  for (int i = -n; i <= n; ++i) {
+  for (int i = -2 * n; i <= 2 * n; ++i) {
     for (int j = -n; j <= n; ++j) {
       const double u = (i + 0.5 * j) * spacing + rng.uniform(-0.1, 0.1) * spacing;
       const double v = 0.8660254037844386 * j * spacing + rng.uniform(-0.1, 0.1) * spacing;
@@ -180,10 +189,10 @@ void PrismsGenerator::combine(std::int64_t z, std::int64_t y0, std::int64_t y1, 
       const float background = 0.5f * coarse.at(double(x), double(y)) + 0.3f * medium.at(double(x), double(y)) +
                                0.2f * fine.at(double(x), double(y));
       const float noise = to_signed_unit(hash_combine(row_key, x));
-      // Overlapping blobs saturate smoothly instead of clipping.
-      const float v = 0.10f + 0.05f * background + 0.55f * (1.0f - std::exp(-2.0f * blobs[i])) + tubes[i] +
+      // Overlapping blobs saturate smoothly instead of adding up without bound.
+      const float v = 0.12f + 0.06f * background + 0.6f * (1.0f - std::exp(-2.0f * blobs[i])) + tubes[i] +
                       0.012f * noise;
-      out[i] = std::uint16_t(std::lround(std::clamp(v, 0.0f, 1.0f) * 65535.0f));
+      out[i] = std::uint16_t(std::lround(soft_limit(v) * 65535.0f));
     }
   }
 }

@@ -15,14 +15,17 @@ constexpr std::int64_t kTaskVoxels = 1 << 16;
 }  // namespace
 
 Volume SliceGenerator::slab(std::int64_t z0, std::int64_t z1) const {
+  return slab_in_blocks(z0, z1, kTaskVoxels / std::max<std::int64_t>(info_.dims.x, 1));
+}
+
+Volume SliceGenerator::slab_in_blocks(std::int64_t z0, std::int64_t z1, std::int64_t rows_per_task) const {
   const Extent& dims = info_.dims;
   if (z0 < 0 || z1 < z0 || z1 > dims.z) {
     throw Error("generator slab [" + std::to_string(z0) + ", " + std::to_string(z1) +
                 ") is outside slices [0, " + std::to_string(dims.z) + ")");
   }
   Volume out(Extent{dims.x, dims.y, z1 - z0}, info_.dtype, info_.spacing);
-  const std::int64_t rows_per_task = std::clamp<std::int64_t>(kTaskVoxels / std::max<std::int64_t>(dims.x, 1), 1,
-                                                               std::max<std::int64_t>(dims.y, 1));
+  rows_per_task = std::clamp<std::int64_t>(rows_per_task, 1, dims.y);
   const std::int64_t blocks = (dims.y + rows_per_task - 1) / rows_per_task;
   const std::int64_t tasks = (z1 - z0) * blocks;
   const std::size_t row_bytes = std::size_t(dims.x) * dtype_size(info_.dtype);

@@ -15,6 +15,9 @@ class SliceGenerator : public Generator {
   explicit SliceGenerator(const VolumeInfo& info) : info_(info) {}
   const VolumeInfo& info() const override { return info_; }
   Volume slab(std::int64_t z0, std::int64_t z1) const override;
+  // slab() with each slice cut into tasks of `rows_per_task` rows; tests use it to check that
+  // the blocks join seamlessly (slab() picks the size from the width).
+  Volume slab_in_blocks(std::int64_t z0, std::int64_t z1, std::int64_t rows_per_task) const;
 
  protected:
   // Fills rows [y0, y1) of slice z; `rows` points at row y0 (dims.x samples per row).

@@ -151,6 +151,14 @@ struct HeaderParser {
     return out;
   }
 
+  // "LIST" (names on the following lines) and "pattern min max step" split the data over
+  // several files; we read one file per volume.
+  std::string check_single_data_file(const std::string& value) const {
+    if (value.rfind("LIST", 0) == 0 || words(value).size() != 1)
+      fail("data file", fmt::format("\"{}\": data split over several files is not supported", value));
+    return value;
+  }
+
   void apply_field(const std::string& field, const std::string& value) {
     if (field == "type") header.dtype = parse_type(value);
     else if (field == "dimension") header.dimension = int(parse_int(value, field));
@@ -163,7 +171,7 @@ struct HeaderParser {
     else if (field == "endian") header.big_endian = parse_endian(value);
     else if (field == "byte skip" || field == "byteskip") header.byte_skip = parse_int(value, "byte skip");
     else if (field == "line skip" || field == "lineskip") header.line_skip = parse_int(value, "line skip");
-    else if (field == "data file" || field == "datafile") header.data_file = value;
+    else if (field == "data file" || field == "datafile") header.data_file = check_single_data_file(value);
     // Every other field (content, kinds, units, space origin, ...) does not affect the samples.
   }
 
@@ -261,10 +269,6 @@ void check_required(const NrrdHeader& h, const std::string& file) {
 }
 
 std::filesystem::path resolve_data_file(const std::string& value, const std::filesystem::path& header_path) {
-  const std::string file = header_path.string();
-  if (value.rfind("LIST", 0) == 0 || HeaderParser::words(value).size() != 1)
-    throw FormatError(file, "data file",
-                      fmt::format("\"{}\": data split over several files is not supported", value));
   std::filesystem::path p(value);
   return p.is_absolute() ? p : header_path.parent_path() / p;
 }
@@ -299,6 +303,16 @@ NrrdLayout read_layout(const std::filesystem::path& path) {
   return make_layout(std::move(parser.header), path);
 }
 
+// Maps the data file, naming the header too when it is missing: that is the file to fix.
+std::shared_ptr<MappedFile> map_data_file(const std::filesystem::path& header_path, const NrrdLayout& layout) {
+  if (layout.data_path == header_path) return std::make_shared<MappedFile>(header_path);
+  try {
+    return std::make_shared<MappedFile>(layout.data_path);
+  } catch (const Error& e) {
+    throw FormatError(header_path.string(), "data file", e.what());
+  }
+}
+
 // Position after `lines` newline-terminated lines starting at `start`.
 std::uint64_t skip_lines(const MappedFile& file, std::uint64_t start, std::int64_t lines, const std::string& name) {
   std::uint64_t pos = start;
@@ -323,18 +337,14 @@ void check_data_bytes(const std::string& file, const NrrdLayout& layout, std::ui
 }
 
 std::unique_ptr<VolumeSource> open_raw_encoded(const std::filesystem::path& path, const NrrdLayout& layout) {
-  auto data = std::make_shared<MappedFile>(layout.data_path);
+  auto data = map_data_file(path, layout);
   const std::uint64_t start = skip_lines(*data, layout.data_start, layout.line_skip, path.string());
-  std::uint64_t offset = 0;
-  if (layout.byte_skip == -1) {
-    // -1: the samples are the last bytes of the file, whatever precedes them.
-    if (data->size() - start < layout.info.byte_size()) check_data_bytes(path.string(), layout, data->size() - start, "the data file");
+  std::uint64_t offset = start + std::uint64_t(std::max<std::int64_t>(layout.byte_skip, 0));
+  // byte skip -1: the samples are the last bytes of the file, whatever precedes them.
+  if (layout.byte_skip == -1 && data->size() - start >= layout.info.byte_size())
     offset = data->size() - layout.info.byte_size();
-  } else {
-    offset = start + std::uint64_t(layout.byte_skip);
-    check_data_bytes(path.string(), layout, offset > data->size() ? 0 : data->size() - offset,
-                     layout.data_path == path ? "the file after its header" : "the data file");
-  }
+  check_data_bytes(path.string(), layout, offset > data->size() ? 0 : data->size() - offset,
+                   layout.data_path == path ? "the file after its header" : "the data file");
   return make_mapped_source(std::move(data), offset, layout.info, layout.big_endian, path, "data");
 }
 
@@ -343,12 +353,12 @@ std::unique_ptr<VolumeSource> open_gzip_encoded(const std::filesystem::path& pat
   const std::filesystem::path dir = options.temp_dir.value_or(std::filesystem::temp_directory_path());
   auto decoded = std::make_shared<TempFile>(dir, "strata-nrrd");
   {
-    MappedFile compressed(layout.data_path);
-    const std::uint64_t start = skip_lines(compressed, layout.data_start, layout.line_skip, path.string());
-    if (start >= compressed.size())
+    auto compressed = map_data_file(path, layout);
+    const std::uint64_t start = skip_lines(*compressed, layout.data_start, layout.line_skip, path.string());
+    if (start >= compressed->size())
       throw FormatError(path.string(), "data", "no gzip data follows the header (truncated file)");
     ProgressSink& progress = options.progress ? *options.progress : silent_progress();
-    gunzip_to_file(compressed.data() + start, compressed.size() - start, decoded->path(), path.string(), "data",
+    gunzip_to_file(compressed->data() + start, compressed->size() - start, decoded->path(), path.string(), "data",
                    progress);
   }
   auto data = std::make_shared<MappedFile>(decoded->path());

@@ -1,7 +1,6 @@
 // TIFF stacks through libtiff: one multi-page file (a page per slice) or a folder of
 // single-page slices in natural file-name order. Reading opens only the pages a request
 // touches; writing emits a page per slice as slabs arrive.
-#include <fcntl.h>
 #include <tiffio.h>
 #include <unistd.h>
 

@@ -38,14 +38,16 @@ struct ReconstructArgs {
 //   T1 = B ×1 U1      : T1 (I1 x K2K3)       = U1 · B_(1)
 //   T2 = T1 ×2 U2     : T2(:,:,r3) (I1 x I2) = T1(:,:,r3) · U2^T      for each r3
 //   A  = T2 ×3 U3     : A (I1I2 x I3)        = T2 · U3^T
-template <class Gemm>
-inline void reconstruct_with(const ReconstructArgs& a, Gemm&& gemm) {
-  gemm(GemmArgs{a.i1, std::int64_t(a.k2) * a.k3, a.k1, a.u1, a.i1, a.core, 1, a.k1, a.t1, a.i1});
+// `narrow` runs the first two products (I1 rows), `wide` the last (I1 I2 rows, most of the work),
+// so each can use the register tile that suits its shape.
+template <class Narrow, class Wide>
+inline void reconstruct_with(const ReconstructArgs& a, Narrow&& narrow, Wide&& wide) {
+  narrow(GemmArgs{a.i1, std::int64_t(a.k2) * a.k3, a.k1, a.u1, a.i1, a.core, 1, a.k1, a.t1, a.i1});
   for (int r3 = 0; r3 < a.k3; ++r3) {
-    gemm(GemmArgs{a.i1, a.i2, a.k2, a.t1 + std::int64_t(r3) * a.i1 * a.k2, a.i1, a.u2, a.i2, 1,
+    narrow(GemmArgs{a.i1, a.i2, a.k2, a.t1 + std::int64_t(r3) * a.i1 * a.k2, a.i1, a.u2, a.i2, 1,
                   a.t2 + std::int64_t(r3) * a.i1 * a.i2, a.i1});
   }
-  gemm(GemmArgs{a.i1 * a.i2, a.i3, a.k3, a.t2, a.i1 * a.i2, a.u3, a.i3, 1, a.out, a.i1 * a.i2});
+  wide(GemmArgs{a.i1 * a.i2, a.i3, a.k3, a.t2, a.i1 * a.i2, a.u3, a.i3, 1, a.out, a.i1 * a.i2});
 }
 
 void reconstruct_generic(const ReconstructArgs& a);

@@ -24,7 +24,7 @@ Kind parse_kind(std::string_view name);  // "prisms", "marschner-lobb", "sphere"
 std::string_view kind_name(Kind k);
 bool is_label_kind(Kind k);
 std::span<const std::string_view> kind_names();  // every valid name, in Kind order
-// What count = 0 means: prisms 40 blobs (plus count/4 fibre bundles), voronoi 64 cells,
+// What count = 0 means: prisms 40 blobs (plus max(3, count/4) fibre bundles), voronoi 64 cells,
 // fibres 200 tubes; marschner-lobb ignores count; sphere uses count as its radius in voxels
 // when > 0 (default 0.4 * the smallest dimension).
 std::int64_t default_count(Kind k);

@@ -1,0 +1,66 @@
+// `strata compress IN -o OUT.strata`: bricked tensor-approximation octree (paper 1).
+#include <cstdio>
+
+#include "commands.hpp"
+#include "report.hpp"
+#include "strata/core/error.hpp"
+#include "strata/io/volume_io.hpp"
+#include "strata/ta/compress.hpp"
+
+namespace strata::cli {
+
+namespace {
+
+struct CompressArgs {
+  std::string input, output, quant = "u16,b8log+";
+  int brick = 32, overlap = 2, rank = 0, hooi = 10;
+  RawInputArgs raw;
+};
+
+ta::CompressParams to_params(const CompressArgs& args) {
+  ta::CompressParams p;
+  p.layout = {args.brick, args.overlap};
+  p.layout.validate();
+  p.codec.rank = args.rank > 0 ? args.rank : args.brick / 2;
+  p.codec.quant = quant::QuantScheme::parse(args.quant);
+  p.codec.hooi_iterations = args.hooi;
+  return p;
+}
+
+void run_compress(const CompressArgs& args, const GlobalOptions& global) {
+  const ta::CompressParams params = to_params(args);
+  auto progress = global.make_progress();
+  io::ReadOptions read = args.raw.to_read_options();
+  read.progress = progress.get();
+  auto source = io::open_volume(args.input, read);
+  ta::CompressReport r = ta::compress_volume(*source, args.output, params, *progress);
+  std::int64_t bricks = 0, constant = 0;
+  for (const auto& l : r.levels) {
+    bricks += l.bricks;
+    constant += l.constant;
+  }
+  std::printf("%s: %lld bricks in %zu levels (%lld constant), %s, %.3f bits/voxel, %.2f s (%.1f Mvox/s)\n",
+              args.output.c_str(), (long long)bricks, r.levels.size(), (long long)constant,
+              human_bytes(r.file_bytes).c_str(), 8.0 * double(r.file_bytes) / double(r.input_voxels), r.seconds,
+              double(r.input_voxels) / r.seconds / 1e6);
+}
+
+}  // namespace
+
+void register_compress(CLI::App& app, const GlobalOptions& global) {
+  auto args = std::make_shared<CompressArgs>();
+  CLI::App* cmd = app.add_subcommand("compress", "Compress a volume into a bricked tensor-approximation octree (.strata)");
+  cmd->add_option("input", args->input, "Input volume")->required();
+  cmd->add_option("-o,--output", args->output, "Output .strata file")->required();
+  cmd->add_option("--brick", args->brick, "Brick width B including overlap")->capture_default_str();
+  cmd->add_option("--overlap", args->overlap, "Overlap voxels per side")->capture_default_str();
+  cmd->add_option("--rank", args->rank, "Stored Tucker rank R per mode (default B/2)");
+  cmd->add_option("--quant", args->quant,
+                  "Quantization: f32 | u16,b8log+ | u16,b8log | u8,b8lin | u16,b16lin | u16,b12log+ | u16,b8mu+ ...")
+      ->capture_default_str();
+  cmd->add_option("--hooi", args->hooi, "HOOI sweeps after HOSVD (0 = HOSVD only)")->capture_default_str();
+  args->raw.add_to(*cmd);
+  cmd->callback([args, &global] { run_compress(*args, global); });
+}
+
+}  // namespace strata::cli

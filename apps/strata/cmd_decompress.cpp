@@ -1,0 +1,52 @@
+// `strata decompress IN.strata -o OUT [--level L] [--rank K] [--box ...]`.
+#include "commands.hpp"
+#include "strata/core/error.hpp"
+#include "strata/io/volume_io.hpp"
+#include "strata/ta/ta_volume.hpp"
+
+namespace strata::cli {
+
+namespace {
+
+struct DecompressArgs {
+  std::string input, output, box;
+  int level = 0, rank = 0;
+  bool keep_float = false;
+};
+
+// Back to the source's sample type (rounded and clamped) unless --float is given or the level
+// is coarser than 0 (averages are not source samples).
+Volume to_output_type(Volume decoded, const ta::TaVolume& volume, const DecompressArgs& args) {
+  if (args.keep_float || args.level > 0 || volume.source_info().dtype == DType::f32) return decoded;
+  return decoded.converted(volume.source_info().dtype);
+}
+
+void run_decompress(const DecompressArgs& args, const GlobalOptions&) {
+  ta::TaVolume volume(args.input);
+  if (args.level < 0 || args.level >= volume.geometry().level_count())
+    throw Error("--level: " + std::to_string(args.level) + " is not in 0.." +
+                std::to_string(volume.geometry().level_count() - 1) + " for " + args.input);
+  const Extent dims = volume.geometry().level(args.level).dims;
+  const Box box = args.box.empty() ? Box::whole(dims) : parse_box(args.box);
+  const int k = args.rank > 0 ? args.rank : volume.rank();
+  if (k > volume.rank())
+    throw Error("--rank: " + std::to_string(k) + " exceeds the stored rank " + std::to_string(volume.rank()));
+  Volume decoded = to_output_type(volume.decode_box(args.level, box, k), volume, args);
+  io::write_volume(args.output, decoded);
+}
+
+}  // namespace
+
+void register_decompress(CLI::App& app, const GlobalOptions& global) {
+  auto args = std::make_shared<DecompressArgs>();
+  CLI::App* cmd = app.add_subcommand("decompress", "Decode a .strata file (any level, rank and box) to a volume file");
+  cmd->add_option("input", args->input, "Input .strata file")->required();
+  cmd->add_option("-o,--output", args->output, "Output volume (.nrrd, .nii, .nii.gz, .raw, .tif)")->required();
+  cmd->add_option("--level", args->level, "Octree level (0 = full resolution)")->capture_default_str();
+  cmd->add_option("--rank", args->rank, "Reconstruction rank K (default: the stored rank)");
+  cmd->add_option("--box", args->box, "Sub-box x0,y0,z0:x1,y1,z1 in level coordinates (half-open)");
+  cmd->add_flag("--float", args->keep_float, "Write f32 samples instead of the source type");
+  cmd->callback([args, &global] { run_decompress(*args, global); });
+}
+
+}  // namespace strata::cli

@@ -1,0 +1,50 @@
+#pragma once
+// One brick <-> one payload: rank-reduced Tucker decomposition (HOOI) plus the tensor-specific
+// quantization of paper 1 §4, or a single value for constant bricks.
+#include <cstddef>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "strata/quant/brick.hpp"
+#include "strata/quant/scheme.hpp"
+#include "strata/store/container.hpp"
+#include "strata/tensor/reconstruct.hpp"
+#include "strata/tensor/tensor3.hpp"
+
+namespace strata::ta {
+
+struct CodecParams {
+  int rank = 16;                 // R: stored rank per mode (<= brick width)
+  quant::QuantScheme quant;      // how cores and factors are stored
+  int hooi_iterations = 10;      // 0 = truncated HOSVD only
+  double hooi_tolerance = 1e-4;
+};
+
+struct EncodedBrick {
+  store::PayloadKind kind = store::PayloadKind::constant;
+  std::vector<std::byte> payload;
+  float constant_value = 0;  // for constant bricks
+  // Sizes of the payload's parts, for `strata eval` (bytes).
+  std::size_t core_bytes = 0, factor_bytes = 0, header_bytes = 0;
+};
+
+// Encodes a brick of samples (B x B x B, first index fastest).
+EncodedBrick encode_brick(const Tensor3& samples, const CodecParams& params);
+
+// Splits a tucker payload's size into header, core and factor bytes (for `strata eval`).
+struct PayloadParts {
+  std::size_t header_bytes = 0, core_bytes = 0, factor_bytes = 0;
+};
+PayloadParts payload_parts(std::span<const std::byte> payload, const quant::QuantScheme& scheme,
+                           const std::string& context);
+
+// Decodes a payload at reconstruction rank K (1 <= K <= stored rank; larger K is clamped)
+// into `out` (B^3 floats). Constant bricks fill `out` with their value. Reuses the scratch of
+// `reconstructor` and `work` so a loop over bricks does not allocate.
+using DecodeScratch = quant::DequantizedModel;
+void decode_brick(store::PayloadKind kind, std::span<const std::byte> payload, float constant_value,
+                  const quant::QuantScheme& scheme, int brick_width, int rank, BrickReconstructor& reconstructor,
+                  DecodeScratch& scratch, std::span<float> out, const std::string& context);
+
+}  // namespace strata::ta

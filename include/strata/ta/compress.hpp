@@ -1,0 +1,37 @@
+#pragma once
+// `strata compress`: streams a volume into a bricked TA octree inside a .strata container.
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <vector>
+
+#include "strata/core/progress.hpp"
+#include "strata/io/volume_io.hpp"
+#include "strata/ta/brick_codec.hpp"
+#include "strata/ta/octree.hpp"
+
+namespace strata::ta {
+
+struct CompressParams {
+  BrickLayout layout;
+  CodecParams codec;
+};
+
+struct LevelCounts {
+  std::int64_t bricks = 0, constant = 0;
+};
+
+struct CompressReport {
+  std::vector<LevelCounts> levels;
+  std::uint64_t file_bytes = 0, core_bytes = 0, factor_bytes = 0, brick_header_bytes = 0, container_bytes = 0;
+  double seconds = 0, prepass_seconds = 0;
+  std::uint64_t input_voxels = 0;
+};
+
+// Reads `source` slab by slab (twice: a first pass for the value range that the per-brick
+// histograms need, then the encoding pass); only the slices one brick row needs are held per
+// level. Output goes to `<out>.tmp`, renamed when complete.
+CompressReport compress_volume(io::VolumeSource& source, const std::filesystem::path& out,
+                               const CompressParams& params, ProgressSink& progress);
+
+}  // namespace strata::ta

@@ -1,0 +1,50 @@
+#pragma once
+// Geometry of the bricked multiresolution octree (paper 1, §3). Every level is a regular grid
+// of bricks of width B; a brick stores its `core` = B - 2*overlap voxels plus `overlap` voxels
+// of its neighbours on each side, so trilinear interpolation and gradients never need a second
+// brick. Level 0 samples the input; level l+1 halves level l (2x2x2 averages of the decoded
+// level l, odd extents rounded up) until one brick covers the whole level.
+#include <cstdint>
+#include <vector>
+
+#include "strata/core/extent.hpp"
+
+namespace strata::ta {
+
+struct BrickLayout {
+  int brick = 32;   // B: stored width including overlap
+  int overlap = 2;  // voxels shared with each neighbour, per side
+
+  int core() const { return brick - 2 * overlap; }
+  void validate() const;  // throws Error unless 1 <= core and 0 <= overlap
+};
+
+struct LevelGeometry {
+  Extent dims;    // voxels of this level
+  Extent bricks;  // brick grid (ceil(dims / core))
+};
+
+class OctreeGeometry {
+ public:
+  OctreeGeometry(const Extent& volume_dims, const BrickLayout& layout);
+
+  const BrickLayout& layout() const { return layout_; }
+  int level_count() const { return int(levels_.size()); }
+  const LevelGeometry& level(int l) const { return levels_.at(std::size_t(l)); }
+  std::int64_t total_bricks() const;
+
+  // Voxels of `level` whose samples a brick stores: its core box shifted by -overlap and grown
+  // by 2*overlap. May extend past the level's edges; those samples are clamped to the edge.
+  Box brick_sample_box(int level, std::int64_t bx, std::int64_t by, std::int64_t bz) const;
+  // The brick's own (non-overlapping) voxels, clipped to the level.
+  Box brick_core_box(int level, std::int64_t bx, std::int64_t by, std::int64_t bz) const;
+
+ private:
+  BrickLayout layout_;
+  std::vector<LevelGeometry> levels_;
+};
+
+// Extent of the next coarser level: ceil(d / 2) per axis.
+Extent half_extent(const Extent& d);
+
+}  // namespace strata::ta

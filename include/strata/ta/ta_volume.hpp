@@ -1,0 +1,45 @@
+#pragma once
+// Read side of a TA-compressed .strata file: random access to any brick of any level at any
+// reconstruction rank K (the rank slider), and decoding of boxes into plain volumes.
+#include <filesystem>
+#include <memory>
+#include <span>
+
+#include "strata/core/volume.hpp"
+#include "strata/store/container.hpp"
+#include "strata/ta/brick_codec.hpp"
+#include "strata/ta/octree.hpp"
+
+namespace strata::ta {
+
+class TaVolume {
+ public:
+  explicit TaVolume(const std::filesystem::path& path);  // throws FormatError on bad metadata
+
+  const store::ContainerReader& container() const { return *container_; }
+  const VolumeInfo& source_info() const { return source_; }
+  const OctreeGeometry& geometry() const { return *geometry_; }
+  int rank() const { return rank_; }
+  const std::string& quant_name() const { return quant_; }
+  const quant::QuantScheme& quant_scheme() const { return scheme_; }
+  double value_min() const { return value_lo_; }
+  double value_max() const { return value_hi_; }
+
+  // B^3 floats of one brick (overlap included) reconstructed at rank K (clamped to 1..rank()).
+  void decode_brick(const store::BrickKey& key, int k, std::span<float> out, BrickReconstructor& reconstructor,
+                    DecodeScratch& scratch) const;
+  // The voxels of `box` (in `level` coordinates, inside the level) as an f32 volume, decoded
+  // brick by brick in parallel at rank K. Spacing is the source spacing scaled by 2^level.
+  Volume decode_box(int level, const Box& box, int k) const;
+
+ private:
+  std::unique_ptr<store::ContainerReader> container_;
+  VolumeInfo source_;
+  std::unique_ptr<OctreeGeometry> geometry_;
+  int rank_ = 0;
+  std::string quant_;
+  quant::QuantScheme scheme_;
+  double value_lo_ = 0, value_hi_ = 0;
+};
+
+}  // namespace strata::ta

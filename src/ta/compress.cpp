@@ -1,0 +1,98 @@
+#include "strata/ta/compress.hpp"
+
+#include <chrono>
+#include <limits>
+#include <mutex>
+
+#include "strata/core/error.hpp"
+#include "strata/io/slab_stream.hpp"
+#include "strata/store/container.hpp"
+#include "ta/level_pipeline.hpp"
+#include "ta/metadata.hpp"
+
+namespace strata::ta {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+HistogramRange value_range(io::VolumeSource& source, ProgressSink& progress) {
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  io::for_each_slab(source, [&](const Volume& slab, std::int64_t) {
+    visit_dtype(slab.dtype(), [&](auto tag) {
+      using T = decltype(tag);
+      for (T v : slab.samples<T>()) {
+        lo = std::min(lo, double(v));
+        hi = std::max(hi, double(v));
+      }
+    });
+  }, progress, "scan range");
+  if (!std::isfinite(lo) || !std::isfinite(hi))
+    throw Error(source.path().string() + ": samples: NaN or infinite values cannot be compressed");
+  return {lo, hi};
+}
+
+void push_slab_to_level0(const Volume& slab, LevelPipeline& level0) {
+  const Volume as_float = slab.dtype() == DType::f32 ? Volume() : slab.converted(DType::f32);
+  const Volume& f = slab.dtype() == DType::f32 ? slab : as_float;
+  const std::size_t slice = std::size_t(f.dims().x * f.dims().y);
+  auto samples = f.samples<float>();
+  for (std::int64_t z = 0; z < f.dims().z; ++z)
+    level0.push_slice(std::vector<float>(samples.begin() + std::ptrdiff_t(z * slice),
+                                         samples.begin() + std::ptrdiff_t((z + 1) * slice)));
+}
+
+}  // namespace
+
+CompressReport compress_volume(io::VolumeSource& source, const std::filesystem::path& out,
+                               const CompressParams& params, ProgressSink& progress) {
+  const auto start = Clock::now();
+  const VolumeInfo& info = source.info();
+  if (params.codec.rank < 1 || params.codec.rank > params.layout.brick)
+    throw Error("--rank: must be between 1 and the brick width " + std::to_string(params.layout.brick) + ", got " +
+                std::to_string(params.codec.rank));
+  const OctreeGeometry geometry(info.dims, params.layout);
+  CompressReport report;
+  report.input_voxels = std::uint64_t(info.dims.voxel_count());
+  report.levels.resize(std::size_t(geometry.level_count()));
+
+  const HistogramRange range = value_range(source, progress);
+  report.prepass_seconds = seconds_since(start);
+
+  store::ContainerWriter writer(out);
+  std::mutex report_mutex;
+  ProgressTask bricks_task(progress, "compress", std::uint64_t(geometry.total_bricks()), "bricks");
+  BrickSink sink = [&](const store::BrickKey& key, const EncodedBrick& b, float lo, float hi, std::uint64_t hist) {
+    store::BrickEntry entry{key, b.kind, 0, 0, 0, lo, hi, hist};
+    if (b.kind == store::PayloadKind::constant) entry.min = entry.max = b.constant_value;
+    writer.add_brick(entry, b.payload);
+    {
+      std::lock_guard lock(report_mutex);
+      LevelCounts& counts = report.levels[key.level];
+      ++counts.bricks;
+      counts.constant += b.kind == store::PayloadKind::constant;
+      report.core_bytes += b.core_bytes;
+      report.factor_bytes += b.factor_bytes;
+      report.brick_header_bytes += b.header_bytes;
+    }
+    bricks_task.advance(1);
+  };
+
+  // Coarsest level first so each level can point at its parent-level pipeline.
+  std::vector<std::unique_ptr<LevelPipeline>> levels(std::size_t(geometry.level_count()));
+  for (int l = geometry.level_count() - 1; l >= 0; --l) {
+    LevelPipeline* next = l + 1 < geometry.level_count() ? levels[std::size_t(l + 1)].get() : nullptr;
+    levels[std::size_t(l)] = std::make_unique<LevelPipeline>(geometry, l, params.codec, range, sink, next);
+  }
+  io::for_each_slab(source, [&](const Volume& slab, std::int64_t) { push_slab_to_level0(slab, *levels[0]); },
+                    silent_progress(), "read");
+  levels[0]->finish();
+
+  report.file_bytes = writer.finish(make_metadata(info, geometry, params, range));
+  report.container_bytes = report.file_bytes - report.core_bytes - report.factor_bytes - report.brick_header_bytes;
+  report.seconds = seconds_since(start);
+  return report;
+}
+
+}  // namespace strata::ta

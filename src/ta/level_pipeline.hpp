@@ -1,0 +1,58 @@
+#pragma once
+// The streaming engine of the compressor. One LevelPipeline per octree level receives that
+// level's slices in z order, encodes a row of bricks as soon as the slices it needs (core plus
+// overlap, clamped at the edges) have arrived, decodes the row's cores, and feeds their 2x2x2
+// averages to the next coarser level. Parents are thus built from their decoded children, as
+// in paper 1 §3, and memory stays at a few brick rows per level.
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <memory>
+#include <vector>
+
+#include "strata/store/container.hpp"
+#include "strata/ta/brick_codec.hpp"
+#include "strata/ta/octree.hpp"
+
+namespace strata::ta {
+
+// Called for every encoded brick (from worker threads; must be thread-safe).
+using BrickSink = std::function<void(const store::BrickKey&, const EncodedBrick&, float min, float max,
+                                     std::uint64_t histogram)>;
+
+struct HistogramRange {
+  double lo = 0, hi = 1;  // the volume's value range: 64 equal bins
+};
+
+class LevelPipeline {
+ public:
+  LevelPipeline(const OctreeGeometry& geometry, int level, const CodecParams& codec, HistogramRange range,
+                BrickSink sink, LevelPipeline* next);
+
+  // Appends the next slice (dims.x * dims.y floats) of this level.
+  void push_slice(std::vector<float> slice);
+  // Call once every slice has been pushed: encodes the remaining rows and finishes `next`.
+  void finish();
+
+ private:
+  bool row_ready(std::int64_t row) const;
+  void encode_row(std::int64_t row);
+  void gather_samples(std::int64_t bx, std::int64_t by, std::int64_t bz, Tensor3& out) const;
+  void emit_decoded_slice(std::vector<float> slice);
+  void drop_unneeded_slices(std::int64_t next_row);
+
+  const OctreeGeometry& geometry_;
+  int level_;
+  LevelGeometry dims_;
+  CodecParams codec_;
+  HistogramRange range_;
+  BrickSink sink_;
+  LevelPipeline* next_;
+
+  std::deque<std::vector<float>> window_;  // input slices [window_z0_, window_z0_ + size)
+  std::int64_t window_z0_ = 0, slices_received_ = 0, next_row_ = 0;
+  std::vector<float> pending_decoded_;     // one decoded slice awaiting its partner for 2x2x2
+  std::int64_t decoded_slices_ = 0;
+};
+
+}  // namespace strata::ta

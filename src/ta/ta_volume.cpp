@@ -1,0 +1,121 @@
+#include "strata/ta/ta_volume.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "strata/core/error.hpp"
+#include "strata/core/threads.hpp"
+
+namespace strata::ta {
+
+namespace {
+
+template <class T>
+T required(const nlohmann::json& j, const char* key, const std::string& file) {
+  if (!j.contains(key)) throw FormatError(file, std::string("metadata.") + key, "missing");
+  try {
+    return j.at(key).get<T>();
+  } catch (const nlohmann::json::exception&) {
+    throw FormatError(file, std::string("metadata.") + key, "has the wrong type");
+  }
+}
+
+Extent extent_of(const nlohmann::json& j, const std::string& file, const char* field) {
+  if (!j.is_array() || j.size() != 3) throw FormatError(file, field, "expected [x, y, z]");
+  return {j[0].get<std::int64_t>(), j[1].get<std::int64_t>(), j[2].get<std::int64_t>()};
+}
+
+}  // namespace
+
+TaVolume::TaVolume(const std::filesystem::path& path)
+    : container_(std::make_unique<store::ContainerReader>(path)) {
+  const std::string file = path.string();
+  const nlohmann::json& m = container_->metadata();
+  if (m.value("codec", "") != "ta-bricked")
+    throw FormatError(file, "metadata.codec", "expected \"ta-bricked\", found " + m.value("codec", std::string("none")));
+  const nlohmann::json source = required<nlohmann::json>(m, "source", file);
+  source_.dims = extent_of(source.at("dims"), file, "metadata.source.dims");
+  source_.dtype = parse_dtype(required<std::string>(source, "dtype", file), file + ": metadata.source.dtype");
+  const auto spacing = required<std::vector<double>>(source, "spacing", file);
+  if (spacing.size() != 3) throw FormatError(file, "metadata.source.spacing", "expected 3 values");
+  source_.spacing = {spacing[0], spacing[1], spacing[2]};
+  const auto range = required<std::vector<double>>(source, "value_range", file);
+  if (range.size() != 2) throw FormatError(file, "metadata.source.value_range", "expected [min, max]");
+  value_lo_ = range[0];
+  value_hi_ = range[1];
+  BrickLayout layout{required<int>(m, "brick", file), required<int>(m, "overlap", file)};
+  try {
+    geometry_ = std::make_unique<OctreeGeometry>(source_.dims, layout);
+  } catch (const Error& e) {
+    throw FormatError(file, "metadata.brick", e.what());
+  }
+  rank_ = required<int>(m, "rank", file);
+  if (rank_ < 1 || rank_ > layout.brick) throw FormatError(file, "metadata.rank", "out of range 1..brick width");
+  quant_ = required<std::string>(m, "quant", file);
+  try {
+    scheme_ = quant::QuantScheme::parse(quant_);
+  } catch (const Error& e) {
+    throw FormatError(file, "metadata.quant", e.what());
+  }
+  const auto levels = required<nlohmann::json>(m, "levels", file);
+  if (!levels.is_array() || int(levels.size()) != geometry_->level_count())
+    throw FormatError(file, "metadata.levels",
+                      "expected " + std::to_string(geometry_->level_count()) + " levels for these dims and brick size");
+}
+
+void TaVolume::decode_brick(const store::BrickKey& key, int k, std::span<float> out, BrickReconstructor& reconstructor,
+                            DecodeScratch& scratch) const {
+  const store::BrickEntry* entry = container_->find(key);
+  if (!entry)
+    throw FormatError(container_->path().string(), "index",
+                      "brick (level " + std::to_string(key.level) + ", " + std::to_string(key.x) + "," +
+                          std::to_string(key.y) + "," + std::to_string(key.z) + ") is missing");
+  ta::decode_brick(entry->kind, container_->payload(*entry), entry->min, scheme_, geometry_->layout().brick,
+                   std::clamp(k, 1, rank_), reconstructor, scratch, out, container_->path().string());
+}
+
+Volume TaVolume::decode_box(int level, const Box& box, int k) const {
+  if (level < 0 || level >= geometry_->level_count())
+    throw Error("--level: " + std::to_string(level) + " is not in 0.." + std::to_string(geometry_->level_count() - 1));
+  const LevelGeometry& g = geometry_->level(level);
+  if (box.empty() || !Box::whole(g.dims).contains(box))
+    throw Error("--box: " + box.to_string() + " is not inside level " + std::to_string(level) + " (" +
+                g.dims.to_string() + ")");
+  const double scale = std::ldexp(1.0, level);
+  Volume out(box.size(), DType::f32, {source_.spacing.x * scale, source_.spacing.y * scale, source_.spacing.z * scale});
+  const BrickLayout& l = geometry_->layout();
+  const std::int64_t c = l.core();
+  const Extent lo_brick{box.lo.x / c, box.lo.y / c, box.lo.z / c};
+  const Extent hi_brick{(box.hi.x - 1) / c + 1, (box.hi.y - 1) / c + 1, (box.hi.z - 1) / c + 1};
+  const Extent n{hi_brick.x - lo_brick.x, hi_brick.y - lo_brick.y, hi_brick.z - lo_brick.z};
+  auto view = out.view<float>();
+  std::exception_ptr failure;
+#pragma omp parallel num_threads(thread_count())
+  {
+    BrickReconstructor reconstructor;
+    DecodeScratch scratch;
+    std::vector<float> brick(std::size_t(l.brick) * l.brick * l.brick);
+#pragma omp for schedule(dynamic)
+    for (std::int64_t i = 0; i < n.voxel_count(); ++i) {
+      try {
+        const std::int64_t bx = lo_brick.x + i % n.x, by = lo_brick.y + (i / n.x) % n.y, bz = lo_brick.z + i / (n.x * n.y);
+        decode_brick({std::uint8_t(level), std::int32_t(bx), std::int32_t(by), std::int32_t(bz)}, k, brick,
+                     reconstructor, scratch);
+        const Box part = geometry_->brick_core_box(level, bx, by, bz).intersect(box);
+        for (std::int64_t z = part.lo.z; z < part.hi.z; ++z)
+          for (std::int64_t y = part.lo.y; y < part.hi.y; ++y) {
+            const std::int64_t lz = z - bz * c + l.overlap, ly = y - by * c + l.overlap, lx = part.lo.x - bx * c + l.overlap;
+            const float* src = brick.data() + (lz * l.brick + ly) * l.brick + lx;
+            std::copy(src, src + (part.hi.x - part.lo.x), &view(part.lo.x - box.lo.x, y - box.lo.y, z - box.lo.z));
+          }
+      } catch (...) {
+#pragma omp critical
+        if (!failure) failure = std::current_exception();
+      }
+    }
+  }
+  if (failure) std::rethrow_exception(failure);
+  return out;
+}
+
+}  // namespace strata::ta

@@ -1,0 +1,460 @@
+// TIFF stacks: round trips for every dtype as one multi-page file and as a folder of slices,
+// files written directly with libtiff (strips, tiles, compression, big endian), natural slice
+// order, page consistency errors, spacing in ImageDescription, and lazy page reading.
+#include <gtest/gtest.h>
+#include <tiffio.h>
+
+#include <cstring>
+#include <fstream>
+#include <limits>
+#include <random>
+
+#include "strata/io/volume_io.hpp"
+#include "support/test_support.hpp"
+
+namespace strata {
+namespace {
+
+namespace fs = std::filesystem;
+using test::TempDir;
+
+// Every bit pattern for integers and spread-out floats; the first two samples are the type's
+// lowest and highest values.
+Volume random_volume(Extent dims, DType dtype, std::uint64_t seed, Spacing spacing = {0.5, 1.25, 2.0}) {
+  Volume v(dims, dtype, spacing);
+  std::mt19937_64 rng(seed);
+  visit_dtype(dtype, [&](auto tag) {
+    using T = decltype(tag);
+    auto s = v.samples<T>();
+    for (T& x : s) {
+      if constexpr (std::is_floating_point_v<T>)
+        x = T(std::uniform_real_distribution<double>(-1e4, 1e4)(rng));
+      else
+        x = T(rng());
+    }
+    s[0] = std::numeric_limits<T>::lowest();
+    s[1] = std::numeric_limits<T>::max();
+  });
+  return v;
+}
+
+template <class F>
+std::string error_message(F&& action) {
+  try {
+    action();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  ADD_FAILURE() << "expected a strata::Error";
+  return {};
+}
+
+void expect_mentions(const std::string& message, std::initializer_list<std::string> parts) {
+  for (const auto& part : parts) EXPECT_NE(message.find(part), std::string::npos) << "'" << part << "' not in: " << message;
+}
+
+std::size_t entry_count(const fs::path& dir) {
+  return std::size_t(std::distance(fs::directory_iterator(dir), fs::directory_iterator{}));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Writing test files with libtiff directly, independently of the writer under test.
+
+struct PageSpec {
+  std::uint32_t width = 8, height = 6;
+  std::uint16_t bits = 8, sample_format = SAMPLEFORMAT_UINT, samples = 1;
+  std::uint16_t compression = COMPRESSION_NONE, predictor = PREDICTOR_NONE;
+  std::uint32_t rows_per_strip = 0;  // 0: the whole page in one strip
+  std::uint32_t tile = 0;            // > 0: square tiles of this size instead of strips
+  std::string description;
+  std::vector<std::byte> data;  // rows top to bottom
+
+  std::size_t row_bytes() const { return std::size_t(width) * samples * bits / 8; }
+};
+
+std::vector<std::byte> random_bytes(std::size_t n, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::vector<std::byte> b(n);
+  for (auto& x : b) x = std::byte(rng() & 0xff);
+  return b;
+}
+
+PageSpec page_of(std::uint32_t width, std::uint32_t height, std::uint16_t bits, std::uint16_t sample_format,
+                 std::uint64_t seed) {
+  PageSpec p;
+  p.width = width;
+  p.height = height;
+  p.bits = bits;
+  p.sample_format = sample_format;
+  p.data = random_bytes(p.row_bytes() * height, seed);
+  return p;
+}
+
+void write_strips(TIFF* tif, const PageSpec& p) {
+  const std::uint32_t rows = p.rows_per_strip ? p.rows_per_strip : p.height;
+  TIFFSetField(tif, TIFFTAG_ROWSPERSTRIP, rows);
+  for (std::uint32_t y = 0, strip = 0; y < p.height; y += rows, ++strip) {
+    const std::uint32_t n = std::min(rows, p.height - y);
+    std::vector<std::byte> buffer(p.data.begin() + std::ptrdiff_t(y * p.row_bytes()),
+                                  p.data.begin() + std::ptrdiff_t((y + n) * p.row_bytes()));
+    ASSERT_GE(TIFFWriteEncodedStrip(tif, strip, buffer.data(), tmsize_t(buffer.size())), 0);
+  }
+}
+
+void write_tiles(TIFF* tif, const PageSpec& p) {
+  TIFFSetField(tif, TIFFTAG_TILEWIDTH, p.tile);
+  TIFFSetField(tif, TIFFTAG_TILELENGTH, p.tile);
+  const std::size_t sample = p.bits / 8, tile_row = p.tile * sample;
+  for (std::uint32_t ty = 0; ty < p.height; ty += p.tile)
+    for (std::uint32_t tx = 0; tx < p.width; tx += p.tile) {
+      std::vector<std::byte> tile(tile_row * p.tile);  // edge tiles padded with zeros
+      for (std::uint32_t y = ty; y < std::min(p.height, ty + p.tile); ++y) {
+        const std::uint32_t n = std::min(p.tile, p.width - tx);
+        std::memcpy(tile.data() + (y - ty) * tile_row, p.data.data() + y * p.row_bytes() + tx * sample, n * sample);
+      }
+      ASSERT_GE(TIFFWriteEncodedTile(tif, TIFFComputeTile(tif, tx, ty, 0, 0), tile.data(), tmsize_t(tile.size())), 0);
+    }
+}
+
+// mode "w" (little endian), "wb" (big endian), "w8" (BigTIFF).
+void write_pages(const fs::path& path, const std::vector<PageSpec>& pages, const char* mode = "w") {
+  TIFF* tif = TIFFOpen(path.c_str(), mode);
+  ASSERT_NE(tif, nullptr);
+  for (const PageSpec& p : pages) {
+    TIFFSetField(tif, TIFFTAG_IMAGEWIDTH, p.width);
+    TIFFSetField(tif, TIFFTAG_IMAGELENGTH, p.height);
+    TIFFSetField(tif, TIFFTAG_BITSPERSAMPLE, p.bits);
+    TIFFSetField(tif, TIFFTAG_SAMPLESPERPIXEL, p.samples);
+    TIFFSetField(tif, TIFFTAG_SAMPLEFORMAT, p.sample_format);
+    TIFFSetField(tif, TIFFTAG_PHOTOMETRIC, p.samples == 3 ? PHOTOMETRIC_RGB : PHOTOMETRIC_MINISBLACK);
+    TIFFSetField(tif, TIFFTAG_PLANARCONFIG, PLANARCONFIG_CONTIG);
+    TIFFSetField(tif, TIFFTAG_COMPRESSION, p.compression);
+    if (p.predictor != PREDICTOR_NONE) TIFFSetField(tif, TIFFTAG_PREDICTOR, p.predictor);
+    if (!p.description.empty()) TIFFSetField(tif, TIFFTAG_IMAGEDESCRIPTION, p.description.c_str());
+    if (p.tile)
+      write_tiles(tif, p);
+    else
+      write_strips(tif, p);
+    ASSERT_EQ(TIFFWriteDirectory(tif), 1);
+  }
+  TIFFClose(tif);
+}
+
+// The volume the pages describe (all pages the same size and type).
+Volume volume_of(const std::vector<PageSpec>& pages, DType dtype) {
+  Volume v({pages[0].width, pages[0].height, std::int64_t(pages.size())}, dtype);
+  std::size_t offset = 0;
+  for (const PageSpec& p : pages) {
+    std::memcpy(v.bytes() + offset, p.data.data(), p.data.size());
+    offset += p.data.size();
+  }
+  return v;
+}
+
+// Tags of page `index` of a file, read with libtiff.
+struct PageTags {
+  std::uint16_t compression = 0;
+  std::string description;
+  tdir_t pages = 0;
+};
+PageTags tags_of(const fs::path& path, tdir_t index) {
+  PageTags t;
+  TIFF* tif = TIFFOpen(path.c_str(), "r");
+  if (!tif) return t;
+  t.pages = TIFFNumberOfDirectories(tif);
+  TIFFSetDirectory(tif, index);
+  TIFFGetField(tif, TIFFTAG_COMPRESSION, &t.compression);
+  const char* text = nullptr;
+  if (TIFFGetField(tif, TIFFTAG_IMAGEDESCRIPTION, &text) == 1) t.description = text;
+  TIFFClose(tif);
+  return t;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Round trips through our writer
+
+struct RoundTripCase {
+  DType dtype;
+  bool folder;
+  bool compress;
+};
+
+class TiffRoundTrip : public ::testing::TestWithParam<RoundTripCase> {};
+
+TEST_P(TiffRoundTrip, IsBitExactWithSpacingAndBoxes) {
+  const auto [dtype, folder, compress] = GetParam();
+  TempDir dir;
+  const fs::path path = folder ? dir / "slices" : dir / "stack.tif";
+  const Volume original = random_volume({9, 7, 5}, dtype, 17);
+  io::WriteOptions options;
+  options.compress = compress;
+  options.format = io::FileFormat::tiff;  // a new folder has no extension to detect
+  {
+    auto writer = io::create_volume_writer(path, original.info(), options);
+    writer->write_slab(original.crop({{0, 0, 0}, {9, 7, 3}}));
+    writer->write_slab(original.crop({{0, 0, 3}, {9, 7, 5}}));
+    writer->finish();
+  }
+  const Volume back = io::read_volume(path);
+  EXPECT_EQ(back.dtype(), dtype);
+  EXPECT_EQ(back.dims(), original.dims());
+  EXPECT_EQ(back.spacing(), original.spacing());
+  EXPECT_TRUE(back == original);
+  // Pages visited out of order and partial rows/columns.
+  auto source = io::open_volume(path);
+  for (const Box& box : {Box{{2, 1, 4}, {8, 6, 5}}, Box{{0, 3, 1}, {4, 4, 3}}, Box{{5, 0, 0}, {9, 7, 2}}})
+    EXPECT_TRUE(source->read_box(box) == original.crop(box)) << box.to_string();
+
+  const fs::path first_page = folder ? path / "slice_0000.tif" : path;
+  EXPECT_EQ(tags_of(first_page, 0).compression, compress ? COMPRESSION_ADOBE_DEFLATE : COMPRESSION_NONE);
+}
+
+std::vector<RoundTripCase> round_trip_cases() {
+  std::vector<RoundTripCase> cases;
+  for (DType t : {DType::u8, DType::i8, DType::u16, DType::i16, DType::u32, DType::i32, DType::f32, DType::f64})
+    for (bool folder : {false, true})
+      for (bool compress : {false, true}) cases.push_back({t, folder, compress});
+  return cases;
+}
+
+INSTANTIATE_TEST_SUITE_P(AllTypes, TiffRoundTrip, ::testing::ValuesIn(round_trip_cases()), [](const auto& info) {
+  return std::string(dtype_name(info.param.dtype)) + (info.param.folder ? "_folder" : "_multipage") +
+         (info.param.compress ? "_deflate" : "_plain");
+});
+
+TEST(Tiff, MultiPageFileHasOnePagePerSliceAndSpacingJson) {
+  TempDir dir;
+  const Volume v = random_volume({6, 4, 7}, DType::u16, 2, {0.25, 0.5, 3.0});
+  io::write_volume(dir / "s.tiff", v);
+  const PageTags tags = tags_of(dir / "s.tiff", 6);
+  EXPECT_EQ(tags.pages, 7u);
+  EXPECT_EQ(tags.description, R"({"spacing":[0.25,0.5,3.0]})");
+  EXPECT_FALSE(fs::exists(dir / "s.tiff.tmp"));
+}
+
+TEST(Tiff, FolderWriterNamesSlicesAndLeavesNoStaging) {
+  TempDir dir;
+  fs::create_directory(dir / "out");  // an existing folder is detected as a TIFF stack
+  const Volume v = random_volume({5, 3, 12}, DType::f32, 4);
+  io::write_volume(dir / "out", v);
+  EXPECT_EQ(entry_count(dir / "out"), 12u);
+  EXPECT_TRUE(fs::exists(dir / "out" / "slice_0000.tif"));
+  EXPECT_TRUE(fs::exists(dir / "out" / "slice_0011.tif"));
+  EXPECT_EQ(tags_of(dir / "out" / "slice_0003.tif", 0).pages, 1u);
+  EXPECT_EQ(entry_count(dir.path()), 1u);  // no out.tmp left behind
+}
+
+TEST(Tiff, FolderWriterReplacesOldSlicesButNotOtherFiles) {
+  TempDir dir;
+  io::WriteOptions options;
+  options.format = io::FileFormat::tiff;
+  io::write_volume(dir / "out", random_volume({4, 4, 9}, DType::u8, 1), options);
+  const Volume small = random_volume({4, 4, 3}, DType::u8, 2);
+  io::write_volume(dir / "out", small, options);
+  EXPECT_EQ(entry_count(dir / "out"), 3u);  // no stale slice_0003..8 mixed in
+  EXPECT_TRUE(io::read_volume(dir / "out") == small);
+
+  std::ofstream(dir / "out" / "notes.txt") << "keep me";
+  expect_mentions(error_message([&] { io::write_volume(dir / "out", small, options); }), {"out", "notes.txt"});
+  EXPECT_TRUE(fs::exists(dir / "out" / "notes.txt"));
+}
+
+TEST(Tiff, UnfinishedWritersLeaveNothing) {
+  TempDir dir;
+  const Volume v = random_volume({4, 4, 4}, DType::u16, 3);
+  io::WriteOptions options;
+  options.format = io::FileFormat::tiff;
+  for (const char* name : {"stack.tif", "folder"}) {
+    {
+      auto writer = io::create_volume_writer(dir / name, v.info(), options);
+      writer->write_slab(v.crop({{0, 0, 0}, {4, 4, 2}}));
+    }  // destroyed without finish()
+    EXPECT_FALSE(fs::exists(dir / name)) << name;
+  }
+  EXPECT_EQ(entry_count(dir.path()), 0u);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Files from other writers
+
+TEST(Tiff, FolderSlicesAreInNaturalOrder) {
+  TempDir dir;
+  fs::create_directory(dir / "stack");
+  std::vector<PageSpec> pages;
+  for (int index : {1, 2, 10, 99, 100}) {
+    PageSpec p = page_of(4, 3, 8, SAMPLEFORMAT_UINT, 0);
+    std::fill(p.data.begin(), p.data.end(), std::byte(index));
+    write_pages(dir / "stack" / ("slice_" + std::to_string(index) + ".tif"), {p});
+    pages.push_back(p);
+  }
+  std::ofstream(dir / "stack" / "readme.txt") << "not a slice";
+  write_pages(dir / "stack" / "._slice_5.tif", {page_of(9, 9, 16, SAMPLEFORMAT_UINT, 1)});  // macOS metadata
+  const Volume v = io::read_volume(dir / "stack");
+  ASSERT_EQ(v.dims(), (Extent{4, 3, 5}));
+  EXPECT_TRUE(v == volume_of(pages, DType::u8));
+  EXPECT_EQ(v.value(0, 0, 2), 10.0);  // lexicographic order would put slice_10 second
+  EXPECT_EQ(v.spacing(), Spacing{});  // no description: default spacing
+}
+
+TEST(Tiff, ReadsTiledCompressedPages) {
+  TempDir dir;
+  std::vector<PageSpec> pages;
+  for (std::uint64_t z = 0; z < 3; ++z) {
+    PageSpec p = page_of(40, 24, 16, SAMPLEFORMAT_UINT, z);
+    p.tile = 16;  // 3x2 tiles, the right and bottom ones partly outside the page
+    p.compression = COMPRESSION_LZW;
+    pages.push_back(p);
+  }
+  write_pages(dir / "tiled.tif", pages);
+  const Volume expected = volume_of(pages, DType::u16);
+  auto source = io::open_volume(dir / "tiled.tif");
+  EXPECT_TRUE(source->read_all() == expected);
+  const Box box{{13, 15, 1}, {35, 20, 3}};  // crosses tile borders in x and y
+  EXPECT_TRUE(source->read_box(box) == expected.crop(box));
+}
+
+TEST(Tiff, ReadsBigEndianStripsWithPredictor) {
+  TempDir dir;
+  std::vector<PageSpec> pages;
+  for (std::uint64_t z = 0; z < 4; ++z) {
+    PageSpec p = page_of(11, 10, 32, SAMPLEFORMAT_INT, 100 + z);
+    p.rows_per_strip = 3;  // 4 strips, the last one short
+    p.compression = COMPRESSION_ADOBE_DEFLATE;
+    p.predictor = PREDICTOR_HORIZONTAL;
+    pages.push_back(p);
+  }
+  write_pages(dir / "be.tif", pages, "wb");
+  const Volume expected = volume_of(pages, DType::i32);
+  auto source = io::open_volume(dir / "be.tif");
+  EXPECT_EQ(source->info().dtype, DType::i32);
+  EXPECT_TRUE(source->read_all() == expected);
+  const Box box{{2, 4, 2}, {9, 8, 3}};  // rows 4..7 span strips 1 and 2
+  EXPECT_TRUE(source->read_box(box) == expected.crop(box));
+}
+
+TEST(Tiff, ReadsBigTiff) {
+  TempDir dir;
+  std::vector<PageSpec> pages{page_of(5, 5, 64, SAMPLEFORMAT_IEEEFP, 1), page_of(5, 5, 64, SAMPLEFORMAT_IEEEFP, 2)};
+  write_pages(dir / "big.tif", pages, "w8");
+  EXPECT_TRUE(io::read_volume(dir / "big.tif") == volume_of(pages, DType::f64));
+}
+
+TEST(Tiff, SpacingFromImageDescription) {
+  TempDir dir;
+  PageSpec p = page_of(4, 4, 8, SAMPLEFORMAT_UINT, 1);
+  p.description = R"({"spacing":[0.1,0.2,0.3],"by":"someone"})";
+  write_pages(dir / "json.tif", {p, p});
+  EXPECT_EQ(io::open_volume(dir / "json.tif")->info().spacing, (Spacing{0.1, 0.2, 0.3}));
+
+  p.description = "ImageJ=1.54f\nimages=2\n";  // other software's text: default spacing
+  write_pages(dir / "imagej.tif", {p, p});
+  EXPECT_EQ(io::open_volume(dir / "imagej.tif")->info().spacing, Spacing{});
+
+  p.description = R"({"spacing":[1,-2,3]})";
+  write_pages(dir / "bad.tif", {p, p});
+  expect_mentions(error_message([&] { io::open_volume(dir / "bad.tif"); }), {"bad.tif", "ImageDescription"});
+}
+
+// ---------------------------------------------------------------------------------------------
+// Inconsistent or unsupported pages: the message names the file/page and the tag.
+
+TEST(TiffErrors, PageWithDifferentWidth) {
+  TempDir dir;
+  write_pages(dir / "mixed.tif", {page_of(8, 6, 8, SAMPLEFORMAT_UINT, 1), page_of(8, 6, 8, SAMPLEFORMAT_UINT, 2),
+                                  page_of(9, 6, 8, SAMPLEFORMAT_UINT, 3)});
+  expect_mentions(error_message([&] { io::open_volume(dir / "mixed.tif"); }), {"mixed.tif", "page 2", "ImageWidth"});
+}
+
+TEST(TiffErrors, PageWithDifferentSampleFormat) {
+  TempDir dir;
+  write_pages(dir / "signs.tif", {page_of(8, 6, 16, SAMPLEFORMAT_UINT, 1), page_of(8, 6, 16, SAMPLEFORMAT_INT, 2)});
+  expect_mentions(error_message([&] { io::open_volume(dir / "signs.tif"); }), {"signs.tif", "page 1", "SampleFormat"});
+}
+
+TEST(TiffErrors, FolderSliceWithDifferentBits) {
+  TempDir dir;
+  fs::create_directory(dir / "stack");
+  for (int i = 0; i < 5; ++i)
+    write_pages(dir / "stack" / ("slice_" + std::to_string(i) + ".tif"),
+                {page_of(8, 6, i == 3 ? 16 : 8, SAMPLEFORMAT_UINT, std::uint64_t(i))});
+  expect_mentions(error_message([&] { io::open_volume(dir / "stack"); }), {"slice_3.tif", "BitsPerSample"});
+}
+
+TEST(TiffErrors, FolderSliceWithSeveralPages) {
+  TempDir dir;
+  fs::create_directory(dir / "stack");
+  write_pages(dir / "stack" / "a1.tif", {page_of(8, 6, 8, SAMPLEFORMAT_UINT, 1)});
+  write_pages(dir / "stack" / "a2.tif", {page_of(8, 6, 8, SAMPLEFORMAT_UINT, 2), page_of(8, 6, 8, SAMPLEFORMAT_UINT, 3)});
+  expect_mentions(error_message([&] { io::open_volume(dir / "stack"); }), {"a2.tif", "pages"});
+}
+
+TEST(TiffErrors, RgbAndUnsupportedSampleTypes) {
+  TempDir dir;
+  PageSpec rgb = page_of(8, 6, 8, SAMPLEFORMAT_UINT, 1);
+  rgb.samples = 3;
+  rgb.data = random_bytes(rgb.row_bytes() * rgb.height, 1);
+  write_pages(dir / "rgb.tif", {rgb});
+  expect_mentions(error_message([&] { io::open_volume(dir / "rgb.tif"); }), {"rgb.tif", "SamplesPerPixel"});
+
+  write_pages(dir / "u64.tif", {page_of(4, 4, 64, SAMPLEFORMAT_UINT, 1)});
+  expect_mentions(error_message([&] { io::open_volume(dir / "u64.tif"); }), {"u64.tif", "BitsPerSample"});
+}
+
+TEST(TiffErrors, NotATiffAndEmptyFolder) {
+  TempDir dir;
+  std::ofstream(dir / "fake.tif") << "this is not a TIFF file at all";
+  expect_mentions(error_message([&] { io::open_volume(dir / "fake.tif"); }), {"fake.tif"});
+  fs::create_directory(dir / "empty");
+  expect_mentions(error_message([&] { io::open_volume(dir / "empty"); }), {"empty", "slices"});
+}
+
+// ---------------------------------------------------------------------------------------------
+// Streaming: a request opens only the pages it covers, so a damaged page outside it is not
+// touched, and a damaged page inside it is reported by name.
+
+TEST(TiffStreaming, FolderReadsOnlyRequestedSlices) {
+  TempDir dir;
+  io::WriteOptions options;
+  options.format = io::FileFormat::tiff;
+  const Volume v = random_volume({6, 5, 6}, DType::u16, 8);
+  io::write_volume(dir / "stack", v, options);
+  auto source = io::open_volume(dir / "stack");
+  std::ofstream(dir / "stack" / "slice_0005.tif", std::ios::trunc) << "damaged after open";
+  EXPECT_TRUE(source->read_slab(0, 5) == v.crop({{0, 0, 0}, {6, 5, 5}}));
+  expect_mentions(error_message([&] { source->read_slab(3, 6); }), {"slice_0005.tif"});
+}
+
+TEST(TiffStreaming, MultiPageReadsOnlyRequestedPages) {
+  TempDir dir;
+  std::vector<PageSpec> pages;
+  for (std::uint64_t z = 0; z < 5; ++z) {
+    PageSpec p = page_of(16, 16, 8, SAMPLEFORMAT_UINT, z);
+    p.compression = COMPRESSION_ADOBE_DEFLATE;
+    pages.push_back(p);
+  }
+  write_pages(dir / "stack.tif", pages);
+  // Overwrite page 3's compressed strip with bytes that are not a Deflate stream.
+  std::uint64_t* offsets = nullptr;
+  std::uint64_t* counts = nullptr;
+  TIFF* tif = TIFFOpen((dir / "stack.tif").c_str(), "r");
+  ASSERT_NE(tif, nullptr);
+  ASSERT_EQ(TIFFSetDirectory(tif, 3), 1);
+  ASSERT_EQ(TIFFGetField(tif, TIFFTAG_STRIPOFFSETS, &offsets), 1);
+  ASSERT_EQ(TIFFGetField(tif, TIFFTAG_STRIPBYTECOUNTS, &counts), 1);
+  const std::uint64_t offset = offsets[0], count = counts[0];
+  TIFFClose(tif);
+  {
+    std::fstream f(dir / "stack.tif", std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(std::streamoff(offset));
+    const std::string junk(count, '\xff');
+    f.write(junk.data(), std::streamsize(count));
+  }
+  auto source = io::open_volume(dir / "stack.tif");
+  const Volume expected = volume_of(pages, DType::u8);
+  EXPECT_TRUE(source->read_slab(0, 3) == expected.crop({{0, 0, 0}, {16, 16, 3}}));
+  EXPECT_TRUE(source->read_slab(4, 5) == expected.crop({{0, 0, 4}, {16, 16, 5}}));
+  expect_mentions(error_message([&] { source->read_slab(2, 4); }), {"stack.tif", "page 3"});
+}
+
+}  // namespace
+}  // namespace strata

@@ -1,0 +1,118 @@
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include <Eigen/QR>
+
+#include "strata/tensor/reconstruct.hpp"
+#include "strata/tensor/ttm.hpp"
+
+namespace strata {
+namespace {
+
+// A random model with orthonormal factors and a core whose entries decay away from the hot
+// corner, like a real brick's.
+Tucker random_model(const Dims3& d, const Ranks3& r, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> dist(0.0, 1.0);
+  Tucker t;
+  t.core = Tensor3(r[0], r[1], r[2]);
+  for (int k = 0; k < r[2]; ++k)
+    for (int j = 0; j < r[1]; ++j)
+      for (int i = 0; i < r[0]; ++i) t.core(i, j, k) = float(dist(rng) * 100.0 / (1 + i + j + k));
+  for (std::size_t n = 0; n < 3; ++n) {
+    Matrix<double> m(d[n], r[n]);
+    for (Eigen::Index c = 0; c < m.cols(); ++c)
+      for (Eigen::Index i = 0; i < m.rows(); ++i) m(i, c) = dist(rng);
+    Eigen::HouseholderQR<Matrix<double>> qr(m);
+    t.factors[n] = (qr.householderQ() * Matrix<double>::Identity(d[n], r[n])).cast<float>();
+  }
+  return t;
+}
+
+// Reference: the truncated model through the double-precision Eigen path.
+Tensor3d reference(const Tucker& model, const Ranks3& k) {
+  const Tucker t = truncate(model, k);
+  Factors<double> u;
+  for (std::size_t n = 0; n < 3; ++n) u[n] = t.factors[n].cast<double>();
+  return reconstruct(t.core.cast<double>(), u);
+}
+
+// Each output is a sum of K1 K2 K3 terms formed in three float stages of at most R terms;
+// rounding is ~R * 2^-24 relative to the magnitude of the partial sums, i.e. to ‖B‖ for
+// orthonormal factors. 1e-5 * ‖B‖ leaves an order of magnitude of headroom.
+void expect_close(const Tensor3& actual, const Tensor3d& expected, double core_norm) {
+  double worst = 0;
+  for (std::int64_t i = 0; i < actual.size(); ++i)
+    worst = std::max(worst, std::abs(double(actual.data()[i]) - expected.data()[i]));
+  EXPECT_LT(worst, 1e-5 * core_norm);
+}
+
+std::vector<KernelIsa> supported_isas() {
+  std::vector<KernelIsa> out;
+  for (KernelIsa isa : {KernelIsa::generic, KernelIsa::avx2, KernelIsa::avx512})
+    if (kernel_isa_supported(isa)) out.push_back(isa);
+  return out;
+}
+
+TEST(BrickReconstructor, MatchesReferenceForPaperBrickAtEveryIsa) {
+  const Tucker model = random_model({32, 32, 32}, {16, 16, 16}, 1);
+  for (KernelIsa isa : supported_isas()) {
+    BrickReconstructor rec(isa);
+    for (const Ranks3& k : {Ranks3{16, 16, 16}, Ranks3{8, 8, 8}, Ranks3{5, 11, 3}, Ranks3{1, 1, 1}}) {
+      SCOPED_TRACE(std::string(kernel_isa_name(isa)) + " K=" + std::to_string(k[0]) + "," +
+                   std::to_string(k[1]) + "," + std::to_string(k[2]));
+      expect_close(rec.reconstruct(model, k), reference(model, k), model.core.norm());
+    }
+  }
+}
+
+// Extents that are not multiples of any vector width exercise the vector and scalar row tails
+// and the halving column blocks.
+TEST(BrickReconstructor, HandlesOddExtentsAndRanks) {
+  const Tucker model = random_model({17, 9, 23}, {7, 9, 5}, 2);
+  for (KernelIsa isa : supported_isas()) {
+    SCOPED_TRACE(kernel_isa_name(isa));
+    BrickReconstructor rec(isa);
+    expect_close(rec.reconstruct(model, {7, 9, 5}), reference(model, {7, 9, 5}), model.core.norm());
+    expect_close(rec.reconstruct(model, {3, 2, 4}), reference(model, {3, 2, 4}), model.core.norm());
+  }
+}
+
+TEST(BrickReconstructor, ReusesScratchAcrossBricksOfDifferentSizes) {
+  BrickReconstructor rec;
+  const Tucker big = random_model({32, 32, 32}, {16, 16, 16}, 3);
+  const Tucker small = random_model({8, 8, 8}, {4, 4, 4}, 4);
+  std::vector<float> out_big(32 * 32 * 32), out_small(8 * 8 * 8);
+  rec.reconstruct(view_of(big), out_big);
+  rec.reconstruct(view_of(small), out_small);
+  rec.reconstruct(view_of(big), {8, 8, 8}, out_big);
+  Tensor3 again(32, 32, 32);
+  rec.reconstruct(view_of(big), {8, 8, 8}, again.values());
+  EXPECT_TRUE(std::equal(out_big.begin(), out_big.end(), again.values().begin()));
+  Tensor3 small_tensor(8, 8, 8);
+  std::copy(out_small.begin(), out_small.end(), small_tensor.values().begin());
+  expect_close(small_tensor, reference(small, {4, 4, 4}), small.core.norm());
+}
+
+TEST(BrickReconstructor, AutomaticPicksBestSupportedIsa) {
+  BrickReconstructor rec;
+  EXPECT_EQ(rec.isa(), best_kernel_isa());
+  EXPECT_TRUE(kernel_isa_supported(rec.isa()));
+}
+
+TEST(BrickReconstructor, RejectsBadRanksAndBufferSizes) {
+  const Tucker model = random_model({8, 8, 8}, {4, 4, 4}, 5);
+  BrickReconstructor rec;
+  std::vector<float> out(8 * 8 * 8);
+  EXPECT_THROW(rec.reconstruct(view_of(model), {5, 4, 4}, out), Error);
+  EXPECT_THROW(rec.reconstruct(view_of(model), {0, 4, 4}, out), Error);
+  std::vector<float> short_out(100);
+  EXPECT_THROW(rec.reconstruct(view_of(model), short_out), Error);
+  TuckerView broken = view_of(model);
+  broken.core = nullptr;
+  EXPECT_THROW(rec.reconstruct(broken, out), Error);
+}
+
+}  // namespace
+}  // namespace strata
