@@ -13,7 +13,7 @@ namespace {
 
 struct CompressArgs {
   std::string input, output, quant = "u16,b8log+";
-  int brick = 32, overlap = 2, rank = 0, hooi = 10;
+  int brick = 32, overlap = 2, rank = 0, hooi = 10, zstd = 3;
   RawInputArgs raw;
 };
 
@@ -24,6 +24,7 @@ ta::CompressParams to_params(const CompressArgs& args) {
   p.codec.rank = args.rank > 0 ? args.rank : args.brick / 2;
   p.codec.quant = quant::QuantScheme::parse(args.quant);
   p.codec.hooi_iterations = args.hooi;
+  p.codec.zstd_level = args.zstd;
   return p;
 }
 
@@ -59,6 +60,9 @@ void register_compress(CLI::App& app, const GlobalOptions& global) {
                   "Quantization: f32 | u16,b8log+ | u16,b8log | u8,b8lin | u16,b16lin | u16,b12log+ | u16,b8mu+ ...")
       ->capture_default_str();
   cmd->add_option("--hooi", args->hooi, "HOOI sweeps after HOSVD (0 = HOSVD only)")->capture_default_str();
+  cmd->add_option("--zstd", args->zstd, "Lossless zstd level over each quantized brick (0 = off)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 19));
   args->raw.add_to(*cmd);
   cmd->callback([args, &global] { run_compress(*args, global); });
 }

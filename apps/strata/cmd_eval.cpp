@@ -23,6 +23,7 @@ struct EvalArgs {
 nlohmann::json storage_report(const ta::TaVolume& volume) {
   const auto& c = volume.container();
   std::uint64_t header = 0, core = 0, factors = 0;
+  ta::DecodeScratch scratch;
   nlohmann::json levels = nlohmann::json::array();
   std::vector<std::int64_t> bricks(std::size_t(volume.geometry().level_count())), constant(bricks.size());
   for (const auto& e : c.bricks()) {
@@ -31,10 +32,16 @@ nlohmann::json storage_report(const ta::TaVolume& volume) {
       ++constant[e.key.level];
       continue;
     }
-    auto parts = ta::payload_parts(c.payload(e), volume.quant_scheme(), c.path().string());
-    header += parts.header_bytes;
-    core += parts.core_bytes;
-    factors += parts.factor_bytes;
+    // Entropy-coded bricks: attribute the stored bytes to the parts in proportion.
+    const auto stored = c.payload(e);
+    const auto plain = ta::plain_payload(e.kind, stored, volume.quant_scheme(), scratch, c.path().string());
+    const auto parts = ta::payload_parts(plain, volume.quant_scheme(), c.path().string());
+    const double ratio = double(stored.size()) / double(plain.size());
+    const auto core_part = std::uint64_t(double(parts.core_bytes) * ratio);
+    const auto factor_part = std::uint64_t(double(parts.factor_bytes) * ratio);
+    core += core_part;
+    factors += factor_part;
+    header += stored.size() - core_part - factor_part;
   }
   for (std::size_t l = 0; l < bricks.size(); ++l) {
     const auto& g = volume.geometry().level(int(l));

@@ -83,7 +83,9 @@ BrickEntry decode_entry(const std::byte* b) {
   return e;
 }
 
-bool known_kind(PayloadKind k) { return k == PayloadKind::constant || k == PayloadKind::tucker; }
+bool known_kind(PayloadKind k) {
+  return k == PayloadKind::constant || k == PayloadKind::tucker || k == PayloadKind::tucker_zstd;
+}
 
 std::string key_text(const BrickKey& k) { return fmt::format("brick (level {}, {},{},{})", int(k.level), k.x, k.y, k.z); }
 
@@ -93,6 +95,7 @@ const char* payload_kind_name(PayloadKind k) {
   switch (k) {
     case PayloadKind::constant: return "constant";
     case PayloadKind::tucker: return "tucker";
+    case PayloadKind::tucker_zstd: return "tucker_zstd";
   }
   return "unknown";
 }

@@ -21,6 +21,7 @@ nlohmann::json make_metadata(const VolumeInfo& source, const OctreeGeometry& geo
           {"rank", params.codec.rank},
           {"quant", params.codec.quant.to_string()},
           {"hooi_iterations", params.codec.hooi_iterations},
+          {"zstd_level", params.codec.zstd_level},
           {"levels", levels}};
 }
 

@@ -29,6 +29,7 @@ inline constexpr std::size_t kPayloadAlignment = 64;
 enum class PayloadKind : std::uint8_t {
   constant = 1,  // no payload bytes: every voxel equals `min` (== `max`)
   tucker = 2,    // quantized rank-reduced Tucker brick (ta module, docs/format.md)
+  tucker_zstd = 3,  // the same bytes, factor codes split into byte planes, then zstd-compressed
 };
 const char* payload_kind_name(PayloadKind k);
 
