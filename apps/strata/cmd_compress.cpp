@@ -13,7 +13,7 @@ namespace {
 
 struct CompressArgs {
   std::string input, output, quant = "u16,b8log+";
-  int brick = 32, overlap = 2, rank = 0, hooi = 10, zstd = 3;
+  int brick = 32, overlap = 2, rank = 0, hooi = 1, zstd = 3;
   RawInputArgs raw;
 };
 

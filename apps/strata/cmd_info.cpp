@@ -1,5 +1,6 @@
 // `strata info FILE`: what a volume file holds, computed by streaming it slab by slab.
 #include <cstdio>
+#include <map>
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
@@ -7,6 +8,7 @@
 #include "strata/core/statistics.hpp"
 #include "strata/io/slab_stream.hpp"
 #include "strata/io/volume_io.hpp"
+#include "strata/store/container.hpp"
 
 namespace strata::cli {
 
@@ -58,7 +60,69 @@ void print_volume_report(const nlohmann::json& j) {
     std::printf("background:  %.4f of voxels are 0\n", j["background_fraction"].get<double>());
 }
 
+// A .strata file: container header, codec parameters, levels and brick counts, sizes.
+nlohmann::json container_report(const std::string& file) {
+  store::ContainerReader reader(file);
+  const nlohmann::json& m = reader.metadata();
+  nlohmann::json j{{"file", file}, {"format", "strata"}, {"file_bytes", reader.file_size()},
+                   {"metadata_bytes", reader.metadata_bytes()}, {"index_bytes", reader.index_bytes()}};
+  for (const char* key : {"codec", "source", "brick", "overlap", "rank", "quant", "hooi_iterations", "zstd_level"})
+    if (m.contains(key)) j[key] = m[key];
+  std::vector<nlohmann::json> levels;
+  if (m.contains("levels") && m["levels"].is_array())
+    for (const auto& l : m["levels"]) levels.push_back({{"dims", l.value("dims", nlohmann::json())}, {"bricks", 0}, {"constant", 0}, {"payload_bytes", 0}});
+  std::map<std::string, std::uint64_t> kinds;
+  for (const auto& e : reader.bricks()) {
+    ++kinds[store::payload_kind_name(e.kind)];
+    if (e.key.level >= levels.size()) levels.resize(e.key.level + 1u, {{"bricks", 0}, {"constant", 0}, {"payload_bytes", 0}});
+    auto& l = levels[e.key.level];
+    l["bricks"] = l["bricks"].get<std::uint64_t>() + 1;
+    l["constant"] = l["constant"].get<std::uint64_t>() + (e.kind == store::PayloadKind::constant);
+    l["payload_bytes"] = l["payload_bytes"].get<std::uint64_t>() + e.size;
+  }
+  j["levels"] = levels;
+  j["payload_kinds"] = kinds;
+  j["sections"] = m.value("sections", nlohmann::json::object());
+  if (m.contains("source") && m["source"].contains("dims")) {
+    const auto& d = m["source"]["dims"];
+    const double voxels = d[0].get<double>() * d[1].get<double>() * d[2].get<double>();
+    j["bits_per_voxel"] = 8.0 * double(reader.file_size()) / voxels;
+  }
+  return j;
+}
+
+void print_container_report(const nlohmann::json& j) {
+  std::printf("file:        %s (%s)\n", j["file"].get<std::string>().c_str(), human_bytes(j["file_bytes"].get<std::uint64_t>()).c_str());
+  std::printf("format:      .strata (metadata %s, index %s)\n", human_bytes(j["metadata_bytes"].get<std::uint64_t>()).c_str(),
+              human_bytes(j["index_bytes"].get<std::uint64_t>()).c_str());
+  if (j.contains("codec")) std::printf("codec:       %s\n", j["codec"].get<std::string>().c_str());
+  if (j.contains("source")) {
+    const auto& s = j["source"];
+    std::printf("source:      %s %s, spacing %s, value range %s\n", s.value("dims", nlohmann::json()).dump().c_str(),
+                s.value("dtype", std::string("?")).c_str(), s.value("spacing", nlohmann::json()).dump().c_str(),
+                s.value("value_range", nlohmann::json()).dump().c_str());
+  }
+  if (j.contains("brick"))
+    std::printf("bricks:      width %d, overlap %d, rank %d, quant %s, zstd %d\n", j["brick"].get<int>(), j["overlap"].get<int>(),
+                j.value("rank", 0), j.value("quant", std::string("?")).c_str(), j.value("zstd_level", 0));
+  if (j.contains("bits_per_voxel")) std::printf("size:        %.3f bits per source voxel\n", j["bits_per_voxel"].get<double>());
+  for (std::size_t l = 0; l < j["levels"].size(); ++l) {
+    const auto& lv = j["levels"][l];
+    std::printf("level %zu:     %s, %llu bricks (%llu constant), %s\n", l, lv.value("dims", nlohmann::json()).dump().c_str(),
+                lv["bricks"].get<unsigned long long>(), lv["constant"].get<unsigned long long>(),
+                human_bytes(lv["payload_bytes"].get<std::uint64_t>()).c_str());
+  }
+  for (const auto& [kind, count] : j["payload_kinds"].items())
+    std::printf("payloads:    %s x %llu\n", kind.c_str(), count.get<unsigned long long>());
+}
+
 void run_info(const InfoArgs& args, const GlobalOptions& global) {
+  if (store::is_strata_file(args.file)) {
+    nlohmann::json report = container_report(args.file);
+    if (args.json) std::printf("%s\n", report.dump(2).c_str());
+    else print_container_report(report);
+    return;
+  }
   auto progress = global.make_progress();
   io::ReadOptions options = args.raw.to_read_options();
   options.progress = progress.get();

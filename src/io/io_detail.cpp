@@ -1,16 +1,13 @@
-// Building blocks shared by the format readers and writers: mmap, atomic output, gzip streams
-// and the memory-mapped VolumeSource.
+// Building blocks shared by the format readers and writers: gzip streams, (compressed) output,
+// the memory-mapped VolumeSource and small helpers. The plain-file classes are in files.cpp.
 #include "io/io_detail.hpp"
 
-#include <fcntl.h>
-#include <sys/mman.h>
-#include <sys/stat.h>
-#include <unistd.h>
 #include <zlib.h>
 
 #include <algorithm>
 #include <bit>
-#include <cerrno>
+#include <cctype>
+#include <cstdio>
 #include <cstring>
 #include <functional>
 
@@ -20,103 +17,11 @@ namespace strata::io::detail {
 
 namespace {
 
-std::string system_error_text() { return std::strerror(errno); }
-
 // zlib counts in 32-bit uInt; feeding at most this much per call keeps 64-bit sizes safe.
 constexpr std::uint64_t kZlibChunk = std::uint64_t(1) << 30;
 constexpr std::size_t kInflateBufferBytes = std::size_t(1) << 20;
 
-std::uint64_t page_size() {
-  static const std::uint64_t size = std::uint64_t(sysconf(_SC_PAGESIZE));
-  return size;
-}
-
 }  // namespace
-
-// ---------------------------------------------------------------------------------------------
-// MappedFile
-
-MappedFile::MappedFile(const std::filesystem::path& path) {
-  int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) throw Error(fmt::format("{}: cannot open: {}", path.string(), system_error_text()));
-  struct stat st {};
-  if (::fstat(fd, &st) != 0) {
-    std::string why = system_error_text();
-    ::close(fd);
-    throw Error(fmt::format("{}: cannot stat: {}", path.string(), why));
-  }
-  size_ = std::uint64_t(st.st_size);
-  // mmap rejects a zero length; an empty file simply has no bytes to map.
-  if (size_ > 0) {
-    // MAP_SHARED so that pages dropped by release() are refilled from the file if touched again.
-    void* p = ::mmap(nullptr, size_, PROT_READ, MAP_SHARED, fd, 0);
-    if (p == MAP_FAILED) {
-      std::string why = system_error_text();
-      ::close(fd);
-      throw Error(fmt::format("{}: cannot memory-map {} bytes: {}", path.string(), size_, why));
-    }
-    data_ = static_cast<const std::byte*>(p);
-  }
-  ::close(fd);  // the mapping keeps the file alive
-}
-
-MappedFile::~MappedFile() {
-  if (data_) ::munmap(const_cast<std::byte*>(data_), size_);
-}
-
-void MappedFile::release(std::uint64_t offset, std::uint64_t length) const {
-  if (!data_ || length == 0 || offset >= size_) return;
-  // Rounding outward is safe: a dropped page of a read-only shared mapping is re-read from the
-  // page cache on the next touch, so a neighbour's data is never lost, only re-faulted.
-  std::uint64_t end = std::min(size_, offset + length);
-  std::uint64_t first = offset / page_size() * page_size();
-  std::uint64_t last = (end + page_size() - 1) / page_size() * page_size();
-  ::madvise(const_cast<std::byte*>(data_) + first, last - first, MADV_DONTNEED);
-}
-
-// ---------------------------------------------------------------------------------------------
-// AtomicOutputFile
-
-AtomicOutputFile::AtomicOutputFile(std::filesystem::path path) : path_(std::move(path)) {
-  tmp_ = path_;
-  tmp_ += ".tmp";
-  file_ = std::fopen(tmp_.c_str(), "wb");
-  if (!file_) throw Error(fmt::format("{}: cannot create: {}", tmp_.string(), system_error_text()));
-}
-
-AtomicOutputFile::~AtomicOutputFile() {
-  if (!file_) return;  // committed (or failed in commit, which cleaned up)
-  std::fclose(file_);
-  std::error_code ignored;
-  std::filesystem::remove(tmp_, ignored);
-}
-
-void AtomicOutputFile::write(const void* data, std::size_t bytes) {
-  if (!file_) throw Error(fmt::format("{}: write after commit", path_.string()));
-  if (bytes == 0) return;
-  if (std::fwrite(data, 1, bytes, file_) != bytes)
-    throw Error(fmt::format("{}: write failed: {}", tmp_.string(), system_error_text()));
-}
-
-void AtomicOutputFile::commit() {
-  if (!file_) throw Error(fmt::format("{}: committed twice", path_.string()));
-  std::FILE* f = file_;
-  file_ = nullptr;
-  // fclose flushes the buffer; a full disk shows up here, so its result decides the commit.
-  bool flushed = std::fflush(f) == 0 && ::fsync(::fileno(f)) == 0;
-  std::string why = flushed ? "" : system_error_text();
-  if (std::fclose(f) != 0 && flushed) {
-    flushed = false;
-    why = system_error_text();
-  }
-  std::error_code ec;
-  if (flushed) std::filesystem::rename(tmp_, path_, ec);
-  if (!flushed || ec) {
-    std::error_code ignored;
-    std::filesystem::remove(tmp_, ignored);
-    throw Error(fmt::format("{}: cannot finish writing: {}", path_.string(), flushed ? ec.message() : why));
-  }
-}
 
 // ---------------------------------------------------------------------------------------------
 // GzipWriter
@@ -173,21 +78,34 @@ void GzipWriter::finish() {
 }
 
 // ---------------------------------------------------------------------------------------------
-// TempFile
+// OutputStream, whole files
 
-TempFile::TempFile(const std::filesystem::path& dir, const std::string& stem) {
-  std::string pattern = (dir / (stem + "-XXXXXX")).string();
-  std::vector<char> name(pattern.begin(), pattern.end());
-  name.push_back('\0');
-  int fd = ::mkstemp(name.data());
-  if (fd < 0) throw Error(fmt::format("{}: cannot create a temporary file: {}", dir.string(), system_error_text()));
-  ::close(fd);
-  path_ = name.data();
+OutputStream::OutputStream(const std::filesystem::path& path, bool gzip, std::string_view prefix) : file_(path) {
+  file_.write(prefix.data(), prefix.size());
+  if (gzip) gzip_ = std::make_unique<GzipWriter>(file_);
 }
 
-TempFile::~TempFile() {
-  std::error_code ignored;
-  std::filesystem::remove(path_, ignored);
+void OutputStream::write(const void* data, std::size_t bytes) {
+  if (gzip_)
+    gzip_->write(data, bytes);
+  else
+    file_.write(data, bytes);
+}
+
+void OutputStream::commit() {
+  if (gzip_) gzip_->finish();
+  file_.commit();
+}
+
+void write_file_atomically(const std::filesystem::path& path, std::string_view text) {
+  AtomicOutputFile out(path);
+  out.write(text.data(), text.size());
+  out.commit();
+}
+
+std::string ascii_lower(std::string text) {
+  std::transform(text.begin(), text.end(), text.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  return text;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -282,38 +200,47 @@ bool looks_gzipped(const std::byte* data, std::uint64_t size) {
   return size >= 2 && data[0] == std::byte{0x1f} && data[1] == std::byte{0x8b};
 }
 
+std::shared_ptr<TempFile> gunzip_to_temp_file(const std::byte* data, std::uint64_t size, const ReadOptions& options,
+                                              const std::string& stem, const std::string& file_for_errors,
+                                              const std::string& field) {
+  const std::filesystem::path dir = options.temp_dir.value_or(std::filesystem::temp_directory_path());
+  auto decoded = std::make_shared<TempFile>(dir, stem);
+  ProgressSink& progress = options.progress ? *options.progress : silent_progress();
+  gunzip_to_file(data, size, decoded->path(), file_for_errors, field, progress);
+  return decoded;
+}
+
 // ---------------------------------------------------------------------------------------------
 // Byte order
+
+namespace {
+
+template <class U>
+U reversed_bytes(U v) {
+  if constexpr (sizeof(U) == 2) return __builtin_bswap16(v);
+  else if constexpr (sizeof(U) == 4) return __builtin_bswap32(v);
+  else return __builtin_bswap64(v);
+}
+
+template <class U>
+void swap_samples(std::byte* data, std::size_t count) {
+  for (std::size_t i = 0; i < count; ++i) {
+    U v;
+    std::memcpy(&v, data + i * sizeof(U), sizeof(U));
+    v = reversed_bytes(v);
+    std::memcpy(data + i * sizeof(U), &v, sizeof(U));
+  }
+}
+
+}  // namespace
 
 void byte_swap(std::byte* data, std::size_t count, std::size_t sample_size) {
   switch (sample_size) {
     case 1: return;
-    case 2:
-      for (std::size_t i = 0; i < count; ++i) {
-        std::uint16_t v;
-        std::memcpy(&v, data + i * 2, 2);
-        v = __builtin_bswap16(v);
-        std::memcpy(data + i * 2, &v, 2);
-      }
-      return;
-    case 4:
-      for (std::size_t i = 0; i < count; ++i) {
-        std::uint32_t v;
-        std::memcpy(&v, data + i * 4, 4);
-        v = __builtin_bswap32(v);
-        std::memcpy(data + i * 4, &v, 4);
-      }
-      return;
-    case 8:
-      for (std::size_t i = 0; i < count; ++i) {
-        std::uint64_t v;
-        std::memcpy(&v, data + i * 8, 8);
-        v = __builtin_bswap64(v);
-        std::memcpy(data + i * 8, &v, 8);
-      }
-      return;
-    default:
-      throw Error(fmt::format("byte_swap: unsupported sample size {}", sample_size));
+    case 2: return swap_samples<std::uint16_t>(data, count);
+    case 4: return swap_samples<std::uint32_t>(data, count);
+    case 8: return swap_samples<std::uint64_t>(data, count);
+    default: throw Error(fmt::format("byte_swap: unsupported sample size {}", sample_size));
   }
 }
 
@@ -333,9 +260,7 @@ class MappedSource final : public VolumeSource {
   const std::filesystem::path& path() const override { return path_; }
 
   Volume read_box(const Box& box) override {
-    if (box.empty() || !Box::whole(info_.dims).contains(box))
-      throw Error(fmt::format("{}: box {} is empty or outside the volume {}", path_.string(), box.to_string(),
-                              info_.dims.to_string()));
+    check_box_inside(box, info_.dims, path_);
     Volume result(box.size(), info_.dtype, info_.spacing);
     copy_box(box, result.bytes());
     if (swap_) byte_swap(result.bytes(), result.byte_size() / dtype_size(info_.dtype), dtype_size(info_.dtype));
@@ -393,6 +318,12 @@ void check_mapped_info(const VolumeInfo& info, const std::filesystem::path& path
 }
 
 }  // namespace
+
+void check_box_inside(const Box& box, const Extent& dims, const std::filesystem::path& path) {
+  if (box.empty() || !Box::whole(dims).contains(box))
+    throw Error(fmt::format("{}: box {} is empty or outside the volume {}", path.string(), box.to_string(),
+                            dims.to_string()));
+}
 
 std::unique_ptr<VolumeSource> make_mapped_source(std::shared_ptr<MappedFile> file, std::uint64_t offset,
                                                  const VolumeInfo& info, bool big_endian,

@@ -1,47 +1,29 @@
 #pragma once
-// Shared building blocks of the io module (private to src/io): memory-mapped files, atomic
-// output, gzip streams, and a source over a raw byte region. Format readers/writers
-// (raw, nrrd, nifti, tiff) are built from these.
+// Shared building blocks of the io module (private to src/io): gzip streams, output that is
+// gzip-compressed or not, gzip inputs decoded to a temporary file, and a source over a raw
+// byte region of a memory-mapped file. Format readers/writers (raw, nrrd, nifti, tiff) are
+// built from these. The plain-file classes (MappedFile, AtomicOutputFile, TempFile) are public
+// in strata/io/files.hpp; code in this namespace names them unqualified.
 #include <cstdint>
-#include <cstdio>
 #include <filesystem>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <vector>
 
+#include "strata/io/files.hpp"
 #include "strata/io/volume_io.hpp"
 
 namespace strata::io::detail {
 
-// Read-only mmap of a whole file. release() drops pages already consumed so streaming a
-// file larger than memory keeps the resident set small.
-class MappedFile {
- public:
-  explicit MappedFile(const std::filesystem::path& path);  // throws Error naming the path
-  ~MappedFile();
-  MappedFile(const MappedFile&) = delete;
-  MappedFile& operator=(const MappedFile&) = delete;
-  const std::byte* data() const { return data_; }
-  std::uint64_t size() const { return size_; }
-  void release(std::uint64_t offset, std::uint64_t length) const;  // madvise(DONTNEED)
- private:
-  const std::byte* data_ = nullptr;
-  std::uint64_t size_ = 0;
-};
+// strerror(errno), for the message after a failed system call.
+std::string system_error_text();
 
-// A file written as `<path>.tmp` and renamed to `<path>` by commit(); removed if never committed.
-class AtomicOutputFile {
- public:
-  explicit AtomicOutputFile(std::filesystem::path path);
-  ~AtomicOutputFile();
-  void write(const void* data, std::size_t bytes);  // throws Error on short write (disk full)
-  void commit();
-  std::FILE* handle() { return file_; }
-  const std::filesystem::path& path() const { return path_; }
- private:
-  std::filesystem::path path_, tmp_;
-  std::FILE* file_ = nullptr;
-};
+// ASCII lower case, for file extensions and header field names.
+std::string ascii_lower(std::string text);
+
+// Writes `text` to `<path>.tmp` and renames it to `path` (a sidecar, a detached header).
+void write_file_atomically(const std::filesystem::path& path, std::string_view text);
 
 // Streaming gzip (RFC 1952) compression into an AtomicOutputFile.
 class GzipWriter {
@@ -55,14 +37,16 @@ class GzipWriter {
   std::unique_ptr<Impl> impl_;
 };
 
-// A temporary file removed when the object dies (for decoded gzip inputs).
-class TempFile {
+// An AtomicOutputFile that starts with `prefix` as is (a header) and gzip-compresses everything
+// written after it when `gzip` is set. commit() ends the gzip stream, then renames the file.
+class OutputStream {
  public:
-  explicit TempFile(const std::filesystem::path& dir, const std::string& stem);
-  ~TempFile();
-  const std::filesystem::path& path() const { return path_; }
+  OutputStream(const std::filesystem::path& path, bool gzip, std::string_view prefix = {});
+  void write(const void* data, std::size_t bytes);
+  void commit();
  private:
-  std::filesystem::path path_;
+  AtomicOutputFile file_;
+  std::unique_ptr<GzipWriter> gzip_;  // declared after file_: destroyed first, it refers to file_
 };
 
 // Decodes gzip data (one or more members) to a raw file, reporting progress in input bytes.
@@ -73,6 +57,14 @@ void gunzip_to_file(const std::byte* data, std::uint64_t size, const std::filesy
 std::vector<std::byte> gunzip_to_memory(const std::byte* data, std::uint64_t size, const std::string& file_for_errors,
                                         const std::string& field);
 bool looks_gzipped(const std::byte* data, std::uint64_t size);
+// Decodes gzip data into a new temporary file `<stem>-XXXXXX` in options.temp_dir (default: the
+// system temp dir), reporting progress to options.progress; the file goes when the result dies.
+std::shared_ptr<TempFile> gunzip_to_temp_file(const std::byte* data, std::uint64_t size, const ReadOptions& options,
+                                              const std::string& stem, const std::string& file_for_errors,
+                                              const std::string& field);
+
+// Throws Error naming `path` unless `box` is non-empty and lies inside `dims` (VolumeSource::read_box).
+void check_box_inside(const Box& box, const Extent& dims, const std::filesystem::path& path);
 
 // A VolumeSource over x-fastest samples at `offset` of a mapped file, optionally byte-swapped.
 // Checks that offset + info.byte_size() fits in the file (else FormatError naming `field`).
@@ -84,7 +76,9 @@ std::unique_ptr<VolumeSource> make_mapped_source(std::shared_ptr<MappedFile> fil
 // Swaps bytes of `count` samples of `sample_size` bytes in place (big endian <-> native).
 void byte_swap(std::byte* data, std::size_t count, std::size_t sample_size);
 
-// Format entry points, dispatched from volume_io.cpp.
+// Format entry points, dispatched from volume_io.cpp. create_volume_writer() wraps every writer
+// in the slab checks all formats share (x/y/dtype match the volume, no more than dims.z slices,
+// finish() only after all of them), so the format writers do not repeat them.
 std::unique_ptr<VolumeSource> open_raw(const std::filesystem::path& path, const ReadOptions& options);
 std::unique_ptr<VolumeWriter> create_raw_writer(const std::filesystem::path& path, const VolumeInfo& info,
                                                 const WriteOptions& options);

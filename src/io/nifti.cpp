@@ -226,12 +226,7 @@ class ScaledSource final : public VolumeSource {
   VolumeInfo info_;
 };
 
-std::string lowercase(std::string s) {
-  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-  return s;
-}
-
-bool has_gz_name(const fs::path& path) { return lowercase(path.filename().string()).ends_with(".gz"); }
+bool has_gz_name(const fs::path& path) { return ascii_lower(path.filename().string()).ends_with(".gz"); }
 
 // `file` holds a whole uncompressed NIfTI-1 file; `shown_path` is what the user named.
 std::unique_ptr<VolumeSource> source_over(std::shared_ptr<MappedFile> file, const fs::path& shown_path,
@@ -245,10 +240,8 @@ std::unique_ptr<VolumeSource> source_over(std::shared_ptr<MappedFile> file, cons
 
 std::unique_ptr<VolumeSource> open_gzipped(const fs::path& path, const MappedFile& compressed,
                                            const ReadOptions& options) {
-  const fs::path dir = options.temp_dir.value_or(fs::temp_directory_path());
-  auto decoded = std::make_shared<TempFile>(dir, "strata-" + path.filename().string());
-  ProgressSink& progress = options.progress ? *options.progress : silent_progress();
-  gunzip_to_file(compressed.data(), compressed.size(), decoded->path(), path.string(), "gzip", progress);
+  auto decoded = gunzip_to_temp_file(compressed.data(), compressed.size(), options,
+                                     "strata-" + path.filename().string(), path.string(), "gzip");
   return source_over(std::make_shared<MappedFile>(decoded->path()), path, decoded);
 }
 
@@ -288,43 +281,16 @@ void check_writable(const fs::path& path, const VolumeInfo& info) {
 // renames on finish(); an unfinished writer leaves nothing behind.
 class NiftiWriter final : public VolumeWriter {
  public:
-  NiftiWriter(const fs::path& path, const VolumeInfo& info) : path_(path), info_(info), out_(path) {
-    if (has_gz_name(path)) gzip_ = std::make_unique<GzipWriter>(out_);
-    const auto header = make_header(info_);
-    write_bytes(header.data(), header.size());
+  NiftiWriter(const fs::path& path, const VolumeInfo& info) : out_(path, has_gz_name(path)) {
+    const auto header = make_header(info);
+    out_.write(header.data(), header.size());
   }
 
-  void write_slab(const Volume& slab) override {
-    if (slab.dims().x != info_.dims.x || slab.dims().y != info_.dims.y || slab.dtype() != info_.dtype)
-      throw Error(fmt::format("{}: slab {} {} does not match the volume {} {}", path_.string(), slab.dims().to_string(),
-                              dtype_name(slab.dtype()), info_.dims.to_string(), dtype_name(info_.dtype)));
-    if (slices_written_ + slab.dims().z > info_.dims.z)
-      throw Error(fmt::format("{}: slab of {} slices after {} would exceed the volume's {} slices", path_.string(),
-                              slab.dims().z, slices_written_, info_.dims.z));
-    write_bytes(slab.bytes(), slab.byte_size());
-    slices_written_ += slab.dims().z;
-  }
-
-  void finish() override {
-    if (slices_written_ != info_.dims.z)
-      throw Error(fmt::format("{}: finish() after {} of {} slices", path_.string(), slices_written_, info_.dims.z));
-    if (gzip_) gzip_->finish();
-    out_.commit();
-  }
+  void write_slab(const Volume& slab) override { out_.write(slab.bytes(), slab.byte_size()); }
+  void finish() override { out_.commit(); }
 
  private:
-  void write_bytes(const void* data, std::size_t size) {
-    if (gzip_)
-      gzip_->write(data, size);
-    else
-      out_.write(data, size);
-  }
-
-  fs::path path_;
-  VolumeInfo info_;
-  std::int64_t slices_written_ = 0;
-  AtomicOutputFile out_;               // declared before gzip_: the compressor dies first
-  std::unique_ptr<GzipWriter> gzip_;
+  OutputStream out_;
 };
 
 }  // namespace

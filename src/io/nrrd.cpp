@@ -49,11 +49,6 @@ struct HeaderParser {
     return std::string(s.substr(first, last - first + 1));
   }
 
-  static std::string lower(std::string s) {
-    std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-    return s;
-  }
-
   static std::vector<std::string> words(const std::string& value) {
     std::istringstream in(value);
     std::vector<std::string> out;
@@ -70,7 +65,7 @@ struct HeaderParser {
   }
 
   double parse_double(const std::string& text, const std::string& field) const {
-    if (lower(text) == "nan") return std::nan("");
+    if (ascii_lower(text) == "nan") return std::nan("");
     double v = 0;
     auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
     if (ec != std::errc{} || end != text.data() + text.size() || !std::isfinite(v))
@@ -96,7 +91,7 @@ struct HeaderParser {
         "ulonglong", "unsigned long long", "unsigned long long int", "uint64", "uint64_t", "block"};
     // Spellings may use several spaces ("unsigned  char"); normalise to single spaces.
     std::string key;
-    for (const auto& w : words(lower(value))) key += (key.empty() ? "" : " ") + w;
+    for (const auto& w : words(ascii_lower(value))) key += (key.empty() ? "" : " ") + w;
     if (auto it = kTypes.find(key); it != kTypes.end()) return it->second;
     if (std::find(kUnsupported.begin(), kUnsupported.end(), key) != kUnsupported.end())
       fail("type", fmt::format("\"{}\" samples are not supported (64-bit integers and blocks have no dtype here)", value));
@@ -105,14 +100,14 @@ struct HeaderParser {
   }
 
   Encoding parse_encoding(const std::string& value) const {
-    const std::string v = lower(value);
+    const std::string v = ascii_lower(value);
     if (v == "raw") return Encoding::raw;
     if (v == "gzip" || v == "gz") return Encoding::gzip;
     fail("encoding", fmt::format("\"{}\" is not supported (supported: raw, gzip)", value));
   }
 
   bool parse_endian(const std::string& value) const {
-    const std::string v = lower(value);
+    const std::string v = ascii_lower(value);
     if (v == "little") return false;
     if (v == "big") return true;
     fail("endian", fmt::format("expected little or big, found \"{}\"", value));
@@ -182,7 +177,7 @@ struct HeaderParser {
       fail("header", fmt::format("line {} is neither \"field: value\", \"key:=value\" nor a # comment: \"{}\"",
                                  line_number, line.substr(0, 80)));
     if (colon + 1 < line.size() && line[colon + 1] == '=') return;  // key:=value pairs carry no layout
-    apply_field(lower(trim(std::string_view(line).substr(0, colon))), trim(std::string_view(line).substr(colon + 1)));
+    apply_field(ascii_lower(trim(std::string_view(line).substr(0, colon))), trim(std::string_view(line).substr(colon + 1)));
   }
 
   // Reads the magic line and then fields up to the blank line that starts attached data, or
@@ -350,16 +345,14 @@ std::unique_ptr<VolumeSource> open_raw_encoded(const std::filesystem::path& path
 
 std::unique_ptr<VolumeSource> open_gzip_encoded(const std::filesystem::path& path, const NrrdLayout& layout,
                                                 const ReadOptions& options) {
-  const std::filesystem::path dir = options.temp_dir.value_or(std::filesystem::temp_directory_path());
-  auto decoded = std::make_shared<TempFile>(dir, "strata-nrrd");
+  std::shared_ptr<TempFile> decoded;
   {
     auto compressed = map_data_file(path, layout);
     const std::uint64_t start = skip_lines(*compressed, layout.data_start, layout.line_skip, path.string());
     if (start >= compressed->size())
       throw FormatError(path.string(), "data", "no gzip data follows the header (truncated file)");
-    ProgressSink& progress = options.progress ? *options.progress : silent_progress();
-    gunzip_to_file(compressed->data() + start, compressed->size() - start, decoded->path(), path.string(), "data",
-                   progress);
+    decoded = gunzip_to_temp_file(compressed->data() + start, compressed->size() - start, options, "strata-nrrd",
+                                  path.string(), "data");
   }
   auto data = std::make_shared<MappedFile>(decoded->path());
   // For compressed encodings the byte skip counts decoded bytes (as teem does).
@@ -398,7 +391,7 @@ std::string header_text(const VolumeInfo& info, bool compress, const std::string
 }
 
 bool is_detached_name(const std::filesystem::path& path) {
-  return HeaderParser::lower(path.extension().string()) == ".nhdr";
+  return ascii_lower(path.extension().string()) == ".nhdr";
 }
 
 // Attached: header then data in one file. For a .nhdr name the data goes to `<stem>.raw` or
@@ -406,29 +399,16 @@ bool is_detached_name(const std::filesystem::path& path) {
 class NrrdWriter final : public VolumeWriter {
  public:
   NrrdWriter(const std::filesystem::path& path, const VolumeInfo& info, bool compress)
-      : path_(path), info_(info), compress_(compress) {
-    if (is_detached_name(path)) data_name_ = path.stem().string() + (compress ? ".raw.gz" : ".raw");
-    out_ = std::make_unique<AtomicOutputFile>(data_name_.empty() ? path : path.parent_path() / data_name_);
-    if (data_name_.empty()) {
-      const std::string h = header_text(info_, compress_, "");
-      out_->write(h.data(), h.size());
-    }
-    if (compress_) gzip_ = std::make_unique<GzipWriter>(*out_);
-  }
+      : path_(path), info_(info), compress_(compress),
+        data_name_(is_detached_name(path) ? path.stem().string() + (compress ? ".raw.gz" : ".raw") : ""),
+        out_(data_name_.empty() ? path : path.parent_path() / data_name_, compress,
+             data_name_.empty() ? header_text(info, compress, "") : "") {}
 
-  void write_slab(const Volume& slab) override {
-    if (gzip_) gzip_->write(slab.bytes(), slab.byte_size());
-    else out_->write(slab.bytes(), slab.byte_size());
-  }
+  void write_slab(const Volume& slab) override { out_.write(slab.bytes(), slab.byte_size()); }
 
   void finish() override {
-    if (gzip_) gzip_->finish();
-    out_->commit();
-    if (data_name_.empty()) return;
-    AtomicOutputFile header(path_);
-    const std::string h = header_text(info_, compress_, data_name_);
-    header.write(h.data(), h.size());
-    header.commit();
+    out_.commit();
+    if (!data_name_.empty()) write_file_atomically(path_, header_text(info_, compress_, data_name_));
   }
 
  private:
@@ -436,8 +416,7 @@ class NrrdWriter final : public VolumeWriter {
   VolumeInfo info_;
   bool compress_;
   std::string data_name_;  // empty for an attached header
-  std::unique_ptr<AtomicOutputFile> out_;
-  std::unique_ptr<GzipWriter> gzip_;  // declared after out_: destroyed first, it refers to out_
+  OutputStream out_;       // the attached header and data, or the detached data
 };
 
 }  // namespace

@@ -134,10 +134,7 @@ class RawWriter final : public VolumeWriter {
   void finish() override {
     // Both files are complete as temporaries before either is renamed, so a failure while
     // writing leaves neither; the sidecar goes first so a visible .raw always has its dims.
-    AtomicOutputFile sidecar(sidecar_path_);
-    const std::string text = sidecar_text();
-    sidecar.write(text.data(), text.size());
-    sidecar.commit();
+    write_file_atomically(sidecar_path_, sidecar_text());
     data_.commit();
   }
 

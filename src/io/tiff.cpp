@@ -277,13 +277,8 @@ bool natural_less(const std::string& a, const std::string& b) {
   return a < b;  // equal by value ("slice_01" vs "slice_1"): any fixed order will do
 }
 
-std::string lowercase(std::string s) {
-  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-  return s;
-}
-
 bool has_tiff_extension(const fs::path& p) {
-  const std::string ext = lowercase(p.extension().string());
+  const std::string ext = ascii_lower(p.extension().string());
   return ext == ".tif" || ext == ".tiff";
 }
 
@@ -324,9 +319,7 @@ class TiffSource final : public VolumeSource {
   const fs::path& path() const override { return path_; }
 
   Volume read_box(const Box& box) override {
-    if (box.empty() || !Box::whole(info_.dims).contains(box))
-      throw Error(fmt::format("{}: box {} is empty or outside the volume {}", path_.string(), box.to_string(),
-                              info_.dims.to_string()));
+    check_box_inside(box, info_.dims, path_);
     Volume out(box.size(), info_.dtype, info_.spacing);
     const PageRegion region{std::uint32_t(box.lo.x), std::uint32_t(box.hi.x), std::uint32_t(box.lo.y),
                             std::uint32_t(box.hi.y)};
@@ -467,30 +460,19 @@ void write_page(TiffFile& file, const PageLayout& layout, const std::byte* slice
     throw Error(fmt::format("{}: cannot write the page directory: {}", file.path().string(), file.take_errors()));
 }
 
-// Shared by both writers: validates slabs and hands out their slices in z order.
+// Shared by both writers: hands out the slices of each slab, numbered in z order.
 class SliceCounter {
  public:
-  SliceCounter(fs::path path, const VolumeInfo& info) : path_(std::move(path)), info_(info) {}
+  explicit SliceCounter(std::size_t slice_bytes) : slice_bytes_(slice_bytes) {}
 
   template <class WriteSlice>
   void accept(const Volume& slab, WriteSlice&& write_slice) {
-    if (slab.dims().x != info_.dims.x || slab.dims().y != info_.dims.y || slab.dtype() != info_.dtype)
-      throw Error(fmt::format("{}: slab {} {} does not match the volume {} {}", path_.string(), slab.dims().to_string(),
-                              dtype_name(slab.dtype()), info_.dims.to_string(), dtype_name(info_.dtype)));
-    if (written_ + slab.dims().z > info_.dims.z)
-      throw Error(fmt::format("{}: slab of {} slices after {} would exceed the volume's {} slices", path_.string(),
-                              slab.dims().z, written_, info_.dims.z));
     for (std::int64_t z = 0; z < slab.dims().z; ++z, ++written_)
-      write_slice(written_, slab.bytes() + std::size_t(z) * info_.bytes_per_slice());
-  }
-  void check_complete() const {
-    if (written_ != info_.dims.z)
-      throw Error(fmt::format("{}: finish() after {} of {} slices", path_.string(), written_, info_.dims.z));
+      write_slice(written_, slab.bytes() + std::size_t(z) * slice_bytes_);
   }
 
  private:
-  fs::path path_;
-  VolumeInfo info_;
+  std::size_t slice_bytes_;
   std::int64_t written_ = 0;
 };
 
@@ -509,7 +491,7 @@ void rename_or_throw(const fs::path& from, const fs::path& to) {
 class MultiPageWriter final : public VolumeWriter {
  public:
   MultiPageWriter(const fs::path& path, const VolumeInfo& info, bool compress)
-      : path_(path), tmp_(with_suffix(path, ".tmp")), info_(info), slices_(path, info),
+      : path_(path), tmp_(with_suffix(path, ".tmp")), info_(info), slices_(info.bytes_per_slice()),
         layout_{info_, compress, true, spacing_description(info.spacing)},
         file_(std::make_unique<TiffFile>(tmp_, write_mode(info.byte_size()))) {}
 
@@ -525,7 +507,6 @@ class MultiPageWriter final : public VolumeWriter {
   }
 
   void finish() override {
-    slices_.check_complete();
     file_->close_written();
     rename_or_throw(tmp_, path_);
     finished_ = true;
@@ -545,7 +526,7 @@ class MultiPageWriter final : public VolumeWriter {
 class FolderWriter final : public VolumeWriter {
  public:
   FolderWriter(const fs::path& dir, const VolumeInfo& info, bool compress)
-      : dir_(dir), staging_(with_suffix(dir, ".tmp")), info_(info), slices_(dir, info),
+      : dir_(dir), staging_(with_suffix(dir, ".tmp")), info_(info), slices_(info.bytes_per_slice()),
         layout_{info_, compress, false, spacing_description(info.spacing)},
         digits_(std::max<std::size_t>(4, std::to_string(std::max<std::int64_t>(info.dims.z - 1, 0)).size())) {
     check_replaceable(dir_);
@@ -570,7 +551,6 @@ class FolderWriter final : public VolumeWriter {
   }
 
   void finish() override {
-    slices_.check_complete();
     // Replacing is a delete then a rename: a crash between them leaves the complete new
     // slices in `<dir>.tmp`, never a half-written folder under the final name.
     if (fs::exists(dir_)) {

@@ -1,9 +1,6 @@
 // Format detection and dispatch; the checks every writer shares.
 #include "strata/io/volume_io.hpp"
 
-#include <algorithm>
-#include <cctype>
-
 #include <fmt/format.h>
 
 #include "io/io_detail.hpp"
@@ -11,15 +8,6 @@
 namespace strata::io {
 
 namespace {
-
-std::string lower(std::string text) {
-  std::transform(text.begin(), text.end(), text.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-  return text;
-}
-
-bool ends_with(const std::string& text, const std::string& suffix) {
-  return text.size() >= suffix.size() && text.compare(text.size() - suffix.size(), suffix.size(), suffix) == 0;
-}
 
 // Wraps a format writer so that every format gets the same slab checks: a mismatched slab or
 // a wrong slice count is an error, never a silently malformed file.
@@ -68,11 +56,11 @@ class CheckedWriter final : public VolumeWriter {
 FileFormat detect_format(const std::filesystem::path& path) {
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec)) return FileFormat::tiff;
-  const std::string name = lower(path.filename().string());
-  if (ends_with(name, ".raw") || ends_with(name, ".bin")) return FileFormat::raw;
-  if (ends_with(name, ".nrrd") || ends_with(name, ".nhdr")) return FileFormat::nrrd;
-  if (ends_with(name, ".nii") || ends_with(name, ".nii.gz")) return FileFormat::nifti;
-  if (ends_with(name, ".tif") || ends_with(name, ".tiff")) return FileFormat::tiff;
+  const std::string name = detail::ascii_lower(path.filename().string());
+  if (name.ends_with(".raw") || name.ends_with(".bin")) return FileFormat::raw;
+  if (name.ends_with(".nrrd") || name.ends_with(".nhdr")) return FileFormat::nrrd;
+  if (name.ends_with(".nii") || name.ends_with(".nii.gz")) return FileFormat::nifti;
+  if (name.ends_with(".tif") || name.ends_with(".tiff")) return FileFormat::tiff;
   throw Error(fmt::format("{}: unknown volume format (expected .raw, .bin, .nrrd, .nhdr, .nii, .nii.gz, .tif, "
                           ".tiff or a directory of TIFF slices)",
                           path.string()));

@@ -1,6 +1,7 @@
 #include "strata/quant/brick.hpp"
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cmath>
 #include <limits>
@@ -9,8 +10,8 @@
 #include "strata/core/error.hpp"
 #include "strata/quant/bitpack.hpp"
 #include "strata/quant/quantizers.hpp"
-#include "quant/decode_kernel.hpp"
 #include "strata/tensor/ttm.hpp"
+#include "quant/decode_kernel.hpp"
 
 namespace strata::quant {
 namespace {
@@ -177,7 +178,7 @@ float get_f32(const std::byte*& p) {
   return std::bit_cast<float>(u);
 }
 
-// ---- decoding -------------------------------------------------------------------------------
+// ---- validation of stored parameters (they come from a file) -------------------------------
 
 void check_params(const QuantScheme& s, const BrickParams& p) {
   for (auto field : stored_params(s))

@@ -6,7 +6,6 @@
 
 #include <fmt/format.h>
 
-#include "io/io_detail.hpp"
 #include "strata/core/error.hpp"
 #include "strata/store/crc32c.hpp"
 
@@ -104,7 +103,7 @@ const char* payload_kind_name(PayloadKind k) {
 // Writer
 
 ContainerWriter::ContainerWriter(const std::filesystem::path& path)
-    : out_(std::make_unique<io::detail::AtomicOutputFile>(path)) {
+    : out_(std::make_unique<io::AtomicOutputFile>(path)) {
   std::array<std::byte, kHeaderSize> placeholder{};  // rewritten by finish()
   out_->write(placeholder.data(), placeholder.size());
   position_ = kHeaderSize;
@@ -179,7 +178,7 @@ std::span<const std::byte> ContainerReader::checked_range(std::uint64_t offset, 
 }
 
 ContainerReader::ContainerReader(const std::filesystem::path& path)
-    : path_(path), file_(std::make_shared<io::detail::MappedFile>(path)) {
+    : path_(path), file_(std::make_shared<io::MappedFile>(path)) {
   const std::string file = path.string();
   if (file_->size() < kHeaderSize || std::memcmp(file_->data(), kMagic.data(), kMagic.size()) != 0)
     throw FormatError(file, "magic", "not a .strata file");

@@ -43,13 +43,19 @@ inline Volume prisms(Extent dims, std::uint64_t seed = 7) {
   return gen::generate(p);
 }
 
-inline CompressParams params(int brick, int overlap, int rank, const std::string& quant, int hooi = 10) {
+// hooi and zstd default to the library's defaults (one HOOI sweep, zstd level 3).
+inline CompressParams params(int brick, int overlap, int rank, const std::string& quant, int hooi = 1, int zstd = 3) {
   CompressParams p;
   p.layout = {brick, overlap};
   p.codec.rank = rank;
   p.codec.quant = quant::QuantScheme::parse(quant);
   p.codec.hooi_iterations = hooi;
+  p.codec.zstd_level = zstd;
   return p;
+}
+
+inline bool is_tucker(store::PayloadKind k) {
+  return k == store::PayloadKind::tucker || k == store::PayloadKind::tucker_zstd;
 }
 
 inline CompressReport compress(const Volume& v, const std::filesystem::path& out, const CompressParams& p) {
@@ -99,8 +105,7 @@ inline MaxDiff max_abs_diff(const Volume& a, const Volume& b) {
 }
 
 inline std::pair<double, double> value_range(const Volume& v) {
-  double lo = INFINITY, hi = -INFINITY, dummy = 0;
-  (void)dummy;
+  double lo = INFINITY, hi = -INFINITY;
   const Extent d = v.dims();
   for (std::int64_t z = 0; z < d.z; ++z)
     for (std::int64_t y = 0; y < d.y; ++y)

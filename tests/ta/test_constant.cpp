@@ -35,7 +35,7 @@ std::vector<std::int64_t> constant_counts(const store::ContainerReader& c, int l
 TEST(TaConstant, ZeroHalfGivesConstantBricksThatDecodeExactly) {
   test::TempDir dir;
   const Volume v = half_zero();
-  const CompressReport report = compress(v, dir / "half.strata", params(16, 2, 8, "u16,b8log+", 2));
+  const CompressReport report = compress(v, dir / "half.strata", params(16, 2, 8, "u16,b8log+"));
   TaVolume t(dir / "half.strata");
   const auto& c = t.container();
 
@@ -70,7 +70,7 @@ TEST(TaConstant, ConstantVolumeIsConstantAtEveryLevelAndTiny) {
   test::TempDir dir;
   Volume v({50, 30, 20}, DType::f32);
   for (float& f : v.samples<float>()) f = 7.25f;
-  const CompressReport report = compress(v, dir / "c.strata", params(16, 2, 8, "u16,b8log+", 2));
+  const CompressReport report = compress(v, dir / "c.strata", params(16, 2, 8, "u16,b8log+"));
   TaVolume t(dir / "c.strata");
   // 50x30x20 -> 25x15x10 -> 13x8x5 -> 7x4x3: 5x3x2 + 3x2x1 + 2x1x1 + 1 bricks, all constant
   // (parents of constant children are their exact average).

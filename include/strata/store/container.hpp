@@ -12,10 +12,7 @@
 #include <unordered_map>
 #include <vector>
 
-namespace strata::io::detail {
-class MappedFile;
-class AtomicOutputFile;
-}  // namespace strata::io::detail
+#include "strata/io/files.hpp"
 
 namespace strata::store {
 
@@ -84,7 +81,7 @@ class ContainerWriter {
 
  private:
   std::uint64_t append_aligned(std::span<const std::byte> payload);
-  std::unique_ptr<io::detail::AtomicOutputFile> out_;
+  std::unique_ptr<io::AtomicOutputFile> out_;
   mutable std::mutex mutex_;
   std::uint64_t position_ = 0;
   std::vector<BrickEntry> entries_;
@@ -112,7 +109,7 @@ class ContainerReader {
  private:
   std::span<const std::byte> checked_range(std::uint64_t offset, std::uint64_t size, const std::string& what) const;
   std::filesystem::path path_;
-  std::shared_ptr<io::detail::MappedFile> file_;
+  std::shared_ptr<io::MappedFile> file_;
   nlohmann::json metadata_;
   std::uint64_t metadata_size_ = 0;
   std::vector<BrickEntry> entries_;

@@ -17,7 +17,8 @@ namespace strata::ta {
 struct CodecParams {
   int rank = 16;                 // R: stored rank per mode (<= brick width)
   quant::QuantScheme quant;      // how cores and factors are stored
-  int hooi_iterations = 10;      // 0 = truncated HOSVD only
+  int hooi_iterations = 1;       // HOOI sweeps after HOSVD; 0 = HOSVD only (one sweep gets
+                                 // all of the gain on ch2better: 25.90 -> 26.00 dB)
   double hooi_tolerance = 1e-4;
   // Lossless zstd stage over each quantized brick (0 = off). Decoding a 7 KB brick costs a few
   // microseconds next to its reconstruction, and saves 10-20% of the file.

@@ -1,0 +1,57 @@
+#pragma once
+// Plain files, as every module that reads or writes one needs them: a read-only memory map,
+// output written as `<name>.tmp` and renamed into place, and a self-deleting temporary file.
+// All throw strata::Error naming the path and the system's reason.
+#include <cstddef>
+#include <cstdint>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+
+namespace strata::io {
+
+// Read-only mmap of a whole file. release() drops pages already consumed so streaming a
+// file larger than memory keeps the resident set small.
+class MappedFile {
+ public:
+  explicit MappedFile(const std::filesystem::path& path);  // throws Error naming the path
+  ~MappedFile();
+  MappedFile(const MappedFile&) = delete;
+  MappedFile& operator=(const MappedFile&) = delete;
+  const std::byte* data() const { return data_; }
+  std::uint64_t size() const { return size_; }
+  void release(std::uint64_t offset, std::uint64_t length) const;  // madvise(DONTNEED)
+ private:
+  const std::byte* data_ = nullptr;
+  std::uint64_t size_ = 0;
+};
+
+// A file written as `<path>.tmp` and renamed to `<path>` by commit(); removed if never committed.
+class AtomicOutputFile {
+ public:
+  explicit AtomicOutputFile(std::filesystem::path path);
+  ~AtomicOutputFile();
+  AtomicOutputFile(const AtomicOutputFile&) = delete;
+  AtomicOutputFile& operator=(const AtomicOutputFile&) = delete;
+  void write(const void* data, std::size_t bytes);  // throws Error on short write (disk full)
+  void commit();  // flushes, fsyncs and renames; throws Error (and removes the temporary) on failure
+  std::FILE* handle() { return file_; }  // for seeking back to patch a header before commit()
+  const std::filesystem::path& path() const { return path_; }
+ private:
+  std::filesystem::path path_, tmp_;
+  std::FILE* file_ = nullptr;
+};
+
+// A temporary file `<dir>/<stem>-XXXXXX` (created empty), removed when the object dies.
+class TempFile {
+ public:
+  explicit TempFile(const std::filesystem::path& dir, const std::string& stem);
+  ~TempFile();
+  TempFile(const TempFile&) = delete;
+  TempFile& operator=(const TempFile&) = delete;
+  const std::filesystem::path& path() const { return path_; }
+ private:
+  std::filesystem::path path_;
+};
+
+}  // namespace strata::io

@@ -1,0 +1,32 @@
+#pragma once
+// Storage cost and reconstruction error of a TA-compressed file against its original
+// (`strata eval`, the demo, and the benchmark tables share this).
+#include <cstdint>
+#include <vector>
+
+#include "strata/core/metrics.hpp"
+#include "strata/io/volume_io.hpp"
+#include "strata/ta/ta_volume.hpp"
+
+namespace strata::ta {
+
+struct StorageReport {
+  std::uint64_t file_bytes = 0;
+  // Stored bytes by part; entropy-coded bricks attribute their bytes to the parts in proportion.
+  std::uint64_t core_bytes = 0, factor_bytes = 0, brick_header_bytes = 0, container_bytes = 0;
+  std::vector<std::int64_t> bricks_per_level, constant_per_level;
+  double bits_per_voxel(std::uint64_t bytes, const VolumeInfo& source) const;
+};
+
+StorageReport storage_report(const TaVolume& volume);
+
+struct ErrorReport {
+  int rank = 0;
+  ErrorMetrics metrics;
+  double decode_seconds = 0;  // level 0, all bricks, on thread_count() threads
+};
+
+// Decodes level 0 at rank K a few brick rows at a time and compares with `original`.
+ErrorReport error_report(const TaVolume& volume, io::VolumeSource& original, int k);
+
+}  // namespace strata::ta

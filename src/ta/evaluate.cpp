@@ -1,0 +1,62 @@
+#include "strata/ta/evaluate.hpp"
+
+#include <chrono>
+
+#include "strata/core/error.hpp"
+
+namespace strata::ta {
+
+double StorageReport::bits_per_voxel(std::uint64_t bytes, const VolumeInfo& source) const {
+  return 8.0 * double(bytes) / double(source.dims.voxel_count());
+}
+
+StorageReport storage_report(const TaVolume& volume) {
+  const auto& c = volume.container();
+  StorageReport r;
+  r.file_bytes = c.file_size();
+  r.bricks_per_level.assign(std::size_t(volume.geometry().level_count()), 0);
+  r.constant_per_level = r.bricks_per_level;
+  DecodeScratch scratch;
+  std::uint64_t payload_total = 0;
+  for (const auto& e : c.bricks()) {
+    ++r.bricks_per_level.at(e.key.level);
+    payload_total += e.size;
+    if (e.kind == store::PayloadKind::constant) {
+      ++r.constant_per_level[e.key.level];
+      continue;
+    }
+    const auto stored = c.payload(e);
+    const auto plain = plain_payload(e.kind, stored, volume.quant_scheme(), scratch, c.path().string());
+    const auto parts = payload_parts(plain, volume.quant_scheme(), c.path().string());
+    const double ratio = double(stored.size()) / double(plain.size());
+    const auto core = std::uint64_t(double(parts.core_bytes) * ratio);
+    const auto factors = std::uint64_t(double(parts.factor_bytes) * ratio);
+    r.core_bytes += core;
+    r.factor_bytes += factors;
+    r.brick_header_bytes += stored.size() - core - factors;
+  }
+  r.container_bytes = r.file_bytes - payload_total;
+  return r;
+}
+
+ErrorReport error_report(const TaVolume& volume, io::VolumeSource& original, int k) {
+  const Extent dims = volume.source_info().dims;
+  if (!(original.info().dims == dims))
+    throw Error(original.path().string() + ": dims " + original.info().dims.to_string() +
+                " differ from the compressed volume's " + dims.to_string());
+  const std::int64_t rows = volume.geometry().layout().core() * 4;  // a few brick rows per slab
+  ErrorAccumulator acc;
+  ErrorReport r;
+  r.rank = k;
+  for (std::int64_t z0 = 0; z0 < dims.z; z0 += rows) {
+    const std::int64_t z1 = std::min(dims.z, z0 + rows);
+    const auto t = std::chrono::steady_clock::now();
+    Volume decoded = volume.decode_box(0, {{0, 0, z0}, {dims.x, dims.y, z1}}, k);
+    r.decode_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+    acc.add(original.read_slab(z0, z1), decoded);
+  }
+  r.metrics = acc.result();
+  return r;
+}
+
+}  // namespace strata::ta

@@ -1,0 +1,271 @@
+// `strata compress`, `decompress` and `eval` end to end on a generated volume: outputs, their
+// types and sizes, the eval report's figures, exit codes and error messages.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <nlohmann/json.hpp>
+
+#include "strata/core/metrics.hpp"
+#include "strata/io/volume_io.hpp"
+#include "support/test_support.hpp"
+
+using strata::test::run_command;
+using strata::test::TempDir;
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string strata_cmd(const std::string& args) { return std::string(STRATA_BINARY) + " --progress none " + args; }
+std::string q(const fs::path& p) { return "'" + p.string() + "'"; }
+bool has(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
+
+// One generated volume and its compression, shared by the tests of this file:
+// 40x36x30 u16 prisms, brick 16, overlap 2 (core 12), rank 8, u16,b8log+.
+// Levels: 40x36x30 (4x3x3 bricks), 20x18x15 (2x2x2), 10x9x8 (1).
+class TaCli : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new TempDir;
+    std::string out;
+    ASSERT_EQ(run_command(strata_cmd("generate prisms --size 40,36,30 --seed 5 -o " + q(original())), &out), 0) << out;
+    ASSERT_EQ(run_command(strata_cmd("compress " + q(original()) + " -o " + q(compressed()) + " --brick 16 --rank 8"), &out), 0)
+        << out;
+    compress_output_ = new std::string(out);
+  }
+  static void TearDownTestSuite() {
+    delete compress_output_;
+    delete dir_;
+  }
+  static fs::path original() { return *dir_ / "p.nrrd"; }
+  static fs::path compressed() { return *dir_ / "p.strata"; }
+  static fs::path file(const std::string& name) { return *dir_ / name; }
+
+  static nlohmann::json eval_json(const std::string& extra = "") {
+    std::string out;
+    const int code = run_command(strata_cmd("eval " + q(original()) + " " + q(compressed()) + " --json " + extra), &out);
+    EXPECT_EQ(code, 0) << out;
+    return nlohmann::json::parse(out);
+  }
+
+  static inline TempDir* dir_ = nullptr;
+  static inline std::string* compress_output_ = nullptr;
+};
+
+}  // namespace
+
+TEST_F(TaCli, CompressReportsBricksLevelsAndRate) {
+  EXPECT_TRUE(fs::exists(compressed()));
+  EXPECT_FALSE(fs::exists(file("p.strata.tmp")));
+  // 36 + 8 + 1 bricks in 3 levels.
+  EXPECT_TRUE(has(*compress_output_, "45 bricks in 3 levels")) << *compress_output_;
+  EXPECT_TRUE(has(*compress_output_, "bits/voxel")) << *compress_output_;
+}
+
+TEST_F(TaCli, DecompressLevel0ReturnsTheSourceTypeCloseToTheOriginal) {
+  std::string out;
+  ASSERT_EQ(run_command(strata_cmd("decompress " + q(compressed()) + " -o " + q(file("d.nrrd"))), &out), 0) << out;
+  const strata::Volume original = strata::io::read_volume(original());
+  const strata::Volume d = strata::io::read_volume(file("d.nrrd"));
+  EXPECT_EQ(d.dims(), (strata::Extent{40, 36, 30}));
+  EXPECT_EQ(d.dtype(), strata::DType::u16);
+  EXPECT_GT(strata::compare_volumes(original, d).snr_db, 20.0);
+
+  ASSERT_EQ(run_command(strata_cmd("decompress " + q(compressed()) + " --float -o " + q(file("f.nrrd"))), &out), 0) << out;
+  const strata::Volume f = strata::io::read_volume(file("f.nrrd"));
+  EXPECT_EQ(f.dtype(), strata::DType::f32);
+  // The u16 output is the float output rounded (and clamped to the u16 range).
+  EXPECT_TRUE(f.converted(strata::DType::u16) == d);
+}
+
+TEST_F(TaCli, DecompressLevelRankAndBox) {
+  std::string out;
+  ASSERT_EQ(run_command(strata_cmd("decompress " + q(compressed()) + " --level 1 -o " + q(file("l1.nrrd"))), &out), 0) << out;
+  const strata::Volume l1 = strata::io::read_volume(file("l1.nrrd"));
+  EXPECT_EQ(l1.dims(), (strata::Extent{20, 18, 15}));
+  EXPECT_EQ(l1.dtype(), strata::DType::f32);  // averages are not source samples
+  EXPECT_EQ(l1.spacing().x, 2.0 * strata::io::read_volume(original()).spacing().x);
+
+  ASSERT_EQ(run_command(strata_cmd("decompress " + q(compressed()) + " --level 2 -o " + q(file("l2.nrrd"))), &out), 0) << out;
+  EXPECT_EQ(strata::io::read_volume(file("l2.nrrd")).dims(), (strata::Extent{10, 9, 8}));
+
+  // A box across brick seams (cores are 12 wide) equals the same voxels of the full decode.
+  ASSERT_EQ(run_command(strata_cmd("decompress " + q(compressed()) + " --float --rank 4 -o " + q(file("r4.nrrd"))), &out), 0)
+      << out;
+  ASSERT_EQ(run_command(strata_cmd("decompress " + q(compressed()) + " --float --rank 4 --box 5,10,11:30,25,26 -o " +
+                                   q(file("box.nrrd"))),
+                        &out),
+            0)
+      << out;
+  const strata::Volume box = strata::io::read_volume(file("box.nrrd"));
+  EXPECT_EQ(box.dims(), (strata::Extent{25, 15, 15}));
+  EXPECT_TRUE(box == strata::io::read_volume(file("r4.nrrd")).crop({{5, 10, 11}, {30, 25, 26}}));
+  // Rank 4 is a different (coarser) reconstruction than the stored rank 8.
+  const strata::Volume f8 = [&] {
+    EXPECT_EQ(run_command(strata_cmd("decompress " + q(compressed()) + " --float -o " + q(file("r8.nrrd"))), &out), 0);
+    return strata::io::read_volume(file("r8.nrrd"));
+  }();
+  EXPECT_FALSE(f8 == strata::io::read_volume(file("r4.nrrd")));
+  // Other output formats.
+  ASSERT_EQ(run_command(strata_cmd("decompress " + q(compressed()) + " --box 0,0,0:8,8,8 -o " + q(file("b.raw"))), &out), 0)
+      << out;
+  EXPECT_EQ(fs::file_size(file("b.raw")), 8u * 8u * 8u * 2u);  // u16 samples
+}
+
+TEST_F(TaCli, EvalJsonReportsStorageAndError) {
+  const nlohmann::json r = eval_json();
+  const auto& s = r["storage"];
+  const double voxels = 40.0 * 36 * 30;
+  const double file_bytes = double(fs::file_size(compressed()));
+  EXPECT_EQ(s["file_bytes"].get<double>(), file_bytes);
+  EXPECT_NEAR(s["bits_per_voxel"].get<double>(), 8 * file_bytes / voxels, 1e-9);
+  EXPECT_NEAR(s["bits_per_voxel_cores"].get<double>() + s["bits_per_voxel_factors"].get<double>() +
+                  s["bits_per_voxel_brick_headers"].get<double>() + s["bits_per_voxel_container"].get<double>(),
+              s["bits_per_voxel"].get<double>(), 1e-9);
+  // Levels: dims, brick and constant counts.
+  ASSERT_EQ(s["levels"].size(), 3u);
+  EXPECT_EQ(s["levels"][0]["dims"], nlohmann::json({40, 36, 30}));
+  EXPECT_EQ(s["levels"][0]["bricks"], 36);
+  EXPECT_EQ(s["levels"][1]["dims"], nlohmann::json({20, 18, 15}));
+  EXPECT_EQ(s["levels"][1]["bricks"], 8);
+  EXPECT_EQ(s["levels"][2]["bricks"], 1);
+  std::int64_t tucker = 0;
+  for (const auto& l : s["levels"]) tucker += l["bricks"].get<std::int64_t>() - l["constant"].get<std::int64_t>();
+  EXPECT_EQ(tucker, 45);  // prisms has no flat brick
+  // Per-part sizes of u16,b8log+ at B = 16, R = 8: 8^3 one-byte core codes, 3 * 16 * 8 two-byte
+  // factor codes, 28 header bytes (dims, ranks, factor range, core max, hot corner).
+  EXPECT_NEAR(s["bits_per_voxel_cores"].get<double>(), 8.0 * double(tucker) * 512 / voxels, 1e-9);
+  EXPECT_NEAR(s["bits_per_voxel_factors"].get<double>(), 8.0 * double(tucker) * 768 / voxels, 1e-9);
+  EXPECT_NEAR(s["bits_per_voxel_brick_headers"].get<double>(), 8.0 * double(tucker) * 28 / voxels, 1e-9);
+
+  // The error figures are those of the decoded level 0 against the original.
+  const auto& e = r["error"];
+  EXPECT_EQ(e["rank"], 8);
+  std::string out;
+  ASSERT_EQ(run_command(strata_cmd("decompress " + q(compressed()) + " --float -o " + q(file("e.nrrd"))), &out), 0) << out;
+  const strata::ErrorMetrics m =
+      strata::compare_volumes(strata::io::read_volume(original()), strata::io::read_volume(file("e.nrrd")));
+  EXPECT_NEAR(e["snr_db"].get<double>(), m.snr_db, 1e-6);
+  EXPECT_NEAR(e["psnr_db"].get<double>(), m.psnr_db, 1e-6);
+  EXPECT_NEAR(e["rmse"].get<double>(), m.rmse, 1e-6 * m.rmse);
+  EXPECT_NEAR(e["max_abs_error"].get<double>(), m.max_abs_error, 1e-3);
+  EXPECT_GT(r["decode_seconds"].get<double>(), 0.0);
+}
+
+TEST_F(TaCli, EvalRankSlider) {
+  const double s8 = eval_json()["error"]["snr_db"].get<double>();
+  const nlohmann::json r4 = eval_json("--rank 4");
+  EXPECT_EQ(r4["error"]["rank"], 4);
+  EXPECT_LT(r4["error"]["snr_db"].get<double>(), s8);
+  const nlohmann::json r99 = eval_json("--rank 99");  // clamps to the stored rank
+  EXPECT_EQ(r99["error"]["rank"], 8);
+  EXPECT_EQ(r99["error"]["snr_db"].get<double>(), s8);
+  // The human-readable report carries the same figures.
+  std::string out;
+  ASSERT_EQ(run_command(strata_cmd("eval " + q(original()) + " " + q(compressed())), &out), 0) << out;
+  EXPECT_TRUE(has(out, "bits/voxel")) << out;
+  EXPECT_TRUE(has(out, "SNR")) << out;
+}
+
+TEST_F(TaCli, UsageErrorsExitWithTwo) {
+  std::string out;
+  const std::string in = q(original()), ta = q(compressed()), o = q(file("u.strata"));
+  EXPECT_EQ(run_command(strata_cmd("compress " + in), &out), 2) << out;                       // no -o
+  EXPECT_EQ(run_command(strata_cmd("compress " + in + " -o " + o + " --rank abc"), &out), 2) << out;
+  EXPECT_EQ(run_command(strata_cmd("compress " + in + " -o " + o + " --brick 1.5"), &out), 2) << out;
+  EXPECT_EQ(run_command(strata_cmd("decompress " + ta), &out), 2) << out;                      // no -o
+  EXPECT_EQ(run_command(strata_cmd("decompress " + ta + " -o x.nrrd --level one"), &out), 2) << out;
+  EXPECT_EQ(run_command(strata_cmd("eval " + in), &out), 2) << out;                            // no .strata
+  EXPECT_EQ(run_command(strata_cmd("eval " + in + " " + ta + " --rank x"), &out), 2) << out;
+  EXPECT_FALSE(fs::exists(file("u.strata")));
+  EXPECT_EQ(run_command(strata_cmd("compress --help"), &out), 0);
+  EXPECT_TRUE(has(out, "--rank")) << out;
+}
+
+TEST_F(TaCli, BadParameterValuesExitWithOneAndNameTheOption) {
+  std::string out;
+  const std::string in = q(original()), ta = q(compressed());
+  EXPECT_EQ(run_command(strata_cmd("compress " + in + " -o " + q(file("r.strata")) + " --brick 16 --rank 17"), &out), 1) << out;
+  EXPECT_TRUE(has(out, "error: ") && has(out, "--rank")) << out;
+  EXPECT_EQ(run_command(strata_cmd("compress " + in + " -o " + q(file("r.strata")) + " --brick 16 --overlap 8"), &out), 1)
+      << out;
+  EXPECT_TRUE(has(out, "--overlap")) << out;
+  EXPECT_EQ(run_command(strata_cmd("compress " + in + " -o " + q(file("r.strata")) + " --quant u16,b9log"), &out), 1) << out;
+  EXPECT_TRUE(has(out, "u16,b9log")) << out;
+  EXPECT_FALSE(fs::exists(file("r.strata")));
+  EXPECT_FALSE(fs::exists(file("r.strata.tmp")));
+  EXPECT_EQ(run_command(strata_cmd("decompress " + ta + " --level 3 -o " + q(file("x.nrrd"))), &out), 1) << out;
+  EXPECT_TRUE(has(out, "--level")) << out;
+  EXPECT_EQ(run_command(strata_cmd("decompress " + ta + " --rank 9 -o " + q(file("x.nrrd"))), &out), 1) << out;
+  EXPECT_TRUE(has(out, "--rank")) << out;
+  EXPECT_EQ(run_command(strata_cmd("decompress " + ta + " --box 0,0,0:41,1,1 -o " + q(file("x.nrrd"))), &out), 1) << out;
+  EXPECT_TRUE(has(out, "--box")) << out;
+  EXPECT_EQ(run_command(strata_cmd("decompress " + ta + " --box 1,2,3 -o " + q(file("x.nrrd"))), &out), 1) << out;
+  EXPECT_FALSE(fs::exists(file("x.nrrd")));
+}
+
+// A negative rank is not "the default": it must be refused like any other out-of-range rank.
+TEST_F(TaCli, NegativeRankIsRefused) {
+  std::string out;
+  EXPECT_NE(run_command(strata_cmd("compress " + q(original()) + " -o " + q(file("neg.strata")) + " --rank -3"), &out), 0)
+      << out;
+  EXPECT_FALSE(fs::exists(file("neg.strata")));
+  EXPECT_NE(run_command(strata_cmd("decompress " + q(compressed()) + " --rank -3 -o " + q(file("neg.nrrd"))), &out), 0)
+      << out;
+  EXPECT_FALSE(fs::exists(file("neg.nrrd")));
+}
+
+TEST_F(TaCli, BadFilesExitWithOneAndNameTheFile) {
+  std::string out;
+  EXPECT_EQ(run_command(strata_cmd("compress " + q(file("missing.nrrd")) + " -o " + q(file("m.strata"))), &out), 1) << out;
+  EXPECT_TRUE(has(out, "error: ") && has(out, "missing.nrrd")) << out;
+  EXPECT_FALSE(fs::exists(file("m.strata.tmp")));
+
+  std::ofstream(file("junk.strata")) << "this is not a strata container, just some text padding it out to size";
+  EXPECT_EQ(run_command(strata_cmd("decompress " + q(file("junk.strata")) + " -o " + q(file("j.nrrd"))), &out), 1) << out;
+  EXPECT_TRUE(has(out, "error: ") && has(out, "junk.strata")) << out;
+  EXPECT_EQ(run_command(strata_cmd("eval " + q(original()) + " " + q(file("junk.strata"))), &out), 1) << out;
+  EXPECT_TRUE(has(out, "junk.strata")) << out;
+  EXPECT_EQ(run_command(strata_cmd("decompress " + q(file("nope.strata")) + " -o " + q(file("j.nrrd"))), &out), 1) << out;
+  EXPECT_TRUE(has(out, "nope.strata")) << out;
+
+  // eval against an original of other dims names that file.
+  ASSERT_EQ(run_command(strata_cmd("generate prisms --size 20,36,30 -o " + q(file("small.nrrd"))), &out), 0) << out;
+  EXPECT_EQ(run_command(strata_cmd("eval " + q(file("small.nrrd")) + " " + q(compressed())), &out), 1) << out;
+  EXPECT_TRUE(has(out, "small.nrrd") && has(out, "dims")) << out;
+}
+
+TEST_F(TaCli, FailedCompressLeavesNoTemporary) {
+  std::string out;
+  // Output directory missing.
+  EXPECT_EQ(run_command(strata_cmd("compress " + q(original()) + " -o " + q(file("no/such/dir/x.strata"))), &out), 1) << out;
+  EXPECT_TRUE(has(out, "x.strata")) << out;
+  EXPECT_FALSE(fs::exists(file("no")));
+  // Output path is an existing directory: everything is encoded, the final rename fails.
+  fs::create_directory(file("taken.strata"));
+  EXPECT_EQ(run_command(strata_cmd("compress " + q(original()) + " -o " + q(file("taken.strata"))), &out), 1) << out;
+  EXPECT_TRUE(has(out, "error: ") && has(out, "taken.strata")) << out;
+  EXPECT_FALSE(fs::exists(file("taken.strata.tmp")));
+  EXPECT_TRUE(fs::is_directory(file("taken.strata")));
+}
+
+// Failures while bricks are encoded (a non-finite sample, a full disk) must end in
+// `error: ...` and exit 1 with the temporary removed, not in an abort.
+TEST_F(TaCli, FailuresDuringEncodingExitWithOneAndLeaveNoTemporary) {
+  std::string out;
+  strata::Volume v = strata::io::read_volume(original()).converted(strata::DType::f32);
+  v.set_value(20, 18, 15, std::numeric_limits<double>::quiet_NaN());
+  strata::io::write_volume(file("nan.raw"), v);
+  EXPECT_EQ(run_command(strata_cmd("compress " + q(file("nan.raw")) + " -o " + q(file("nan.strata"))), &out), 1) << out;
+  EXPECT_TRUE(has(out, "error: ") && has(out, "nan.raw")) << out;
+  EXPECT_FALSE(fs::exists(file("nan.strata")));
+  EXPECT_FALSE(fs::exists(fs::symlink_status(file("nan.strata.tmp"))));
+
+  if (!fs::exists("/dev/full")) return;
+  fs::create_symlink("/dev/full", file("full.strata.tmp"));
+  EXPECT_EQ(run_command(strata_cmd("compress " + q(original()) + " --brick 16 -o " + q(file("full.strata"))), &out), 1) << out;
+  EXPECT_TRUE(has(out, "error: ") && has(out, "full.strata")) << out;
+  EXPECT_FALSE(fs::exists(file("full.strata")));
+  EXPECT_FALSE(fs::exists(fs::symlink_status(file("full.strata.tmp"))));
+}
