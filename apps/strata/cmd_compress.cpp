@@ -12,7 +12,7 @@ namespace strata::cli {
 namespace {
 
 struct CompressArgs {
-  std::string input, output, quant = "u16,b8log+";
+  std::string input, output, quant = "u16,b8log+", memory_limit;
   int brick = 32, overlap = 2, rank = 0, hooi = 1, zstd = 3;
   RawInputArgs raw;
 };
@@ -21,10 +21,12 @@ ta::CompressParams to_params(const CompressArgs& args) {
   ta::CompressParams p;
   p.layout = {args.brick, args.overlap};
   p.layout.validate();
+  if (args.rank < 0) throw Error("--rank: must be positive, got " + std::to_string(args.rank));
   p.codec.rank = args.rank > 0 ? args.rank : args.brick / 2;
   p.codec.quant = quant::QuantScheme::parse(args.quant);
   p.codec.hooi_iterations = args.hooi;
   p.codec.zstd_level = args.zstd;
+  if (!args.memory_limit.empty()) p.memory_limit = parse_byte_size(args.memory_limit, "--memory-limit");
   return p;
 }
 
@@ -63,6 +65,8 @@ void register_compress(CLI::App& app, const GlobalOptions& global) {
   cmd->add_option("--zstd", args->zstd, "Lossless zstd level over each quantized brick (0 = off)")
       ->capture_default_str()
       ->check(CLI::Range(0, 19));
+  cmd->add_option("--memory-limit", args->memory_limit,
+                  "Bound the working memory, e.g. 512M or 2G (input slabs shrink to fit; default: 64 MiB slabs)");
   args->raw.add_to(*cmd);
   cmd->callback([args, &global] { run_compress(*args, global); });
 }

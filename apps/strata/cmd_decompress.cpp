@@ -28,6 +28,7 @@ void run_decompress(const DecompressArgs& args, const GlobalOptions&) {
                 std::to_string(volume.geometry().level_count() - 1) + " for " + args.input);
   const Extent dims = volume.geometry().level(args.level).dims;
   const Box box = args.box.empty() ? Box::whole(dims) : parse_box(args.box);
+  if (args.rank < 0) throw Error("--rank: must be positive, got " + std::to_string(args.rank));
   const int k = args.rank > 0 ? args.rank : volume.rank();
   if (k > volume.rank())
     throw Error("--rank: " + std::to_string(k) + " exceeds the stored rank " + std::to_string(volume.rank()));

@@ -9,7 +9,7 @@ namespace strata::cli {
 namespace {
 
 struct GenerateArgs {
-  std::string kind, size = "128", output;
+  std::string kind, size = "128", output, dtype;
   std::uint64_t seed = 1;
   std::int64_t count = 0;
 };
@@ -20,6 +20,7 @@ void run_generate(const GenerateArgs& args, const GlobalOptions& global) {
   params.dims = parse_extent(args.size);
   params.seed = args.seed;
   params.count = args.count;
+  if (!args.dtype.empty()) params.output_dtype = parse_dtype(args.dtype, "--dtype");
   auto progress = global.make_progress();
   gen::generate_to_file(params, args.output, *progress);
 }
@@ -34,6 +35,7 @@ void register_generate(CLI::App& app, const GlobalOptions& global) {
   cmd->add_option("--seed", args->seed, "Random seed")->capture_default_str();
   cmd->add_option("--count", args->count, "Number of blobs / cells / fibres (0 = the kind's default)")
       ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--dtype", args->dtype, "Sample type of the output (default: the kind's own, e.g. u16 for prisms)");
   cmd->add_option("-o,--output", args->output, "Output volume file")->required();
   cmd->callback([args, &global] { run_generate(*args, global); });
 }

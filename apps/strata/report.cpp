@@ -44,3 +44,25 @@ std::string human_bytes(std::uint64_t bytes) {
 }
 
 }  // namespace strata::cli
+
+namespace strata::cli {
+
+std::uint64_t parse_byte_size(const std::string& text, const std::string& option) {
+  std::size_t used = 0;
+  double value = 0;
+  try {
+    value = std::stod(text, &used);
+  } catch (const std::exception&) {
+    throw Error(option + ": expected a size such as 512M or 2G, got '" + text + "'");
+  }
+  std::string suffix = text.substr(used);
+  double scale = 1;
+  if (suffix == "k" || suffix == "K" || suffix == "KiB") scale = 1024.0;
+  else if (suffix == "m" || suffix == "M" || suffix == "MiB") scale = 1024.0 * 1024;
+  else if (suffix == "g" || suffix == "G" || suffix == "GiB") scale = 1024.0 * 1024 * 1024;
+  else if (!suffix.empty()) throw Error(option + ": unknown unit '" + suffix + "' (use k, M or G)");
+  if (!(value > 0)) throw Error(option + ": must be positive, got '" + text + "'");
+  return std::uint64_t(value * scale);
+}
+
+}  // namespace strata::cli

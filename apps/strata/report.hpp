@@ -17,5 +17,7 @@ struct RawInputArgs {
 };
 
 std::string human_bytes(std::uint64_t bytes);
+// "512M", "2G", "64k" or plain bytes (binary multiples); throws Error naming `option`.
+std::uint64_t parse_byte_size(const std::string& text, const std::string& option);
 
 }  // namespace strata::cli

@@ -95,7 +95,9 @@ Volume generate(const Params& params) {
 
 void generate_to_file(const Params& params, const std::filesystem::path& out, ProgressSink& progress) {
   auto generator = make_generator(params);
-  const VolumeInfo& info = generator->info();
+  VolumeInfo info = generator->info();
+  const DType native = info.dtype;
+  if (params.output_dtype) info.dtype = *params.output_dtype;
   auto writer = io::create_volume_writer(out, info);
   const std::int64_t depth = stream_slab_depth(info.dims);
   const auto slice_voxels = std::uint64_t(info.dims.x * info.dims.y);
@@ -105,6 +107,7 @@ void generate_to_file(const Params& params, const std::filesystem::path& out, Pr
   for (std::int64_t z0 = 0; z0 < info.dims.z; z0 += depth) {
     const std::int64_t z1 = std::min(info.dims.z, z0 + depth);
     auto slab = std::make_shared<Volume>(generator->slab(z0, z1));
+    if (info.dtype != native) *slab = slab->converted(info.dtype);
     if (pending.valid()) pending.get();
     pending = std::async(std::launch::async, [&writer, slab] { writer->write_slab(*slab); });
     task.advance(slice_voxels * std::uint64_t(z1 - z0));

@@ -1,6 +1,7 @@
 #include "strata/ta/compress.hpp"
 
 #include <chrono>
+#include <cmath>
 #include <limits>
 #include <mutex>
 
@@ -17,17 +18,22 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
-HistogramRange value_range(io::VolumeSource& source, ProgressSink& progress) {
+HistogramRange value_range(io::VolumeSource& source, ProgressSink& progress, std::uint64_t slab_bytes) {
   double lo = std::numeric_limits<double>::infinity(), hi = -lo;
   io::for_each_slab(source, [&](const Volume& slab, std::int64_t) {
     visit_dtype(slab.dtype(), [&](auto tag) {
       using T = decltype(tag);
       for (T v : slab.samples<T>()) {
+        if constexpr (std::is_floating_point_v<T>) {
+          // A NaN would slip through min/max and poison every decomposition it touches.
+          if (!std::isfinite(v))
+            throw Error(source.path().string() + ": samples: NaN or infinite values cannot be compressed");
+        }
         lo = std::min(lo, double(v));
         hi = std::max(hi, double(v));
       }
     });
-  }, progress, "scan range");
+  }, progress, "scan range", slab_bytes);
   if (!std::isfinite(lo) || !std::isfinite(hi))
     throw Error(source.path().string() + ": samples: NaN or infinite values cannot be compressed");
   return {lo, hi};
@@ -43,7 +49,35 @@ void push_slab_to_level0(const Volume& slab, LevelPipeline& level0) {
                                          samples.begin() + std::ptrdiff_t((z + 1) * slice)));
 }
 
+// Allowance for everything not proportional to the volume: code, per-thread brick scratch,
+// container index entries, allocator slack.
+constexpr std::uint64_t kBaselineBytes = 48ull << 20;
+
 }  // namespace
+
+std::uint64_t fixed_working_set(const OctreeGeometry& geometry) {
+  const BrickLayout& l = geometry.layout();
+  std::uint64_t bytes = 0;
+  for (int level = 0; level < geometry.level_count(); ++level) {
+    const Extent& d = geometry.level(level).dims;
+    const std::uint64_t slice = std::uint64_t(d.x * d.y) * sizeof(float);
+    bytes += slice * std::uint64_t(l.brick + 1 + l.core() + 1);  // window + decoded row + pending pair
+  }
+  return bytes;
+}
+
+std::uint64_t input_slab_bytes(const OctreeGeometry& geometry, const VolumeInfo& source, const CompressParams& params) {
+  if (params.memory_limit == 0) return io::kDefaultSlabBytes;
+  const std::uint64_t fixed = fixed_working_set(geometry) + kBaselineBytes;
+  // A slab is held in the source type, as floats, and as per-slice copies while pushed.
+  const double per_source_byte = 1.0 + 2.0 * double(sizeof(float)) / double(dtype_size(source.dtype));
+  const std::uint64_t slice = source.bytes_per_slice();
+  if (params.memory_limit < fixed + std::uint64_t(double(slice) * per_source_byte))
+    throw Error("--memory-limit: compressing " + source.dims.to_string() + " with brick " + std::to_string(params.layout.brick) +
+                " needs at least " + std::to_string((fixed + std::uint64_t(double(slice) * per_source_byte)) >> 20) + " MiB");
+  const auto budget = std::uint64_t(double(params.memory_limit - fixed) / per_source_byte);
+  return std::min<std::uint64_t>(io::kDefaultSlabBytes, std::max(budget, slice));
+}
 
 CompressReport compress_volume(io::VolumeSource& source, const std::filesystem::path& out,
                                const CompressParams& params, ProgressSink& progress) {
@@ -57,7 +91,8 @@ CompressReport compress_volume(io::VolumeSource& source, const std::filesystem::
   report.input_voxels = std::uint64_t(info.dims.voxel_count());
   report.levels.resize(std::size_t(geometry.level_count()));
 
-  const HistogramRange range = value_range(source, progress);
+  const std::uint64_t slab_bytes = input_slab_bytes(geometry, info, params);
+  const HistogramRange range = value_range(source, progress, slab_bytes);
   report.prepass_seconds = seconds_since(start);
 
   store::ContainerWriter writer(out);
@@ -86,7 +121,7 @@ CompressReport compress_volume(io::VolumeSource& source, const std::filesystem::
     levels[std::size_t(l)] = std::make_unique<LevelPipeline>(geometry, l, params.codec, range, sink, next);
   }
   io::for_each_slab(source, [&](const Volume& slab, std::int64_t) { push_slab_to_level0(slab, *levels[0]); },
-                    silent_progress(), "read");
+                    silent_progress(), "read", slab_bytes);
   levels[0]->finish();
 
   report.file_bytes = writer.finish(make_metadata(info, geometry, params, range));

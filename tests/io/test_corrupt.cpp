@@ -2,29 +2,14 @@
 // nothing behind.
 #include <gtest/gtest.h>
 
-#include <fstream>
-#include <functional>
-#include <sstream>
-
+#include "io/io_test_util.hpp"
 #include "strata/io/volume_io.hpp"
 #include "support/test_support.hpp"
 
 namespace strata::io {
 namespace {
 
-void write_text(const std::filesystem::path& p, const std::string& text) {
-  std::ofstream(p, std::ios::binary) << text;
-}
-
-std::string read_text(const std::filesystem::path& p) {
-  std::ostringstream s;
-  s << std::ifstream(p, std::ios::binary).rdbuf();
-  return s.str();
-}
-
-std::size_t file_count(const std::filesystem::path& dir) {
-  return std::size_t(std::distance(std::filesystem::directory_iterator(dir), std::filesystem::directory_iterator{}));
-}
+using namespace strata::test::io;
 
 Volume ramp_volume(Extent dims, DType t) {
   Volume v(dims, t);
@@ -33,18 +18,6 @@ Volume ramp_volume(Extent dims, DType t) {
     for (std::int64_t y = 0; y < dims.y; ++y)
       for (std::int64_t x = 0; x < dims.x; ++x) v.set_value(x, y, z, double(i++ % 120));
   return v;
-}
-
-// Runs `open` and expects a strata::Error whose message holds every one of `needles`.
-void expect_error(const std::function<void()>& open, const std::vector<std::string>& needles) {
-  try {
-    open();
-    ADD_FAILURE() << "no error thrown";
-  } catch (const Error& e) {
-    const std::string message = e.what();
-    for (const auto& needle : needles)
-      EXPECT_NE(message.find(needle), std::string::npos) << "\"" << needle << "\" missing from: " << message;
-  }
 }
 
 void expect_open_error(const std::filesystem::path& path, const std::vector<std::string>& needles,
@@ -189,9 +162,7 @@ TEST(Corrupt, UnfinishedWritersLeaveNothing) {
   for (const char* name : {"a.raw", "b.nrrd", "c.nhdr"}) {
     for (bool compress : {true, false}) {
       SCOPED_TRACE(std::string(name) + (compress ? " gzip" : " raw"));
-      WriteOptions options;
-      options.compress = compress;
-      auto writer = create_volume_writer(dir / name, info, options);
+      auto writer = create_volume_writer(dir / name, info, with_compression(compress));
       writer->write_slab(slab);
       EXPECT_GE(file_count(dir.path()), 1u);  // the temporary exists while writing
       writer.reset();                         // dropped without finish(), as after an exception

@@ -2,13 +2,13 @@
 // header we write, scl_slope/scl_inter, big-endian files, corrupt inputs and real atlases.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <cstring>
-#include <fstream>
-#include <limits>
-#include <random>
 #include <set>
 
 #include "io/io_detail.hpp"
+#include "io/io_test_util.hpp"
 #include "strata/io/volume_io.hpp"
 #include "support/test_support.hpp"
 
@@ -17,62 +17,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using test::TempDir;
-
-// Every bit pattern for integers (so extremes and negatives occur) and spread-out floats;
-// the first two samples are the type's lowest and highest values.
-Volume random_volume(Extent dims, DType dtype, std::uint64_t seed, Spacing spacing = {0.5, 1.25, 2.0}) {
-  Volume v(dims, dtype, spacing);
-  std::mt19937_64 rng(seed);
-  visit_dtype(dtype, [&](auto tag) {
-    using T = decltype(tag);
-    auto s = v.samples<T>();
-    for (T& x : s) {
-      if constexpr (std::is_floating_point_v<T>)
-        x = T(std::uniform_real_distribution<double>(-1e4, 1e4)(rng));
-      else
-        x = T(rng());
-    }
-    s[0] = std::numeric_limits<T>::lowest();
-    s[1] = std::numeric_limits<T>::max();
-  });
-  return v;
-}
-
-std::vector<std::byte> read_file(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::vector<char> chars((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  std::vector<std::byte> bytes(chars.size());
-  std::memcpy(bytes.data(), chars.data(), chars.size());
-  return bytes;
-}
-
-void write_file(const fs::path& p, const std::vector<std::byte>& bytes) {
-  std::ofstream out(p, std::ios::binary);
-  out.write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
-}
-
-void write_gzipped(const fs::path& p, const std::vector<std::byte>& bytes) {
-  io::detail::AtomicOutputFile out(p);
-  io::detail::GzipWriter gz(out);
-  gz.write(bytes.data(), bytes.size());
-  gz.finish();
-  out.commit();
-}
-
-template <class F>
-std::string error_message(F&& action) {
-  try {
-    action();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "expected a strata::Error";
-  return {};
-}
-
-void expect_mentions(const std::string& message, std::initializer_list<std::string> parts) {
-  for (const auto& part : parts) EXPECT_NE(message.find(part), std::string::npos) << "'" << part << "' not in: " << message;
-}
+using namespace test::io;
 
 // A NIfTI-1 header written field by field, independently of the writer under test, in either
 // byte order. Defaults: a 4x3x2 volume of `datatype`, data at 352.
@@ -127,6 +72,23 @@ std::vector<std::int16_t> ramp_i16(std::size_t n) {
   return v;
 }
 
+// `v` holds exactly `expected`, as samples of type T.
+template <class T>
+void expect_samples(const Volume& v, const std::vector<T>& expected) {
+  const auto s = v.samples<T>();
+  ASSERT_EQ(s.size(), expected.size());
+  EXPECT_TRUE(std::equal(s.begin(), s.end(), expected.begin()));
+}
+
+// `v` is what a default HandHeader file holds: 4x3x2 voxels of 0.75x1.5x3, here `expected` as `dtype`.
+template <class T>
+void expect_hand_volume(const Volume& v, DType dtype, const std::vector<T>& expected) {
+  ASSERT_EQ(v.dtype(), dtype);
+  EXPECT_EQ(v.dims(), (Extent{4, 3, 2}));
+  EXPECT_EQ(v.spacing(), (Spacing{0.75, 1.5, 3.0}));
+  expect_samples(v, expected);
+}
+
 // ---------------------------------------------------------------------------------------------
 
 class NiftiRoundTrip : public ::testing::TestWithParam<std::tuple<DType, const char*>> {};
@@ -143,11 +105,7 @@ TEST_P(NiftiRoundTrip, IsBitExactWithSpacingAndBoxes) {
     writer->write_slab(original.crop({{0, 0, 2}, {7, 5, 6}}));
     writer->finish();
   }
-  const Volume back = io::read_volume(path);
-  EXPECT_EQ(back.dtype(), dtype);
-  EXPECT_EQ(back.dims(), original.dims());
-  EXPECT_EQ(back.spacing(), original.spacing());
-  EXPECT_TRUE(back == original);
+  expect_same(io::read_volume(path), original);
   const Box box{{1, 2, 3}, {6, 4, 5}};
   EXPECT_TRUE(io::open_volume(path)->read_box(box) == original.crop(box));
 }
@@ -165,7 +123,7 @@ TEST(Nifti, WrittenHeaderFollowsTheNifti1Layout) {
   TempDir dir;
   const Volume v = random_volume({7, 5, 3}, DType::u16, 3, {0.5, 1.25, 2.0});
   io::write_volume(dir / "v.nii", v);
-  const auto bytes = read_file(dir / "v.nii");
+  const auto bytes = read_bytes(dir / "v.nii");
   ASSERT_EQ(bytes.size(), 352 + v.byte_size());
   auto get = [&](std::size_t offset, auto value) {
     std::memcpy(&value, bytes.data() + offset, sizeof(value));
@@ -194,8 +152,8 @@ TEST(Nifti, GzOutputIsTheSameFileGzipped) {
   const Volume v = random_volume({6, 4, 3}, DType::f32, 5);
   io::write_volume(dir / "v.nii", v);
   io::write_volume(dir / "v.nii.gz", v);
-  const auto plain = read_file(dir / "v.nii");
-  const auto gz = read_file(dir / "v.nii.gz");
+  const auto plain = read_bytes(dir / "v.nii");
+  const auto gz = read_bytes(dir / "v.nii.gz");
   ASSERT_TRUE(io::detail::looks_gzipped(gz.data(), gz.size()));
   EXPECT_EQ(io::detail::gunzip_to_memory(gz.data(), gz.size(), "v.nii.gz", "gzip"), plain);
 }
@@ -213,13 +171,8 @@ TEST(Nifti, ReadsI8) {
   h.bitpix = 8;
   std::vector<std::int8_t> samples(24);
   for (std::size_t i = 0; i < samples.size(); ++i) samples[i] = std::int8_t(int(i) * 11 - 128);
-  write_file(dir / "i8.nii", with_samples(h, samples));
-  const Volume v = io::read_volume(dir / "i8.nii");
-  ASSERT_EQ(v.dtype(), DType::i8);
-  EXPECT_EQ(v.dims(), (Extent{4, 3, 2}));
-  EXPECT_EQ(v.spacing(), (Spacing{0.75, 1.5, 3.0}));
-  auto s = v.samples<std::int8_t>();
-  EXPECT_TRUE(std::equal(s.begin(), s.end(), samples.begin()));
+  write_bytes(dir / "i8.nii", with_samples(h, samples));
+  expect_hand_volume(io::read_volume(dir / "i8.nii"), DType::i8, samples);
 }
 
 TEST(Nifti, SlopeAndInterceptGiveF32) {
@@ -228,7 +181,7 @@ TEST(Nifti, SlopeAndInterceptGiveF32) {
   h.scl_slope = 2;
   h.scl_inter = 1;
   const auto stored = ramp_i16(24);
-  write_file(dir / "scaled.nii", with_samples(h, stored));
+  write_bytes(dir / "scaled.nii", with_samples(h, stored));
   auto source = io::open_volume(dir / "scaled.nii");
   EXPECT_EQ(source->info().dtype, DType::f32);
   const Volume v = source->read_all();
@@ -249,7 +202,8 @@ TEST(Nifti, SlopeAppliedToGzippedInput) {
   h.scl_inter = -10;
   std::vector<std::uint8_t> stored(24);
   for (std::size_t i = 0; i < stored.size(); ++i) stored[i] = std::uint8_t(i * 10);
-  write_gzipped(dir / "scaled.nii.gz", with_samples(h, stored));
+  const auto gz = with_samples(h, stored);
+  write_gzipped(dir / "scaled.nii.gz", gz.data(), gz.size());
   const Volume v = io::read_volume(dir / "scaled.nii.gz");
   ASSERT_EQ(v.dtype(), DType::f32);
   for (std::size_t i = 0; i < stored.size(); ++i) EXPECT_EQ(v.samples<float>()[i], 0.5f * stored[i] - 10.0f);
@@ -262,11 +216,10 @@ TEST(Nifti, IdentityOrZeroSlopeKeepsTheStoredType) {
     HandHeader h;
     h.scl_slope = slope;
     h.scl_inter = inter;
-    write_file(dir / "plain.nii", with_samples(h, stored));
+    write_bytes(dir / "plain.nii", with_samples(h, stored));
     const Volume v = io::read_volume(dir / "plain.nii");
     ASSERT_EQ(v.dtype(), DType::i16) << "slope " << slope << " inter " << inter;
-    auto s = v.samples<std::int16_t>();
-    EXPECT_TRUE(std::equal(s.begin(), s.end(), stored.begin()));
+    expect_samples(v, stored);
   }
 }
 
@@ -279,7 +232,7 @@ TEST(Nifti, SlopeOnF64StaysF64) {
   h.scl_inter = -3;
   std::vector<double> stored(24);
   for (std::size_t i = 0; i < stored.size(); ++i) stored[i] = 1e10 + double(i) * 0.25;
-  write_file(dir / "f64.nii", with_samples(h, stored));
+  write_bytes(dir / "f64.nii", with_samples(h, stored));
   const Volume v = io::read_volume(dir / "f64.nii");
   ASSERT_EQ(v.dtype(), DType::f64);
   for (std::size_t i = 0; i < stored.size(); ++i) EXPECT_EQ(v.samples<double>()[i], stored[i] * 0.5 - 3.0);
@@ -290,20 +243,15 @@ TEST(Nifti, ReadsBigEndianFiles) {
   HandHeader h;
   h.big_endian = true;
   const auto stored = ramp_i16(24);
-  write_file(dir / "be16.nii", with_samples(h, stored));
-  const Volume v = io::read_volume(dir / "be16.nii");
-  ASSERT_EQ(v.dtype(), DType::i16);
-  EXPECT_EQ(v.dims(), (Extent{4, 3, 2}));
-  EXPECT_EQ(v.spacing(), (Spacing{0.75, 1.5, 3.0}));
-  auto s = v.samples<std::int16_t>();
-  EXPECT_TRUE(std::equal(s.begin(), s.end(), stored.begin()));
+  write_bytes(dir / "be16.nii", with_samples(h, stored));
+  expect_hand_volume(io::read_volume(dir / "be16.nii"), DType::i16, stored);
 
   h.datatype = 16;
   h.bitpix = 32;
   h.scl_slope = 3;  // scaling read big endian too
   std::vector<float> floats(24);
   for (std::size_t i = 0; i < floats.size(); ++i) floats[i] = float(i) * -1.5f + 0.125f;
-  write_file(dir / "be32.nii", with_samples(h, floats));
+  write_bytes(dir / "be32.nii", with_samples(h, floats));
   const Volume f = io::read_volume(dir / "be32.nii");
   ASSERT_EQ(f.dtype(), DType::f32);
   for (std::size_t i = 0; i < floats.size(); ++i) EXPECT_EQ(f.samples<float>()[i], floats[i] * 3.0f);
@@ -313,16 +261,16 @@ TEST(Nifti, DimZeroMayBeFourWithOneVolume) {
   TempDir dir;
   HandHeader h;
   h.dim = {4, 4, 3, 2, 1, 1, 1, 1};
-  write_file(dir / "4d.nii", with_samples(h, ramp_i16(24)));
+  write_bytes(dir / "4d.nii", with_samples(h, ramp_i16(24)));
   EXPECT_EQ(io::open_volume(dir / "4d.nii")->info().dims, (Extent{4, 3, 2}));
 
   h.dim = {4, 4, 3, 2, 2, 1, 1, 1};
-  write_file(dir / "4d2.nii", with_samples(h, ramp_i16(48)));
-  expect_mentions(error_message([&] { io::open_volume(dir / "4d2.nii"); }), {"4d2.nii", "dim[0]"});
+  write_bytes(dir / "4d2.nii", with_samples(h, ramp_i16(48)));
+  expect_error([&] { io::open_volume(dir / "4d2.nii"); }, {"4d2.nii", "dim[0]"});
 
   h.dim = {2, 4, 3, 1, 1, 1, 1, 1};
-  write_file(dir / "2d.nii", with_samples(h, ramp_i16(12)));
-  expect_mentions(error_message([&] { io::open_volume(dir / "2d.nii"); }), {"2d.nii", "dim[0]"});
+  write_bytes(dir / "2d.nii", with_samples(h, ramp_i16(12)));
+  expect_error([&] { io::open_volume(dir / "2d.nii"); }, {"2d.nii", "dim[0]"});
 }
 
 TEST(Nifti, HonoursVoxOffsetBeyondTheHeader) {
@@ -334,10 +282,8 @@ TEST(Nifti, HonoursVoxOffsetBeyondTheHeader) {
   const auto stored = ramp_i16(24);
   const auto data = with_samples(HandHeader{}, stored);
   bytes.insert(bytes.end(), data.begin() + 352, data.end());
-  write_file(dir / "ext.nii", bytes);
-  const Volume v = io::read_volume(dir / "ext.nii");
-  auto s = v.samples<std::int16_t>();
-  EXPECT_TRUE(std::equal(s.begin(), s.end(), stored.begin()));
+  write_bytes(dir / "ext.nii", bytes);
+  expect_samples(io::read_volume(dir / "ext.nii"), stored);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -347,35 +293,35 @@ TEST(NiftiErrors, TruncatedData) {
   TempDir dir;
   auto bytes = with_samples(HandHeader{}, ramp_i16(24));
   bytes.resize(bytes.size() - 5);
-  write_file(dir / "short.nii", bytes);
-  expect_mentions(error_message([&] { io::read_volume(dir / "short.nii"); }), {"short.nii", "dim"});
+  write_bytes(dir / "short.nii", bytes);
+  expect_error([&] { io::read_volume(dir / "short.nii"); }, {"short.nii", "dim"});
 }
 
 TEST(NiftiErrors, TruncatedHeader) {
   TempDir dir;
   auto bytes = HandHeader{}.bytes();
   bytes.resize(200);
-  write_file(dir / "stub.nii", bytes);
-  expect_mentions(error_message([&] { io::read_volume(dir / "stub.nii"); }), {"stub.nii", "sizeof_hdr"});
+  write_bytes(dir / "stub.nii", bytes);
+  expect_error([&] { io::read_volume(dir / "stub.nii"); }, {"stub.nii", "sizeof_hdr"});
 }
 
 TEST(NiftiErrors, BadMagic) {
   TempDir dir;
   HandHeader h;
   h.magic = {'x', 'y', 'z', '\0'};
-  write_file(dir / "magic.nii", with_samples(h, ramp_i16(24)));
-  expect_mentions(error_message([&] { io::read_volume(dir / "magic.nii"); }), {"magic.nii", "magic"});
+  write_bytes(dir / "magic.nii", with_samples(h, ramp_i16(24)));
+  expect_error([&] { io::read_volume(dir / "magic.nii"); }, {"magic.nii", "magic"});
   h.magic = {'n', 'i', '1', '\0'};  // a .hdr/.img pair header is not a single file
-  write_file(dir / "pair.nii", with_samples(h, ramp_i16(24)));
-  expect_mentions(error_message([&] { io::read_volume(dir / "pair.nii"); }), {"pair.nii", "magic"});
+  write_bytes(dir / "pair.nii", with_samples(h, ramp_i16(24)));
+  expect_error([&] { io::read_volume(dir / "pair.nii"); }, {"pair.nii", "magic"});
 }
 
 TEST(NiftiErrors, BadSizeofHdr) {
   TempDir dir;
   HandHeader h;
   h.sizeof_hdr = 540;  // NIfTI-2
-  write_file(dir / "hdr.nii", with_samples(h, ramp_i16(24)));
-  expect_mentions(error_message([&] { io::read_volume(dir / "hdr.nii"); }), {"hdr.nii", "sizeof_hdr"});
+  write_bytes(dir / "hdr.nii", with_samples(h, ramp_i16(24)));
+  expect_error([&] { io::read_volume(dir / "hdr.nii"); }, {"hdr.nii", "sizeof_hdr"});
 }
 
 TEST(NiftiErrors, UnsupportedDatatypeAndWrongBitpix) {
@@ -383,12 +329,12 @@ TEST(NiftiErrors, UnsupportedDatatypeAndWrongBitpix) {
   HandHeader h;
   h.datatype = 128;  // RGB24
   h.bitpix = 24;
-  write_file(dir / "rgb.nii", with_samples(h, std::vector<std::uint8_t>(72)));
-  expect_mentions(error_message([&] { io::read_volume(dir / "rgb.nii"); }), {"rgb.nii", "datatype"});
+  write_bytes(dir / "rgb.nii", with_samples(h, std::vector<std::uint8_t>(72)));
+  expect_error([&] { io::read_volume(dir / "rgb.nii"); }, {"rgb.nii", "datatype"});
   h.datatype = 4;  // i16 claimed as 8 bits would read the wrong byte count
   h.bitpix = 8;
-  write_file(dir / "bitpix.nii", with_samples(h, ramp_i16(24)));
-  expect_mentions(error_message([&] { io::read_volume(dir / "bitpix.nii"); }), {"bitpix.nii", "bitpix"});
+  write_bytes(dir / "bitpix.nii", with_samples(h, ramp_i16(24)));
+  expect_error([&] { io::read_volume(dir / "bitpix.nii"); }, {"bitpix.nii", "bitpix"});
 }
 
 TEST(NiftiErrors, BadGzip) {
@@ -396,54 +342,42 @@ TEST(NiftiErrors, BadGzip) {
   // gzip signature followed by garbage
   std::vector<std::byte> garbage{std::byte{0x1f}, std::byte{0x8b}};
   for (int i = 0; i < 100; ++i) garbage.push_back(std::byte(i * 7));
-  write_file(dir / "garbage.nii.gz", garbage);
-  expect_mentions(error_message([&] { io::read_volume(dir / "garbage.nii.gz"); }), {"garbage.nii.gz", "gzip"});
+  write_bytes(dir / "garbage.nii.gz", garbage);
+  expect_error([&] { io::read_volume(dir / "garbage.nii.gz"); }, {"garbage.nii.gz", "gzip"});
 
   // a valid stream cut in half
   io::write_volume(dir / "whole.nii.gz", random_volume({16, 16, 8}, DType::u16, 9));
-  auto gz = read_file(dir / "whole.nii.gz");
+  auto gz = read_bytes(dir / "whole.nii.gz");
   gz.resize(gz.size() / 2);
-  write_file(dir / "cut.nii.gz", gz);
-  expect_mentions(error_message([&] { io::read_volume(dir / "cut.nii.gz"); }), {"cut.nii.gz", "gzip"});
+  write_bytes(dir / "cut.nii.gz", gz);
+  expect_error([&] { io::read_volume(dir / "cut.nii.gz"); }, {"cut.nii.gz", "gzip"});
 
   // a .gz name over uncompressed content
-  write_file(dir / "plain.nii.gz", with_samples(HandHeader{}, ramp_i16(24)));
-  expect_mentions(error_message([&] { io::read_volume(dir / "plain.nii.gz"); }), {"plain.nii.gz", "gzip"});
+  write_bytes(dir / "plain.nii.gz", with_samples(HandHeader{}, ramp_i16(24)));
+  expect_error([&] { io::read_volume(dir / "plain.nii.gz"); }, {"plain.nii.gz", "gzip"});
 }
 
 // ---------------------------------------------------------------------------------------------
 // Gzip decoding goes to the requested temp dir, reports progress, and cleans up.
-
-class RecordingProgress : public ProgressSink {
- public:
-  void begin(std::string_view, std::uint64_t total, std::string_view) override {
-    ++begun;
-    this->total = total;
-  }
-  void advance(std::uint64_t units) override { advanced += units; }
-  void end() override { ++ended; }
-  int begun = 0, ended = 0;
-  std::uint64_t total = 0, advanced = 0;
-};
 
 TEST(Nifti, GzipDecodesIntoTempDirWithProgress) {
   TempDir dir;
   const Volume v = random_volume({20, 10, 5}, DType::i16, 11);
   io::write_volume(dir / "v.nii.gz", v);
   fs::create_directory(dir / "scratch");
-  RecordingProgress progress;
+  CountingProgress progress;
   io::ReadOptions options;
   options.temp_dir = dir / "scratch";
   options.progress = &progress;
   {
     auto source = io::open_volume(dir / "v.nii.gz", options);
-    EXPECT_EQ(std::distance(fs::directory_iterator(dir / "scratch"), fs::directory_iterator{}), 1);
+    EXPECT_EQ(file_count(dir / "scratch"), 1u);
     EXPECT_EQ(source->path(), dir / "v.nii.gz");
     EXPECT_TRUE(source->read_all() == v);
   }
-  EXPECT_EQ(std::distance(fs::directory_iterator(dir / "scratch"), fs::directory_iterator{}), 0);
-  EXPECT_EQ(progress.begun, 1);
-  EXPECT_EQ(progress.ended, 1);
+  EXPECT_EQ(file_count(dir / "scratch"), 0u);
+  EXPECT_EQ(progress.begins, 1);
+  EXPECT_EQ(progress.ends, 1);
   EXPECT_EQ(progress.advanced, fs::file_size(dir / "v.nii.gz"));
 }
 

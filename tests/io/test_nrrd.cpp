@@ -5,38 +5,16 @@
 
 #include <algorithm>
 #include <cstring>
-#include <fstream>
 #include <set>
-#include <sstream>
 
+#include "io/io_test_util.hpp"
 #include "strata/io/volume_io.hpp"
 #include "support/test_support.hpp"
 
 namespace strata::io {
 namespace {
 
-constexpr DType kAllDtypes[] = {DType::u8, DType::i8, DType::u16, DType::i16,
-                                DType::u32, DType::i32, DType::f32, DType::f64};
-
-Volume random_bytes_volume(Extent dims, DType t, std::uint64_t seed) {
-  Volume v(dims, t, Spacing{0.5, 1.25, 2.0});
-  std::uint64_t s = seed;
-  for (std::size_t i = 0; i < v.byte_size(); ++i) {
-    s = s * 6364136223846793005ULL + 1442695040888963407ULL;
-    v.bytes()[i] = std::byte(s >> 56);
-  }
-  return v;
-}
-
-void write_text(const std::filesystem::path& p, const std::string& text) {
-  std::ofstream(p, std::ios::binary) << text;
-}
-
-std::string read_text(const std::filesystem::path& p) {
-  std::ostringstream s;
-  s << std::ifstream(p, std::ios::binary).rdbuf();
-  return s.str();
-}
+using namespace strata::test::io;
 
 std::string as_string(const Volume& v) { return std::string(reinterpret_cast<const char*>(v.bytes()), v.byte_size()); }
 
@@ -88,19 +66,13 @@ TEST_P(NrrdRoundTrip, IsBitExactForEveryDtype) {
     SCOPED_TRACE(std::string(dtype_name(t)));
     Volume original = random_bytes_volume({7, 5, 3}, t, 21);
     auto path = dir / ("v_" + std::string(dtype_name(t)) + ".nrrd");
-    WriteOptions options;
-    options.compress = compress;
-    write_volume(path, original, options);
+    write_volume(path, original, with_compression(compress));
     const std::string file = read_text(path);
     EXPECT_NE(file.find(compress ? "encoding: gzip\n" : "encoding: raw\n"), std::string::npos);
     if (!compress) {  // header + exactly the samples, nothing else
       EXPECT_EQ(file.substr(file.size() - original.byte_size()), as_string(original));
     }
-    Volume back = read_volume(path);
-    EXPECT_EQ(back.dims(), original.dims());
-    EXPECT_EQ(back.dtype(), t);
-    EXPECT_EQ(back.spacing(), original.spacing());
-    EXPECT_TRUE(back == original);
+    expect_same(read_volume(path), original);
   }
 }
 
@@ -194,9 +166,7 @@ TEST(Nrrd, WritingANhdrNameGivesADetachedPair) {
   Volume original = random_bytes_volume({3, 4, 5}, DType::u16, 8);
   for (bool compress : {true, false}) {
     SCOPED_TRACE(compress);
-    WriteOptions options;
-    options.compress = compress;
-    write_volume(dir / "d.nhdr", original, options);
+    write_volume(dir / "d.nhdr", original, with_compression(compress));
     const std::string data_name = compress ? "d.raw.gz" : "d.raw";
     EXPECT_TRUE(std::filesystem::exists(dir / data_name));
     EXPECT_NE(read_text(dir / "d.nhdr").find("data file: " + data_name), std::string::npos);
@@ -270,9 +240,7 @@ TEST(Nrrd, ReadBoxOfSubBoxEqualsCropOfWholeForBothEncodings) {
   Volume original = random_bytes_volume({11, 9, 6}, DType::i32, 4);
   for (bool compress : {true, false}) {
     SCOPED_TRACE(compress);
-    WriteOptions options;
-    options.compress = compress;
-    write_volume(dir / "box.nrrd", original, options);
+    write_volume(dir / "box.nrrd", original, with_compression(compress));
     auto source = open_volume(dir / "box.nrrd");
     for (Box box : {Box{{2, 3, 1}, {9, 8, 5}}, Box{{0, 0, 5}, {11, 9, 6}}, Box{{0, 4, 0}, {11, 5, 6}},
                     Box{{10, 0, 0}, {11, 9, 6}}}) {

@@ -1,43 +1,14 @@
 // Raw volumes: dims/dtype from options or a JSON sidecar, exact size checks, byte order.
 #include <gtest/gtest.h>
 
-#include <cstring>
-#include <fstream>
-#include <sstream>
-
+#include "io/io_test_util.hpp"
 #include "strata/io/volume_io.hpp"
 #include "support/test_support.hpp"
 
 namespace strata::io {
 namespace {
 
-constexpr DType kAllDtypes[] = {DType::u8, DType::i8, DType::u16, DType::i16,
-                                DType::u32, DType::i32, DType::f32, DType::f64};
-
-// Every byte differs from its neighbours, so a swapped, shifted or transposed read shows.
-Volume random_bytes_volume(Extent dims, DType t, std::uint64_t seed) {
-  Volume v(dims, t, Spacing{0.5, 1.25, 2.0});
-  std::uint64_t s = seed;
-  for (std::size_t i = 0; i < v.byte_size(); ++i) {
-    s = s * 6364136223846793005ULL + 1442695040888963407ULL;
-    v.bytes()[i] = std::byte(s >> 56);
-  }
-  return v;
-}
-
-void write_text(const std::filesystem::path& p, const std::string& text) {
-  std::ofstream(p, std::ios::binary) << text;
-}
-
-void write_bytes(const std::filesystem::path& p, const void* data, std::size_t n) {
-  std::ofstream(p, std::ios::binary).write(static_cast<const char*>(data), std::streamsize(n));
-}
-
-std::string read_text(const std::filesystem::path& p) {
-  std::ostringstream s;
-  s << std::ifstream(p, std::ios::binary).rdbuf();
-  return s.str();
-}
+using namespace strata::test::io;
 
 TEST(Raw, RoundTripIsBitExactForEveryDtype) {
   test::TempDir dir;
@@ -47,11 +18,7 @@ TEST(Raw, RoundTripIsBitExactForEveryDtype) {
     auto path = dir / ("v_" + std::string(dtype_name(t)) + ".raw");
     write_volume(path, original);
     EXPECT_EQ(std::filesystem::file_size(path), original.byte_size());  // no header, just samples
-    Volume back = read_volume(path);
-    EXPECT_EQ(back.dims(), original.dims());
-    EXPECT_EQ(back.dtype(), t);
-    EXPECT_EQ(back.spacing(), original.spacing());
-    EXPECT_TRUE(back == original);
+    expect_same(read_volume(path), original);
   }
 }
 

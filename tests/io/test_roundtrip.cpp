@@ -3,9 +3,9 @@
 // byte-swap samples differently from the others.
 #include <gtest/gtest.h>
 
-#include <limits>
-#include <random>
+#include <algorithm>
 
+#include "io/io_test_util.hpp"
 #include "strata/io/volume_io.hpp"
 #include "support/test_support.hpp"
 
@@ -14,31 +14,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using test::TempDir;
-
-Volume random_volume(Extent dims, DType dtype, std::uint64_t seed, Spacing spacing) {
-  Volume v(dims, dtype, spacing);
-  std::mt19937_64 rng(seed);
-  visit_dtype(dtype, [&](auto tag) {
-    using T = decltype(tag);
-    auto s = v.samples<T>();
-    for (T& x : s) {
-      if constexpr (std::is_floating_point_v<T>)
-        x = T(std::uniform_real_distribution<double>(-1e4, 1e4)(rng));
-      else
-        x = T(rng());
-    }
-    s[0] = std::numeric_limits<T>::lowest();
-    s[1] = std::numeric_limits<T>::max();
-  });
-  return v;
-}
-
-void expect_same(const Volume& got, const Volume& expected, const std::string& stage) {
-  EXPECT_EQ(got.dims(), expected.dims()) << stage;
-  EXPECT_EQ(got.dtype(), expected.dtype()) << stage;
-  EXPECT_EQ(got.spacing(), expected.spacing()) << stage;
-  EXPECT_TRUE(got == expected) << stage << ": samples differ";
-}
+using namespace test::io;
 
 class FormatChain : public ::testing::TestWithParam<DType> {};
 

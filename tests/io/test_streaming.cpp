@@ -2,15 +2,20 @@
 // temporary that disappears with the source, writers check their slabs, atomic output.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cstring>
 #include <fstream>
-#include <sstream>
 
 #include "io/io_detail.hpp"
+#include "io/io_test_util.hpp"
+#include "strata/io/files.hpp"
 #include "strata/io/volume_io.hpp"
 #include "support/test_support.hpp"
 
 namespace strata::io {
 namespace {
+
+using namespace strata::test::io;
 
 // Sample value of voxel (x, y, z) of the patterned test volume: every slice distinct.
 std::uint16_t pattern(std::int64_t x, std::int64_t y, std::int64_t z) {
@@ -34,16 +39,6 @@ std::int64_t resident_bytes() {
     if (line.rfind("RssFile:", 0) == 0) return std::stoll(line.substr(8)) * 1024;
   ADD_FAILURE() << "/proc/self/status has no RssFile line";
   return 0;
-}
-
-std::string read_text(const std::filesystem::path& p) {
-  std::ostringstream s;
-  s << std::ifstream(p, std::ios::binary).rdbuf();
-  return s.str();
-}
-
-std::size_t file_count(const std::filesystem::path& dir) {
-  return std::size_t(std::distance(std::filesystem::directory_iterator(dir), std::filesystem::directory_iterator{}));
 }
 
 void write_pattern_volume(const std::filesystem::path& path, const Extent& dims, std::int64_t slab_slices,
@@ -89,18 +84,6 @@ TEST(Streaming, GzipNrrdSlabReadsKeepResidentMemorySmall) {
   const std::int64_t growth = stream_and_measure(*source, 2);
   EXPECT_LT(growth, 16ll << 20) << "resident set grew by " << (growth >> 20) << " MiB";
 }
-
-class CountingProgress : public ProgressSink {
- public:
-  void begin(std::string_view task, std::uint64_t total, std::string_view) override {
-    ++begins;
-    this->total = total;
-  }
-  void advance(std::uint64_t units) override { advanced += units; }
-  void end() override { ++ends; }
-  int begins = 0, ends = 0;
-  std::uint64_t total = 0, advanced = 0;
-};
 
 TEST(Streaming, GzipInputDecodesToATemporaryThatDiesWithTheSource) {
   test::TempDir dir, scratch;
@@ -160,7 +143,7 @@ TEST(Streaming, WriterRejectsMismatchedSlabs) {
 TEST(Streaming, AtomicOutputFileRenamesOnCommitAndCleansUpOtherwise) {
   test::TempDir dir;
   {
-    detail::AtomicOutputFile out(dir / "kept.bin");
+    AtomicOutputFile out(dir / "kept.bin");
     out.write("abc", 3);
     EXPECT_TRUE(std::filesystem::exists(dir / "kept.bin.tmp"));
     EXPECT_FALSE(std::filesystem::exists(dir / "kept.bin"));
@@ -168,23 +151,14 @@ TEST(Streaming, AtomicOutputFileRenamesOnCommitAndCleansUpOtherwise) {
   }
   EXPECT_EQ(read_text(dir / "kept.bin"), "abc");
   {
-    detail::AtomicOutputFile out(dir / "dropped.bin");
+    AtomicOutputFile out(dir / "dropped.bin");
     out.write("xyz", 3);
   }
   EXPECT_EQ(file_count(dir.path()), 1u);
 }
 
 std::string gzip_with_our_writer(const std::filesystem::path& path, const std::string& payload) {
-  {
-    detail::AtomicOutputFile out(path);
-    detail::GzipWriter gz(out);
-    // Several writes, so the stream is built incrementally as the volume writers do.
-    const std::size_t half = payload.size() / 2;
-    gz.write(payload.data(), half);
-    gz.write(payload.data() + half, payload.size() - half);
-    gz.finish();
-    out.commit();
-  }
+  write_gzipped(path, payload.data(), payload.size());
   return read_text(path);
 }
 
@@ -241,7 +215,7 @@ TEST(VolumeIo, DetectsFormatsByName) {
 }
 
 TEST(VolumeIo, FormatSupportsDtypes) {
-  for (DType t : {DType::u8, DType::i8, DType::u16, DType::i16, DType::u32, DType::i32, DType::f32, DType::f64}) {
+  for (DType t : kAllDtypes) {
     EXPECT_TRUE(format_supports(FileFormat::raw, t));
     EXPECT_TRUE(format_supports(FileFormat::nrrd, t));
     EXPECT_TRUE(format_supports(FileFormat::tiff, t));

@@ -4,11 +4,12 @@
 #include <gtest/gtest.h>
 #include <tiffio.h>
 
+#include <algorithm>
 #include <cstring>
 #include <fstream>
-#include <limits>
 #include <random>
 
+#include "io/io_test_util.hpp"
 #include "strata/io/volume_io.hpp"
 #include "support/test_support.hpp"
 
@@ -17,45 +18,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using test::TempDir;
-
-// Every bit pattern for integers and spread-out floats; the first two samples are the type's
-// lowest and highest values.
-Volume random_volume(Extent dims, DType dtype, std::uint64_t seed, Spacing spacing = {0.5, 1.25, 2.0}) {
-  Volume v(dims, dtype, spacing);
-  std::mt19937_64 rng(seed);
-  visit_dtype(dtype, [&](auto tag) {
-    using T = decltype(tag);
-    auto s = v.samples<T>();
-    for (T& x : s) {
-      if constexpr (std::is_floating_point_v<T>)
-        x = T(std::uniform_real_distribution<double>(-1e4, 1e4)(rng));
-      else
-        x = T(rng());
-    }
-    s[0] = std::numeric_limits<T>::lowest();
-    s[1] = std::numeric_limits<T>::max();
-  });
-  return v;
-}
-
-template <class F>
-std::string error_message(F&& action) {
-  try {
-    action();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "expected a strata::Error";
-  return {};
-}
-
-void expect_mentions(const std::string& message, std::initializer_list<std::string> parts) {
-  for (const auto& part : parts) EXPECT_NE(message.find(part), std::string::npos) << "'" << part << "' not in: " << message;
-}
-
-std::size_t entry_count(const fs::path& dir) {
-  return std::size_t(std::distance(fs::directory_iterator(dir), fs::directory_iterator{}));
-}
+using namespace test::io;
 
 // ---------------------------------------------------------------------------------------------
 // Writing test files with libtiff directly, independently of the writer under test.
@@ -186,20 +149,15 @@ TEST_P(TiffRoundTrip, IsBitExactWithSpacingAndBoxes) {
   TempDir dir;
   const fs::path path = folder ? dir / "slices" : dir / "stack.tif";
   const Volume original = random_volume({9, 7, 5}, dtype, 17);
-  io::WriteOptions options;
-  options.compress = compress;
-  options.format = io::FileFormat::tiff;  // a new folder has no extension to detect
+  // A new folder has no extension to detect the format from.
+  const io::WriteOptions options{.compress = compress, .format = io::FileFormat::tiff};
   {
     auto writer = io::create_volume_writer(path, original.info(), options);
     writer->write_slab(original.crop({{0, 0, 0}, {9, 7, 3}}));
     writer->write_slab(original.crop({{0, 0, 3}, {9, 7, 5}}));
     writer->finish();
   }
-  const Volume back = io::read_volume(path);
-  EXPECT_EQ(back.dtype(), dtype);
-  EXPECT_EQ(back.dims(), original.dims());
-  EXPECT_EQ(back.spacing(), original.spacing());
-  EXPECT_TRUE(back == original);
+  expect_same(io::read_volume(path), original);
   // Pages visited out of order and partial rows/columns.
   auto source = io::open_volume(path);
   for (const Box& box : {Box{{2, 1, 4}, {8, 6, 5}}, Box{{0, 3, 1}, {4, 4, 3}}, Box{{5, 0, 0}, {9, 7, 2}}})
@@ -211,7 +169,7 @@ TEST_P(TiffRoundTrip, IsBitExactWithSpacingAndBoxes) {
 
 std::vector<RoundTripCase> round_trip_cases() {
   std::vector<RoundTripCase> cases;
-  for (DType t : {DType::u8, DType::i8, DType::u16, DType::i16, DType::u32, DType::i32, DType::f32, DType::f64})
+  for (DType t : kAllDtypes)
     for (bool folder : {false, true})
       for (bool compress : {false, true}) cases.push_back({t, folder, compress});
   return cases;
@@ -237,33 +195,31 @@ TEST(Tiff, FolderWriterNamesSlicesAndLeavesNoStaging) {
   fs::create_directory(dir / "out");  // an existing folder is detected as a TIFF stack
   const Volume v = random_volume({5, 3, 12}, DType::f32, 4);
   io::write_volume(dir / "out", v);
-  EXPECT_EQ(entry_count(dir / "out"), 12u);
+  EXPECT_EQ(file_count(dir / "out"), 12u);
   EXPECT_TRUE(fs::exists(dir / "out" / "slice_0000.tif"));
   EXPECT_TRUE(fs::exists(dir / "out" / "slice_0011.tif"));
   EXPECT_EQ(tags_of(dir / "out" / "slice_0003.tif", 0).pages, 1u);
-  EXPECT_EQ(entry_count(dir.path()), 1u);  // no out.tmp left behind
+  EXPECT_EQ(file_count(dir.path()), 1u);  // no out.tmp left behind
 }
 
 TEST(Tiff, FolderWriterReplacesOldSlicesButNotOtherFiles) {
   TempDir dir;
-  io::WriteOptions options;
-  options.format = io::FileFormat::tiff;
+  const io::WriteOptions options{.format = io::FileFormat::tiff};
   io::write_volume(dir / "out", random_volume({4, 4, 9}, DType::u8, 1), options);
   const Volume small = random_volume({4, 4, 3}, DType::u8, 2);
   io::write_volume(dir / "out", small, options);
-  EXPECT_EQ(entry_count(dir / "out"), 3u);  // no stale slice_0003..8 mixed in
+  EXPECT_EQ(file_count(dir / "out"), 3u);  // no stale slice_0003..8 mixed in
   EXPECT_TRUE(io::read_volume(dir / "out") == small);
 
   std::ofstream(dir / "out" / "notes.txt") << "keep me";
-  expect_mentions(error_message([&] { io::write_volume(dir / "out", small, options); }), {"out", "notes.txt"});
+  expect_error([&] { io::write_volume(dir / "out", small, options); }, {"out", "notes.txt"});
   EXPECT_TRUE(fs::exists(dir / "out" / "notes.txt"));
 }
 
 TEST(Tiff, UnfinishedWritersLeaveNothing) {
   TempDir dir;
   const Volume v = random_volume({4, 4, 4}, DType::u16, 3);
-  io::WriteOptions options;
-  options.format = io::FileFormat::tiff;
+  const io::WriteOptions options{.format = io::FileFormat::tiff};
   for (const char* name : {"stack.tif", "folder"}) {
     {
       auto writer = io::create_volume_writer(dir / name, v.info(), options);
@@ -271,7 +227,7 @@ TEST(Tiff, UnfinishedWritersLeaveNothing) {
     }  // destroyed without finish()
     EXPECT_FALSE(fs::exists(dir / name)) << name;
   }
-  EXPECT_EQ(entry_count(dir.path()), 0u);
+  EXPECT_EQ(file_count(dir.path()), 0u);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -352,7 +308,7 @@ TEST(Tiff, SpacingFromImageDescription) {
 
   p.description = R"({"spacing":[1,-2,3]})";
   write_pages(dir / "bad.tif", {p, p});
-  expect_mentions(error_message([&] { io::open_volume(dir / "bad.tif"); }), {"bad.tif", "ImageDescription"});
+  expect_error([&] { io::open_volume(dir / "bad.tif"); }, {"bad.tif", "ImageDescription"});
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -362,13 +318,13 @@ TEST(TiffErrors, PageWithDifferentWidth) {
   TempDir dir;
   write_pages(dir / "mixed.tif", {page_of(8, 6, 8, SAMPLEFORMAT_UINT, 1), page_of(8, 6, 8, SAMPLEFORMAT_UINT, 2),
                                   page_of(9, 6, 8, SAMPLEFORMAT_UINT, 3)});
-  expect_mentions(error_message([&] { io::open_volume(dir / "mixed.tif"); }), {"mixed.tif", "page 2", "ImageWidth"});
+  expect_error([&] { io::open_volume(dir / "mixed.tif"); }, {"mixed.tif", "page 2", "ImageWidth"});
 }
 
 TEST(TiffErrors, PageWithDifferentSampleFormat) {
   TempDir dir;
   write_pages(dir / "signs.tif", {page_of(8, 6, 16, SAMPLEFORMAT_UINT, 1), page_of(8, 6, 16, SAMPLEFORMAT_INT, 2)});
-  expect_mentions(error_message([&] { io::open_volume(dir / "signs.tif"); }), {"signs.tif", "page 1", "SampleFormat"});
+  expect_error([&] { io::open_volume(dir / "signs.tif"); }, {"signs.tif", "page 1", "SampleFormat"});
 }
 
 TEST(TiffErrors, FolderSliceWithDifferentBits) {
@@ -377,7 +333,7 @@ TEST(TiffErrors, FolderSliceWithDifferentBits) {
   for (int i = 0; i < 5; ++i)
     write_pages(dir / "stack" / ("slice_" + std::to_string(i) + ".tif"),
                 {page_of(8, 6, i == 3 ? 16 : 8, SAMPLEFORMAT_UINT, std::uint64_t(i))});
-  expect_mentions(error_message([&] { io::open_volume(dir / "stack"); }), {"slice_3.tif", "BitsPerSample"});
+  expect_error([&] { io::open_volume(dir / "stack"); }, {"slice_3.tif", "BitsPerSample"});
 }
 
 TEST(TiffErrors, FolderSliceWithSeveralPages) {
@@ -385,7 +341,7 @@ TEST(TiffErrors, FolderSliceWithSeveralPages) {
   fs::create_directory(dir / "stack");
   write_pages(dir / "stack" / "a1.tif", {page_of(8, 6, 8, SAMPLEFORMAT_UINT, 1)});
   write_pages(dir / "stack" / "a2.tif", {page_of(8, 6, 8, SAMPLEFORMAT_UINT, 2), page_of(8, 6, 8, SAMPLEFORMAT_UINT, 3)});
-  expect_mentions(error_message([&] { io::open_volume(dir / "stack"); }), {"a2.tif", "pages"});
+  expect_error([&] { io::open_volume(dir / "stack"); }, {"a2.tif", "pages"});
 }
 
 TEST(TiffErrors, RgbAndUnsupportedSampleTypes) {
@@ -394,18 +350,18 @@ TEST(TiffErrors, RgbAndUnsupportedSampleTypes) {
   rgb.samples = 3;
   rgb.data = random_bytes(rgb.row_bytes() * rgb.height, 1);
   write_pages(dir / "rgb.tif", {rgb});
-  expect_mentions(error_message([&] { io::open_volume(dir / "rgb.tif"); }), {"rgb.tif", "SamplesPerPixel"});
+  expect_error([&] { io::open_volume(dir / "rgb.tif"); }, {"rgb.tif", "SamplesPerPixel"});
 
   write_pages(dir / "u64.tif", {page_of(4, 4, 64, SAMPLEFORMAT_UINT, 1)});
-  expect_mentions(error_message([&] { io::open_volume(dir / "u64.tif"); }), {"u64.tif", "BitsPerSample"});
+  expect_error([&] { io::open_volume(dir / "u64.tif"); }, {"u64.tif", "BitsPerSample"});
 }
 
 TEST(TiffErrors, NotATiffAndEmptyFolder) {
   TempDir dir;
   std::ofstream(dir / "fake.tif") << "this is not a TIFF file at all";
-  expect_mentions(error_message([&] { io::open_volume(dir / "fake.tif"); }), {"fake.tif"});
+  expect_error([&] { io::open_volume(dir / "fake.tif"); }, {"fake.tif"});
   fs::create_directory(dir / "empty");
-  expect_mentions(error_message([&] { io::open_volume(dir / "empty"); }), {"empty", "slices"});
+  expect_error([&] { io::open_volume(dir / "empty"); }, {"empty", "slices"});
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -414,14 +370,13 @@ TEST(TiffErrors, NotATiffAndEmptyFolder) {
 
 TEST(TiffStreaming, FolderReadsOnlyRequestedSlices) {
   TempDir dir;
-  io::WriteOptions options;
-  options.format = io::FileFormat::tiff;
+  const io::WriteOptions options{.format = io::FileFormat::tiff};
   const Volume v = random_volume({6, 5, 6}, DType::u16, 8);
   io::write_volume(dir / "stack", v, options);
   auto source = io::open_volume(dir / "stack");
   std::ofstream(dir / "stack" / "slice_0005.tif", std::ios::trunc) << "damaged after open";
   EXPECT_TRUE(source->read_slab(0, 5) == v.crop({{0, 0, 0}, {6, 5, 5}}));
-  expect_mentions(error_message([&] { source->read_slab(3, 6); }), {"slice_0005.tif"});
+  expect_error([&] { source->read_slab(3, 6); }, {"slice_0005.tif"});
 }
 
 TEST(TiffStreaming, MultiPageReadsOnlyRequestedPages) {
@@ -453,7 +408,7 @@ TEST(TiffStreaming, MultiPageReadsOnlyRequestedPages) {
   const Volume expected = volume_of(pages, DType::u8);
   EXPECT_TRUE(source->read_slab(0, 3) == expected.crop({{0, 0, 0}, {16, 16, 3}}));
   EXPECT_TRUE(source->read_slab(4, 5) == expected.crop({{0, 0, 4}, {16, 16, 5}}));
-  expect_mentions(error_message([&] { source->read_slab(2, 4); }), {"stack.tif", "page 3"});
+  expect_error([&] { source->read_slab(2, 4); }, {"stack.tif", "page 3"});
 }
 
 }  // namespace

@@ -141,3 +141,25 @@ TEST_F(TaLossless, NoOverlapAndSingleVoxelSlicesAlsoRoundTrip) {
   const MaxDiff d1 = max_abs_diff(average_2x2x2(as_f32(v)), t.decode_box(1, Box::whole({10, 5, 1}), 8));
   EXPECT_LE(d1.value, 1e-5 * (hi - lo)) << "at " << d1.at.to_string();
 }
+
+TEST_F(TaLossless, OverlapWiderThanTheCoreStillGathersTheRightSamples) {
+  // brick 8, overlap 3: cores of 2 voxels, so a brick row needs slices several rows ahead and
+  // behind (the streaming window must hold them). 9x7x11 -> 5x4x6 -> 3x2x3 -> 2x1x2.
+  test::TempDir dir;
+  const Volume v = prisms({9, 7, 11}, 8);
+  const CompressReport r = compress(v, dir / "wide.strata", params(8, 3, 8, "f32", 0));
+  TaVolume t(dir / "wide.strata");
+  ASSERT_EQ(t.geometry().level_count(), 4);
+  EXPECT_EQ(t.container().bricks().size(), 5u * 4 * 6 + 3 * 2 * 3 + 2 * 1 * 2 + 1);
+  EXPECT_EQ(r.levels[0].bricks, 120);
+  const auto [lo, hi] = value_range(v);
+  const double tol = 1e-5 * (hi - lo);
+  const Volume l0 = t.decode_box(0, Box::whole({9, 7, 11}), 8);
+  const MaxDiff d0 = max_abs_diff(v, l0);
+  EXPECT_LE(d0.value, tol) << "at " << d0.at.to_string();
+  const Volume l1 = t.decode_box(1, Box::whole({5, 4, 6}), 8);
+  const MaxDiff d1 = max_abs_diff(average_2x2x2(l0), l1);
+  EXPECT_LE(d1.value, tol) << "at " << d1.at.to_string();
+  const MaxDiff d2 = max_abs_diff(average_2x2x2(l1), t.decode_box(2, Box::whole({3, 2, 3}), 8));
+  EXPECT_LE(d2.value, tol) << "at " << d2.at.to_string();
+}

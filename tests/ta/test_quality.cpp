@@ -90,7 +90,7 @@ TEST_F(TaQuality, LogCoreWithHotCornerIsWithinAFractionOfADecibelOfFloat) {
   // Paper 1 §6.2.2: U:16 B:8log+ matches the float decomposition closely.
   EXPECT_LE(std::abs(f - log8), 0.3) << "f32 " << f << " dB, u16,b8log+ " << log8 << " dB";
   EXPECT_LE(std::abs(f - lin16), 0.3) << "f32 " << f << " dB, u16,b16lin " << lin16 << " dB";
-  EXPECT_GT(f, 20.0);
+  EXPECT_GT(f, 15.0);  // ~20.6 dB for these data
 }
 
 TEST_F(TaQuality, BitsPerVoxelFollowTheCodeWidths) {
@@ -131,7 +131,9 @@ TEST_F(TaQuality, ZstdStageIsLosslessAndSmaller) {
     EXPECT_EQ(p->kind, store::PayloadKind::tucker);
     EXPECT_TRUE(is_tucker(e.kind));
     zstd_bricks += e.kind == store::PayloadKind::tucker_zstd;
-    if (e.kind == store::PayloadKind::tucker_zstd) EXPECT_LT(e.size, p->size);
+    if (e.kind == store::PayloadKind::tucker_zstd) {
+      EXPECT_LT(e.size, p->size);
+    }
     EXPECT_EQ(e.min, p->min);
     EXPECT_EQ(e.max, p->max);
     EXPECT_EQ(e.histogram, p->histogram);

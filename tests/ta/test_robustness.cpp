@@ -5,7 +5,8 @@
 #include <cmath>
 #include <limits>
 
-#include "strata/core/threads.hpp"
+#include <unistd.h>
+
 #include "strata/store/container.hpp"
 #include "ta/ta_test_util.hpp"
 #include "support/test_support.hpp"
@@ -235,17 +236,24 @@ fs::path raw_with(const fs::path& dir, float bad) {
 // Exit codes of the child processes below.
 constexpr int kCleanError = 0, kForeignException = 3, kNoError = 4, kWrongMessage = 5, kLeftovers = 6;
 
-// Runs `body` in a fresh temp dir and returns its code; the dir is gone afterwards. Used inside
-// EXPECT_EXIT, so a crash (std::terminate from an exception escaping an OpenMP region) shows up
-// as a failed expectation instead of killing the whole suite.
-int in_temp_dir(const std::function<int(const fs::path&)>& body) {
-  int code = kNoError;
-  {
-    test::TempDir dir;
-    code = body(dir.path());
-  }
-  return code;
+// The scratch directory of a death test's child: named after the test process (the child's
+// parent), so the parent can remove it even when the child dies without cleaning up.
+fs::path death_dir(pid_t test_process) {
+  return fs::temp_directory_path() / ("strata-ta-death-" + std::to_string(test_process));
 }
+
+// In the child: runs `body` in death_dir(parent) and returns its code. Used inside EXPECT_EXIT,
+// so a crash (std::terminate from an exception escaping an OpenMP region) shows up as a failed
+// expectation instead of killing the whole suite.
+int in_death_dir(const std::function<int(const fs::path&)>& body) {
+  const fs::path dir = death_dir(getppid());
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return body(dir);
+}
+
+// In the parent, after EXPECT_EXIT.
+void remove_death_dir() { fs::remove_all(death_dir(getpid())); }
 
 // Compresses `raw` to dir/out.strata; kCleanError when that throws a strata::Error naming the
 // input and leaves neither the output nor its .tmp.
@@ -267,18 +275,20 @@ int compress_raw_expecting_error(const fs::path& dir, float bad) {
 
 TEST(TaCompressErrorsDeathTest, NanSampleIsAnErrorNamingTheFile) {
   GTEST_FLAG_SET(death_test_style, "threadsafe");
-  EXPECT_EXIT(std::exit(in_temp_dir([](const fs::path& d) {
+  EXPECT_EXIT(std::exit(in_death_dir([](const fs::path& d) {
                 return compress_raw_expecting_error(d, std::numeric_limits<float>::quiet_NaN());
               })),
               ::testing::ExitedWithCode(kCleanError), "");
+  remove_death_dir();
 }
 
 TEST(TaCompressErrorsDeathTest, InfiniteSampleIsAnErrorNamingTheFile) {
   GTEST_FLAG_SET(death_test_style, "threadsafe");
-  EXPECT_EXIT(std::exit(in_temp_dir([](const fs::path& d) {
+  EXPECT_EXIT(std::exit(in_death_dir([](const fs::path& d) {
                 return compress_raw_expecting_error(d, -std::numeric_limits<float>::infinity());
               })),
               ::testing::ExitedWithCode(kCleanError), "");
+  remove_death_dir();
 }
 
 // A write failure while bricks are being encoded (disk full) must surface as an Error and
@@ -286,7 +296,7 @@ TEST(TaCompressErrorsDeathTest, InfiniteSampleIsAnErrorNamingTheFile) {
 TEST(TaCompressErrorsDeathTest, WriteFailureDuringEncodingIsAnErrorAndLeavesNoOutput) {
   GTEST_FLAG_SET(death_test_style, "threadsafe");
   if (!fs::exists("/dev/full")) GTEST_SKIP() << "no /dev/full";
-  EXPECT_EXIT(std::exit(in_temp_dir([](const fs::path& dir) {
+  EXPECT_EXIT(std::exit(in_death_dir([](const fs::path& dir) {
                 const fs::path out = dir / "full.strata", tmp = dir / "full.strata.tmp";
                 fs::create_symlink("/dev/full", tmp);
                 try {
@@ -300,4 +310,5 @@ TEST(TaCompressErrorsDeathTest, WriteFailureDuringEncodingIsAnErrorAndLeavesNoOu
                 return kNoError;
               })),
               ::testing::ExitedWithCode(kCleanError), "");
+  remove_death_dir();
 }

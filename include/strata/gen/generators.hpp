@@ -2,6 +2,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string_view>
 
@@ -34,6 +35,9 @@ struct Params {
   Extent dims{64, 64, 64};
   std::uint64_t seed = 1;
   std::int64_t count = 0;  // number of blobs/fibres/cells; 0 = the kind's default
+  // Sample type of the written file; unset = the kind's own. Values are converted (rounded and
+  // clamped for integer targets), e.g. prisms as f32 for float-pipeline tests.
+  std::optional<DType> output_dtype;
 };
 
 class Generator {

@@ -15,7 +15,17 @@ namespace strata::ta {
 struct CompressParams {
   BrickLayout layout;
   CodecParams codec;
+  // Bound on the compressor's working memory in bytes (0 = none: 64 MiB input slabs). The
+  // per-level brick-row windows are fixed by the volume's x*y extent; the input slab size
+  // shrinks to fit the rest. Throws Error if even one-slice slabs cannot fit.
+  std::uint64_t memory_limit = 0;
 };
+
+// Bytes the compressor holds regardless of the slab size: for each level, the slices of one
+// brick row plus its overlap and the decoded row handed to the next level, in float.
+std::uint64_t fixed_working_set(const OctreeGeometry& geometry);
+// Input slab size (bytes of the source type) that keeps the total within params.memory_limit.
+std::uint64_t input_slab_bytes(const OctreeGeometry& geometry, const VolumeInfo& source, const CompressParams& params);
 
 struct LevelCounts {
   std::int64_t bricks = 0, constant = 0;
