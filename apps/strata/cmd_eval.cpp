@@ -4,6 +4,7 @@
 
 #include "commands.hpp"
 #include "report.hpp"
+#include "strata/core/error.hpp"
 #include "strata/io/volume_io.hpp"
 #include "strata/ta/evaluate.hpp"
 
@@ -67,6 +68,7 @@ void print_report(const nlohmann::json& r) {
 void run_eval(const EvalArgs& args, const GlobalOptions&) {
   ta::TaVolume volume(args.compressed);
   auto original = io::open_volume(args.original);
+  if (args.rank < 0) throw Error("--rank: must be positive, got " + std::to_string(args.rank));
   const int k = args.rank > 0 ? std::min(args.rank, volume.rank()) : volume.rank();
   const nlohmann::json report = eval_json(volume, ta::storage_report(volume), ta::error_report(volume, *original, k));
   if (args.json) std::printf("%s\n", report.dump(2).c_str());

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <exception>
 
 #include "strata/core/error.hpp"
 #include "strata/core/threads.hpp"
@@ -104,6 +105,16 @@ void LevelPipeline::encode_row(std::int64_t row) {
   const std::int64_t z0 = row * l.core(), z1 = std::min(d.z, (row + 1) * l.core());
   std::vector<float> decoded_row(std::size_t((z1 - z0) * d.x * d.y));
   const std::int64_t bricks_in_row = dims_.bricks.x * dims_.bricks.y;
+  // Results are handed to the sink in brick order after the parallel loop, so the file's bytes
+  // do not depend on which thread finishes first; errors are carried out of the OpenMP region
+  // (an exception escaping it would terminate the program).
+  struct RowResult {
+    EncodedBrick encoded;
+    float min = 0, max = 0;
+    std::uint64_t histogram = 0;
+  };
+  std::vector<RowResult> results(static_cast<std::size_t>(bricks_in_row));
+  std::exception_ptr failure;
 
 #pragma omp parallel num_threads(thread_count())
   {
@@ -113,28 +124,40 @@ void LevelPipeline::encode_row(std::int64_t row) {
     DecodeScratch scratch;
 #pragma omp for schedule(dynamic)
     for (std::int64_t i = 0; i < bricks_in_row; ++i) {
-      const std::int64_t bx = i % dims_.bricks.x, by = i / dims_.bricks.x;
-      gather_samples(bx, by, row, samples);
-      const EncodedBrick encoded = encode_brick(samples, codec_);
-      const store::BrickKey key{std::uint8_t(level_), std::int32_t(bx), std::int32_t(by), std::int32_t(row)};
-      decode_brick(encoded.kind, encoded.payload, encoded.constant_value, codec_.quant, l.brick, codec_.rank,
-                   reconstructor, scratch, decoded, "compress");
-      // Culling metadata covers what a renderer may sample: original and decoded values.
-      auto [lo_it, hi_it] = std::minmax_element(decoded.begin(), decoded.end());
-      auto [slo_it, shi_it] = std::minmax_element(samples.values().begin(), samples.values().end());
-      const float lo = std::min(*lo_it, *slo_it), hi = std::max(*hi_it, *shi_it);
-      const std::uint64_t hist = histogram_bits(decoded, range_) | histogram_bits(samples.values(), range_);
-      sink_(key, encoded, lo, hi, hist);
-      // Keep the decoded core for the parent level.
-      const Box core = geometry_.brick_core_box(level_, bx, by, row);
-      for (std::int64_t z = core.lo.z; z < core.hi.z; ++z)
-        for (std::int64_t y = core.lo.y; y < core.hi.y; ++y) {
-          const std::int64_t local_z = z - (core.lo.z - l.overlap), local_y = y - (by * l.core() - l.overlap);
-          const float* src = decoded.data() + (local_z * l.brick + local_y) * l.brick + l.overlap;
-          float* dst = decoded_row.data() + ((z - z0) * d.y + y) * d.x + core.lo.x;
-          std::copy(src, src + (core.hi.x - core.lo.x), dst);
-        }
+      try {
+        const std::int64_t bx = i % dims_.bricks.x, by = i / dims_.bricks.x;
+        gather_samples(bx, by, row, samples);
+        RowResult& r = results[std::size_t(i)];
+        r.encoded = encode_brick(samples, codec_);
+        decode_brick(r.encoded.kind, r.encoded.payload, r.encoded.constant_value, codec_.quant, l.brick, codec_.rank,
+                     reconstructor, scratch, decoded, "compress");
+        // Culling metadata covers what a renderer may sample: original and decoded values.
+        auto [lo_it, hi_it] = std::minmax_element(decoded.begin(), decoded.end());
+        auto [slo_it, shi_it] = std::minmax_element(samples.values().begin(), samples.values().end());
+        r.min = std::min(*lo_it, *slo_it);
+        r.max = std::max(*hi_it, *shi_it);
+        r.histogram = histogram_bits(decoded, range_) | histogram_bits(samples.values(), range_);
+        // Keep the decoded core for the parent level.
+        const Box core = geometry_.brick_core_box(level_, bx, by, row);
+        for (std::int64_t z = core.lo.z; z < core.hi.z; ++z)
+          for (std::int64_t y = core.lo.y; y < core.hi.y; ++y) {
+            const std::int64_t local_z = z - (core.lo.z - l.overlap), local_y = y - (by * l.core() - l.overlap);
+            const float* src = decoded.data() + (local_z * l.brick + local_y) * l.brick + l.overlap;
+            float* dst = decoded_row.data() + ((z - z0) * d.y + y) * d.x + core.lo.x;
+            std::copy(src, src + (core.hi.x - core.lo.x), dst);
+          }
+      } catch (...) {
+#pragma omp critical(strata_encode_row_failure)
+        if (!failure) failure = std::current_exception();
+      }
     }
+  }
+  if (failure) std::rethrow_exception(failure);
+  for (std::int64_t i = 0; i < bricks_in_row; ++i) {
+    const std::int64_t bx = i % dims_.bricks.x, by = i / dims_.bricks.x;
+    const store::BrickKey key{std::uint8_t(level_), std::int32_t(bx), std::int32_t(by), std::int32_t(row)};
+    RowResult& r = results[std::size_t(i)];
+    sink_(key, r.encoded, r.min, r.max, r.histogram);
   }
   if (!next_) return;
   const std::size_t slice_size = std::size_t(d.x * d.y);

@@ -21,7 +21,8 @@ std::int64_t ceil_div(std::int64_t a, std::int64_t b) { return (a + b - 1) / b; 
 
 OctreeGeometry::OctreeGeometry(const Extent& volume_dims, const BrickLayout& layout) : layout_(layout) {
   layout_.validate();
-  if (volume_dims.voxel_count() <= 0) throw Error("octree: empty volume " + volume_dims.to_string());
+  if (volume_dims.x < 1 || volume_dims.y < 1 || volume_dims.z < 1)
+    throw Error("octree: every extent must be at least 1, got " + volume_dims.to_string());
   const std::int64_t core = layout_.core();
   Extent dims = volume_dims;
   while (true) {

@@ -10,19 +10,23 @@ namespace strata::ta {
 
 namespace {
 
+// `prefix` is the path of `j` inside the metadata ("metadata" or "metadata.source"), so every
+// message names the full field.
 template <class T>
-T required(const nlohmann::json& j, const char* key, const std::string& file) {
-  if (!j.contains(key)) throw FormatError(file, std::string("metadata.") + key, "missing");
+T required(const nlohmann::json& j, const char* key, const std::string& file, const std::string& prefix = "metadata") {
+  const std::string field = prefix + "." + key;
+  if (!j.is_object() || !j.contains(key)) throw FormatError(file, field, "missing");
   try {
     return j.at(key).get<T>();
   } catch (const nlohmann::json::exception&) {
-    throw FormatError(file, std::string("metadata.") + key, "has the wrong type");
+    throw FormatError(file, field, "has the wrong type");
   }
 }
 
-Extent extent_of(const nlohmann::json& j, const std::string& file, const char* field) {
-  if (!j.is_array() || j.size() != 3) throw FormatError(file, field, "expected [x, y, z]");
-  return {j[0].get<std::int64_t>(), j[1].get<std::int64_t>(), j[2].get<std::int64_t>()};
+Extent positive_extent(const std::vector<std::int64_t>& v, const std::string& file, const char* field) {
+  if (v.size() != 3 || v[0] < 1 || v[1] < 1 || v[2] < 1)
+    throw FormatError(file, field, "expected three positive extents [x, y, z]");
+  return {v[0], v[1], v[2]};
 }
 
 }  // namespace
@@ -31,15 +35,23 @@ TaVolume::TaVolume(const std::filesystem::path& path)
     : container_(std::make_unique<store::ContainerReader>(path)) {
   const std::string file = path.string();
   const nlohmann::json& m = container_->metadata();
-  if (m.value("codec", "") != "ta-bricked")
-    throw FormatError(file, "metadata.codec", "expected \"ta-bricked\", found " + m.value("codec", std::string("none")));
+  if (!m.contains("codec") || !m["codec"].is_string() || m["codec"] != "ta-bricked")
+    throw FormatError(file, "metadata.codec",
+                      "expected \"ta-bricked\", found " + (m.contains("codec") ? m["codec"].dump() : std::string("none")));
   const nlohmann::json source = required<nlohmann::json>(m, "source", file);
-  source_.dims = extent_of(source.at("dims"), file, "metadata.source.dims");
-  source_.dtype = parse_dtype(required<std::string>(source, "dtype", file), file + ": metadata.source.dtype");
-  const auto spacing = required<std::vector<double>>(source, "spacing", file);
+  const std::string src = "metadata.source";
+  source_.dims = positive_extent(required<std::vector<std::int64_t>>(source, "dims", file, src), file, "metadata.source.dims");
+  try {
+    source_.dtype = parse_dtype(required<std::string>(source, "dtype", file, src));
+  } catch (const FormatError&) {
+    throw;
+  } catch (const Error& e) {
+    throw FormatError(file, "metadata.source.dtype", e.what());
+  }
+  const auto spacing = required<std::vector<double>>(source, "spacing", file, src);
   if (spacing.size() != 3) throw FormatError(file, "metadata.source.spacing", "expected 3 values");
   source_.spacing = {spacing[0], spacing[1], spacing[2]};
-  const auto range = required<std::vector<double>>(source, "value_range", file);
+  const auto range = required<std::vector<double>>(source, "value_range", file, src);
   if (range.size() != 2) throw FormatError(file, "metadata.source.value_range", "expected [min, max]");
   value_lo_ = range[0];
   value_hi_ = range[1];
