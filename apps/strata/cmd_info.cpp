@@ -138,7 +138,7 @@ void run_info(const InfoArgs& args, const GlobalOptions& global) {
 
 void register_info(CLI::App& app, const GlobalOptions& global) {
   auto args = std::make_shared<InfoArgs>();
-  CLI::App* cmd = app.add_subcommand("info", "Show dims, dtype, spacing, value range, histogram and label statistics");
+  CLI::App* cmd = app.add_subcommand("info", "Describe a volume (dims, dtype, spacing, range, histogram, labels) or a .strata file");
   cmd->add_option("file", args->file, "Volume file (raw, .nrrd/.nhdr, .nii/.nii.gz, .tif or a folder of slices)")
       ->required();
   cmd->add_flag("--json", args->json, "Print the report as JSON");
