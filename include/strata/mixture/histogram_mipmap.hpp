@@ -1,0 +1,99 @@
+#pragma once
+// The normalised histogram mipmap H of paper §3.1 (Eq. 4). Level 0 holds unit vectors (or,
+// for fractional input, the given mixtures); level l averages the 2x2x2 children of level
+// l-1 (fewer at odd borders: N = product of the per-axis child counts, each 1 or 2, and
+// each level's size is the ceiling of half the previous), down to a 1x1x1 level.
+//
+// Representation: every level is an array of per-voxel ids into ONE table of distinct
+// mixtures shared by all levels (coarse levels repeat mixtures a lot; the factorisation then
+// works on distinct mixtures weighted by multiplicity). For single-label input the table is
+// integral (exact rationals, see MixtureTable) and level-0 ids are the source ids.
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "strata/core/progress.hpp"
+#include "strata/core/volume.hpp"
+#include "strata/mixture/label_map.hpp"
+#include "strata/mixture/mixture_table.hpp"
+
+namespace strata::mixture {
+
+// Sizes of levels 0..lmax: each the per-axis ceiling of half the previous, ending at 1x1x1.
+std::vector<Extent> mip_level_dims(Extent level0);
+
+struct MipLevel {
+  Extent dims;
+  std::vector<std::uint32_t> ids;  // x fastest; mixture ids (after factorisation: node ids)
+
+  std::size_t index(std::int64_t x, std::int64_t y, std::int64_t z) const {
+    return std::size_t((z * dims.y + y) * dims.x + x);
+  }
+};
+
+// Level 0 of a fractional segmentation, CSR: voxel v holds entries [offsets[v], offsets[v+1]).
+struct FractionalVoxels {
+  Extent dims;
+  std::uint32_t num_sources = 0;
+  std::vector<std::uint64_t> offsets{0};
+  std::vector<std::uint32_t> index;
+  std::vector<double> weight;
+};
+
+struct MipmapStats {
+  std::uint64_t voxels = 0;              // all levels
+  std::uint64_t distinct_mixtures = 0;   // table entries used
+  double nnz_per_voxel = 0.0;            // mean over all voxels of all levels
+  std::uint64_t input_pairs = 0;         // sum over distinct mixtures of C(nnz, 2)
+  std::uint64_t voxel_pairs = 0;         // sum over voxels of C(nnz, 2)
+  std::uint32_t max_nnz = 0;
+};
+
+class HistogramMipmap {
+ public:
+  HistogramMipmap() = default;
+
+  // Single-label input given as dense source ids (< num_sources). Exact (integral table).
+  static HistogramMipmap from_source_ids(Extent dims, std::vector<std::uint32_t> ids, std::uint32_t num_sources,
+                                         ProgressSink& progress = silent_progress());
+  // Convenience: to_source_ids + from_source_ids. `map` (optional) receives the label map.
+  static HistogramMipmap from_labels(const Volume& labels, LabelMap* map = nullptr,
+                                     ProgressSink& progress = silent_progress());
+  // Fractional input: each level-0 voxel is already a mixture (weights are l1-normalised
+  // per voxel; zero weights dropped). Throws Error on an empty voxel, a negative weight or
+  // an index >= num_sources.
+  static HistogramMipmap from_fractional(const FractionalVoxels& level0, ProgressSink& progress = silent_progress());
+
+  std::uint32_t num_sources() const { return table_.num_sources(); }
+  bool fractional() const { return fractional_; }
+  int level_count() const { return int(levels_.size()); }
+  int max_level() const { return int(levels_.size()) - 1; }
+  const MipLevel& level(int l) const { return levels_.at(std::size_t(l)); }
+  const std::vector<MipLevel>& levels() const { return levels_; }
+  const MixtureTable& table() const { return table_; }
+
+  std::uint32_t mixture_id(int l, std::int64_t x, std::int64_t y, std::int64_t z) const {
+    const auto& L = levels_[std::size_t(l)];
+    return L.ids[L.index(x, y, z)];
+  }
+  // The exact (up to double rounding of mass/total) normalised mixture of a voxel.
+  SparseMixture mixture(int l, std::int64_t x, std::int64_t y, std::int64_t z) const {
+    return table_.mixture(mixture_id(l, x, y, z));
+  }
+
+  MipmapStats stats() const;
+
+  // Moves the per-level arrays out, leaving only the table (level_count() becomes 0); lets
+  // factorize() remap them in place to node ids without a second copy of the largest array.
+  std::vector<MipLevel> release_levels() { return std::move(levels_); }
+
+ private:
+  void build_levels(ProgressSink& progress);
+  void count_multiplicities();
+
+  bool fractional_ = false;
+  std::vector<MipLevel> levels_;
+  MixtureTable table_;
+};
+
+}  // namespace strata::mixture

@@ -1,0 +1,244 @@
+#include "strata/mixture/histogram_mipmap.hpp"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <string>
+
+#include "strata/core/error.hpp"
+#include "strata/core/threads.hpp"
+
+namespace strata::mixture {
+
+namespace {
+
+constexpr double kExactLimit = 9007199254740992.0;  // 2^53
+
+// One parent whose children differ: its canonical mixture, waiting to be interned.
+struct Pending {
+  std::uint64_t voxel;
+  std::uint64_t offset;
+  std::uint32_t length;
+  std::uint64_t hash;
+};
+
+struct SliceBuffer {
+  std::vector<Pending> pending;
+  std::vector<std::uint32_t> index;
+  std::vector<double> mass;
+  void clear() {
+    pending.clear();
+    index.clear();
+    mass.clear();
+  }
+};
+
+// Canonical mixture of the average of `n` child mixtures (ids c[0..n), any order) into out.
+void combine_children(const MixtureTable& table, std::uint32_t* c, int n, std::vector<SparseEntry>& scratch,
+                      SliceBuffer& out, std::uint64_t voxel) {
+  for (int i = 1; i < n; ++i)  // insertion sort of <= 8 ids
+    for (int j = i; j > 0 && c[j - 1] > c[j]; --j) std::swap(c[j - 1], c[j]);
+  scratch.clear();
+  const bool integral = table.integral();
+  std::uint64_t lcm = 1;
+  if (integral) {
+    for (int i = 0; i < n; ++i) {
+      if (i > 0 && c[i] == c[i - 1]) continue;
+      lcm = std::lcm(lcm, std::uint64_t(table.total(c[i])));
+      if (double(lcm) * n > kExactLimit)
+        throw Error("histogram mipmap: exact counts exceed 2^53 (volume too large for exact rational weights)");
+    }
+  }
+  for (int i = 0; i < n;) {
+    const std::uint32_t id = c[i];
+    int r = 0;
+    while (i < n && c[i] == id) ++r, ++i;
+    const double f = integral ? double(std::uint64_t(r) * (lcm / std::uint64_t(table.total(id)))) : double(r) / table.total(id);
+    const auto ix = table.index(id);
+    const auto ms = table.mass(id);
+    for (std::size_t k = 0; k < ix.size(); ++k) scratch.push_back({ix[k], ms[k] * f});
+  }
+  std::sort(scratch.begin(), scratch.end(), [](const SparseEntry& a, const SparseEntry& b) { return a.index < b.index; });
+  const std::uint64_t offset = out.index.size();
+  for (std::size_t i = 0; i < scratch.size();) {
+    SparseEntry e = scratch[i++];
+    while (i < scratch.size() && scratch[i].index == e.index) e.weight += scratch[i++].weight;
+    out.index.push_back(e.index);
+    out.mass.push_back(e.weight);
+  }
+  const std::uint32_t length = std::uint32_t(out.index.size() - offset);
+  std::span<double> mass(out.mass.data() + offset, length);
+  MixtureTable::canonicalize(mass, integral);
+  const std::uint64_t hash = MixtureTable::hash_of({out.index.data() + offset, length}, mass);
+  out.pending.push_back({voxel, offset, length, hash});
+}
+
+}  // namespace
+
+std::vector<Extent> mip_level_dims(Extent d) {
+  if (d.x <= 0 || d.y <= 0 || d.z <= 0) throw Error("histogram mipmap: dims must be positive, got " + d.to_string());
+  std::vector<Extent> out{d};
+  while (d.x > 1 || d.y > 1 || d.z > 1) {
+    d = {(d.x + 1) / 2, (d.y + 1) / 2, (d.z + 1) / 2};
+    out.push_back(d);
+  }
+  return out;
+}
+
+HistogramMipmap HistogramMipmap::from_source_ids(Extent dims, std::vector<std::uint32_t> ids, std::uint32_t num_sources,
+                                                 ProgressSink& progress) {
+  if (std::int64_t(ids.size()) != dims.voxel_count())
+    throw Error("histogram mipmap: " + std::to_string(ids.size()) + " source ids for dims " + dims.to_string());
+  for (std::uint32_t id : ids)
+    if (id >= num_sources)
+      throw Error("histogram mipmap: source id " + std::to_string(id) + " >= number of sources " + std::to_string(num_sources));
+  HistogramMipmap h;
+  h.fractional_ = false;
+  h.table_ = MixtureTable(num_sources, true);
+  h.levels_.push_back({dims, std::move(ids)});
+  h.build_levels(progress);
+  return h;
+}
+
+HistogramMipmap HistogramMipmap::from_labels(const Volume& labels, LabelMap* map, ProgressSink& progress) {
+  SourceIds s = to_source_ids(labels);
+  const std::uint32_t n = s.map.size();
+  if (map) *map = s.map;
+  return from_source_ids(s.dims, std::move(s.ids), n, progress);
+}
+
+HistogramMipmap HistogramMipmap::from_fractional(const FractionalVoxels& in, ProgressSink& progress) {
+  const std::int64_t voxels = in.dims.voxel_count();
+  if (in.dims.x <= 0 || in.dims.y <= 0 || in.dims.z <= 0)
+    throw Error("histogram mipmap: dims must be positive, got " + in.dims.to_string());
+  if (std::int64_t(in.offsets.size()) != voxels + 1 || in.offsets.back() != in.index.size() ||
+      in.index.size() != in.weight.size())
+    throw Error("histogram mipmap: fractional input: offsets/index/weight sizes do not match dims " + in.dims.to_string());
+  HistogramMipmap h;
+  h.fractional_ = true;
+  h.table_ = MixtureTable(in.num_sources, false);
+  MipLevel l0{in.dims, std::vector<std::uint32_t>(std::size_t(voxels))};
+  std::vector<SparseEntry> e;
+  std::vector<std::uint32_t> ix;
+  std::vector<double> ms;
+  for (std::int64_t v = 0; v < voxels; ++v) {
+    e.clear();
+    for (std::uint64_t k = in.offsets[std::size_t(v)]; k < in.offsets[std::size_t(v) + 1]; ++k) {
+      if (in.index[k] >= in.num_sources)
+        throw Error("histogram mipmap: fractional input: voxel " + std::to_string(v) + ": index " +
+                    std::to_string(in.index[k]) + " >= number of sources " + std::to_string(in.num_sources));
+      e.push_back({in.index[k], in.weight[k]});
+    }
+    SparseMixture m = SparseMixture::from_entries(e);
+    if (m.empty()) throw Error("histogram mipmap: fractional input: voxel " + std::to_string(v) + " has no positive weight");
+    if (m.nnz() == 1) {
+      l0.ids[std::size_t(v)] = m[0].index;
+      continue;
+    }
+    ix.clear();
+    ms.clear();
+    for (const auto& x : m.entries()) ix.push_back(x.index), ms.push_back(x.weight);
+    MixtureTable::canonicalize(ms, false);
+    l0.ids[std::size_t(v)] = h.table_.intern(ix, ms, 0, std::uint64_t(v));
+  }
+  h.levels_.push_back(std::move(l0));
+  h.build_levels(progress);
+  return h;
+}
+
+void HistogramMipmap::build_levels(ProgressSink& progress) {
+  const auto dims = mip_level_dims(levels_[0].dims);
+  std::uint64_t total = 0;
+  for (std::size_t l = 1; l < dims.size(); ++l) total += std::uint64_t(dims[l].voxel_count());
+  ProgressTask task(progress, "histogram mipmap", total, "voxels");
+  const int nt = thread_count();
+  for (std::size_t l = 1; l < dims.size(); ++l) {
+    const Extent P = dims[l];
+    const Extent C = dims[l - 1];
+    MipLevel level{P, std::vector<std::uint32_t>(std::size_t(P.voxel_count()))};
+    const std::uint32_t* child = levels_[l - 1].ids.data();
+    // Batches of parent slices: parallel combine, then sequential interning in z order so
+    // the table (and everything downstream) is deterministic.
+    const std::int64_t batch = std::max<std::int64_t>(1, std::min<std::int64_t>(P.z, 4 * nt));
+    std::vector<SliceBuffer> buffers(static_cast<std::size_t>(batch));
+    std::string error;  // exceptions must not leave an OpenMP region
+    for (std::int64_t z0 = 0; z0 < P.z; z0 += batch) {
+      const std::int64_t z1 = std::min(P.z, z0 + batch);
+#pragma omp parallel num_threads(nt)
+      {
+        std::vector<SparseEntry> scratch;
+#pragma omp for schedule(dynamic, 1)
+        for (std::int64_t z = z0; z < z1; ++z) {
+          SliceBuffer& out = buffers[std::size_t(z - z0)];
+          out.clear();
+          const std::int64_t cz0 = 2 * z, cz1 = std::min(C.z, 2 * z + 2);
+          for (std::int64_t y = 0; y < P.y; ++y) {
+            const std::int64_t cy0 = 2 * y, cy1 = std::min(C.y, 2 * y + 2);
+            for (std::int64_t x = 0; x < P.x; ++x) {
+              const std::int64_t cx0 = 2 * x, cx1 = std::min(C.x, 2 * x + 2);
+              std::uint32_t c[8] = {};
+              int n = 0;
+              for (std::int64_t cz = cz0; cz < cz1; ++cz)
+                for (std::int64_t cy = cy0; cy < cy1; ++cy) {
+                  const std::uint32_t* row = child + (cz * C.y + cy) * C.x;
+                  for (std::int64_t cx = cx0; cx < cx1; ++cx) c[n++] = row[cx];
+                }
+              const std::uint64_t v = std::uint64_t((z * P.y + y) * P.x + x);
+              bool same = true;
+              for (int i = 1; i < n; ++i) same = same && c[i] == c[0];
+              if (same) {
+                level.ids[v] = c[0];
+              } else {
+                try {
+                  combine_children(table_, c, n, scratch, out, v);
+                } catch (const std::exception& e) {
+#pragma omp critical(strata_mixture_mipmap_error)
+                  error = e.what();
+                }
+              }
+            }
+          }
+        }
+      }
+      if (!error.empty()) throw Error(error);
+      for (std::int64_t z = z0; z < z1; ++z) {
+        const SliceBuffer& b = buffers[std::size_t(z - z0)];
+        for (const Pending& p : b.pending)
+          level.ids[p.voxel] = table_.intern({b.index.data() + p.offset, p.length}, {b.mass.data() + p.offset, p.length},
+                                             p.hash, int(l), p.voxel);
+      }
+      task.advance(std::uint64_t((z1 - z0) * P.y * P.x));
+    }
+    levels_.push_back(std::move(level));
+  }
+  count_multiplicities();
+}
+
+void HistogramMipmap::count_multiplicities() {
+  std::vector<std::uint64_t> m(table_.size(), 0);
+  for (const auto& L : levels_)
+    for (std::uint32_t id : L.ids) ++m[id];
+  table_.set_multiplicities(std::move(m));
+}
+
+MipmapStats HistogramMipmap::stats() const {
+  MipmapStats s;
+  std::uint64_t nnz_sum = 0;
+  for (std::uint32_t id = 0; id < table_.size(); ++id) {
+    const std::uint64_t mult = table_.multiplicity(id);
+    if (mult == 0) continue;
+    const std::uint64_t k = table_.nnz(id);
+    ++s.distinct_mixtures;
+    s.voxels += mult;
+    nnz_sum += mult * k;
+    s.input_pairs += k * (k - 1) / 2;
+    s.voxel_pairs += mult * (k * (k - 1) / 2);
+    s.max_nnz = std::max<std::uint32_t>(s.max_nnz, std::uint32_t(k));
+  }
+  s.nnz_per_voxel = s.voxels ? double(nnz_sum) / double(s.voxels) : 0.0;
+  return s;
+}
+
+}  // namespace strata::mixture

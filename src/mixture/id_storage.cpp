@@ -1,0 +1,251 @@
+#include "strata/mixture/id_storage.hpp"
+
+#include <algorithm>
+#include <bit>
+#include <cstring>
+#include <map>
+#include <string>
+
+#include "strata/core/error.hpp"
+#include "strata/quant/bitpack.hpp"
+
+namespace strata::mixture {
+
+namespace {
+
+static_assert(std::endian::native == std::endian::little, "id storage layout assumes a little-endian host");
+
+int bits_for(std::uint64_t distinct_values) {  // ceil(log2(n)), 0 for n <= 1
+  return distinct_values <= 1 ? 0 : int(std::bit_width(distinct_values - 1));
+}
+
+void check_ids(std::span<const std::uint32_t> ids, const Extent& dims, const char* what) {
+  if (dims.x < 1 || dims.y < 1 || dims.z < 1 || std::int64_t(ids.size()) != dims.voxel_count())
+    throw Error(std::string(what) + ": " + std::to_string(ids.size()) + " ids for dims " + dims.to_string());
+}
+
+// Minimal byte writer/reader for the serialized forms; the reader checks every length.
+struct Writer {
+  std::vector<std::byte> out;
+  template <class T> void put(T v) {
+    const auto* p = reinterpret_cast<const std::byte*>(&v);
+    out.insert(out.end(), p, p + sizeof(T));
+  }
+  void put_bytes(std::span<const std::byte> b) { out.insert(out.end(), b.begin(), b.end()); }
+};
+
+struct Reader {
+  std::span<const std::byte> in;
+  std::size_t at = 0;
+  const char* what;
+  void need(std::size_t n) const {
+    if (n > in.size() - at) throw FormatError(what, "size", "truncated at byte " + std::to_string(at));
+  }
+  template <class T> T get() {
+    need(sizeof(T));
+    T v;
+    std::memcpy(&v, in.data() + at, sizeof(T));
+    at += sizeof(T);
+    return v;
+  }
+  std::span<const std::byte> bytes(std::uint64_t n) {
+    need(std::size_t(n));
+    auto s = in.subspan(at, std::size_t(n));
+    at += std::size_t(n);
+    return s;
+  }
+};
+
+constexpr std::uint8_t kFixedTag = 1, kBlockTag = 2;
+
+Extent read_dims(Reader& r) {
+  Extent d{r.get<std::int64_t>(), r.get<std::int64_t>(), r.get<std::int64_t>()};
+  if (d.x < 1 || d.y < 1 || d.z < 1 || d.x > (1 << 24) || d.y > (1 << 24) || d.z > (1 << 24))
+    throw FormatError(r.what, "dims", "invalid extents " + d.to_string());
+  return d;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// FixedRateIds
+
+FixedRateIds::FixedRateIds(std::span<const std::uint32_t> ids, const Extent& dims) : dims_(dims) {
+  check_ids(ids, dims, "FixedRateIds");
+  const auto [lo, hi] = std::minmax_element(ids.begin(), ids.end());
+  min_ = *lo;
+  bits_ = bits_for(std::uint64_t(*hi) - *lo + 1);
+  if (bits_ == 0) return;
+  std::vector<std::uint32_t> codes(ids.size());
+  for (std::size_t i = 0; i < ids.size(); ++i) codes[i] = ids[i] - min_;
+  packed_.resize(quant::packed_size(codes.size(), bits_));
+  quant::pack_codes(codes, bits_, packed_);
+}
+
+std::uint32_t FixedRateIds::at(std::int64_t x, std::int64_t y, std::int64_t z) const {
+  if (bits_ == 0) return min_;
+  return min_ + quant::read_code(packed_.data(), bits_, std::size_t((z * dims_.y + y) * dims_.x + x));
+}
+
+std::vector<std::byte> FixedRateIds::serialize() const {
+  Writer w;
+  w.put(kFixedTag);
+  w.put(dims_.x);
+  w.put(dims_.y);
+  w.put(dims_.z);
+  w.put(min_);
+  w.put(std::uint8_t(bits_));
+  w.put(std::uint64_t(packed_.size()));
+  w.put_bytes(packed_);
+  return w.out;
+}
+
+FixedRateIds FixedRateIds::deserialize(std::span<const std::byte> bytes) {
+  Reader r{bytes, 0, "fixed-rate ids"};
+  if (r.get<std::uint8_t>() != kFixedTag) throw FormatError(r.what, "tag", "not a fixed-rate id stream");
+  FixedRateIds f;
+  f.dims_ = read_dims(r);
+  f.min_ = r.get<std::uint32_t>();
+  f.bits_ = r.get<std::uint8_t>();
+  if (f.bits_ > 32) throw FormatError(r.what, "bits", "more than 32");
+  const auto n = r.get<std::uint64_t>();
+  if (n != quant::packed_size(std::size_t(f.dims_.voxel_count()), f.bits_) && !(f.bits_ == 0 && n == 0))
+    throw FormatError(r.what, "size", "packed length does not match dims and bits");
+  auto b = r.bytes(n);
+  f.packed_.assign(b.begin(), b.end());
+  return f;
+}
+
+// ---------------------------------------------------------------------------------------------
+// BlockPaletteIds
+
+BlockPaletteIds::BlockPaletteIds(std::span<const std::uint32_t> ids, const Extent& dims) : dims_(dims) {
+  check_ids(ids, dims, "BlockPaletteIds");
+  const std::int64_t b = kBlock;
+  grid_ = {(dims.x + b - 1) / b, (dims.y + b - 1) / b, (dims.z + b - 1) / b};
+  blocks_.resize(std::size_t(grid_.voxel_count()));
+  std::map<std::vector<std::uint32_t>, std::uint32_t> palette_offsets;  // dedupe identical palettes
+  std::vector<std::uint32_t> block_ids(std::size_t(b * b * b)), codes(block_ids.size()), palette;
+  for (std::int64_t bz = 0; bz < grid_.z; ++bz)
+    for (std::int64_t by = 0; by < grid_.y; ++by)
+      for (std::int64_t bx = 0; bx < grid_.x; ++bx) {
+        // Gather the block (edge blocks repeat their last voxel so every block has b^3 entries).
+        for (std::int64_t k = 0; k < b; ++k)
+          for (std::int64_t j = 0; j < b; ++j)
+            for (std::int64_t i = 0; i < b; ++i) {
+              const std::int64_t x = std::min(bx * b + i, dims.x - 1), y = std::min(by * b + j, dims.y - 1),
+                                 z = std::min(bz * b + k, dims.z - 1);
+              block_ids[std::size_t((k * b + j) * b + i)] = ids[std::size_t((z * dims.y + y) * dims.x + x)];
+            }
+        palette = block_ids;
+        std::sort(palette.begin(), palette.end());
+        palette.erase(std::unique(palette.begin(), palette.end()), palette.end());
+        BlockHeader& h = blocks_[std::size_t((bz * grid_.y + by) * grid_.x + bx)];
+        auto [it, inserted] = palette_offsets.emplace(palette, std::uint32_t(palettes_.size()));
+        if (inserted) palettes_.insert(palettes_.end(), palette.begin(), palette.end());
+        h.palette_offset = it->second;
+        h.palette_size = std::uint32_t(palette.size());
+        h.bits = std::uint8_t(bits_for(palette.size()));
+        h.bit_offset = std::uint64_t(indices_.size()) * 8;
+        if (h.bits == 0) continue;
+        for (std::size_t v = 0; v < block_ids.size(); ++v)
+          codes[v] = std::uint32_t(std::lower_bound(palette.begin(), palette.end(), block_ids[v]) - palette.begin());
+        const std::size_t start = indices_.size();
+        indices_.resize(start + quant::packed_size(codes.size(), h.bits));
+        quant::pack_codes(codes, h.bits, std::span(indices_).subspan(start));
+      }
+}
+
+const BlockPaletteIds::BlockHeader& BlockPaletteIds::block_of(std::int64_t x, std::int64_t y, std::int64_t z) const {
+  return blocks_[std::size_t(((z / kBlock) * grid_.y + y / kBlock) * grid_.x + x / kBlock)];
+}
+
+std::uint32_t BlockPaletteIds::index_in_block(const BlockHeader& b, std::int64_t x, std::int64_t y,
+                                              std::int64_t z) const {
+  if (b.bits == 0) return 0;
+  const std::size_t local = std::size_t(((z % kBlock) * kBlock + y % kBlock) * kBlock + x % kBlock);
+  return quant::read_code(indices_.data() + b.bit_offset / 8, b.bits, local);
+}
+
+std::uint32_t BlockPaletteIds::at(std::int64_t x, std::int64_t y, std::int64_t z) const {
+  const BlockHeader& b = block_of(x, y, z);
+  return palettes_[b.palette_offset + index_in_block(b, x, y, z)];
+}
+
+std::vector<std::uint32_t> BlockPaletteIds::decode_box(const Box& box) const {
+  if (box.empty() || !Box::whole(dims_).contains(box))
+    throw Error("BlockPaletteIds::decode_box: " + box.to_string() + " is not inside " + dims_.to_string());
+  const Extent s = box.size();
+  std::vector<std::uint32_t> out(std::size_t(s.voxel_count()));
+  for (std::int64_t z = box.lo.z; z < box.hi.z; ++z)
+    for (std::int64_t y = box.lo.y; y < box.hi.y; ++y) {
+      std::uint32_t* row = out.data() + ((z - box.lo.z) * s.y + (y - box.lo.y)) * s.x;
+      for (std::int64_t x = box.lo.x; x < box.hi.x;) {
+        // One block header per run of up to 8 voxels along x.
+        const BlockHeader& b = block_of(x, y, z);
+        const std::int64_t run_end = std::min(box.hi.x, (x / kBlock + 1) * kBlock);
+        const std::uint32_t* palette = palettes_.data() + b.palette_offset;
+        for (; x < run_end; ++x) row[x - box.lo.x] = palette[index_in_block(b, x, y, z)];
+      }
+    }
+  return out;
+}
+
+std::size_t BlockPaletteIds::byte_size() const {
+  return 1 + 3 * 8 + 3 * 8 + blocks_.size() * 17 + palettes_.size() * 4 + indices_.size();
+}
+
+std::vector<std::byte> BlockPaletteIds::serialize() const {
+  Writer w;
+  w.put(kBlockTag);
+  w.put(dims_.x);
+  w.put(dims_.y);
+  w.put(dims_.z);
+  w.put(std::uint64_t(blocks_.size()));
+  w.put(std::uint64_t(palettes_.size()));
+  w.put(std::uint64_t(indices_.size()));
+  for (const BlockHeader& b : blocks_) {
+    w.put(b.palette_offset);
+    w.put(b.palette_size);
+    w.put(b.bit_offset);
+    w.put(b.bits);
+  }
+  for (std::uint32_t p : palettes_) w.put(p);
+  w.put_bytes(indices_);
+  return w.out;
+}
+
+BlockPaletteIds BlockPaletteIds::deserialize(std::span<const std::byte> bytes) {
+  Reader r{bytes, 0, "block-palette ids"};
+  if (r.get<std::uint8_t>() != kBlockTag) throw FormatError(r.what, "tag", "not a block-palette id stream");
+  BlockPaletteIds s;
+  s.dims_ = read_dims(r);
+  const std::int64_t b = kBlock;
+  s.grid_ = {(s.dims_.x + b - 1) / b, (s.dims_.y + b - 1) / b, (s.dims_.z + b - 1) / b};
+  const auto nblocks = r.get<std::uint64_t>(), npalette = r.get<std::uint64_t>(), nindex = r.get<std::uint64_t>();
+  if (nblocks != std::uint64_t(s.grid_.voxel_count())) throw FormatError(r.what, "blocks", "count does not match dims");
+  r.need(std::size_t(nblocks) * 17);
+  s.blocks_.resize(std::size_t(nblocks));
+  for (BlockHeader& h : s.blocks_) {
+    h.palette_offset = r.get<std::uint32_t>();
+    h.palette_size = r.get<std::uint32_t>();
+    h.bit_offset = r.get<std::uint64_t>();
+    h.bits = r.get<std::uint8_t>();
+  }
+  r.need(std::size_t(npalette) * 4);
+  s.palettes_.resize(std::size_t(npalette));
+  for (auto& p : s.palettes_) p = r.get<std::uint32_t>();
+  auto idx = r.bytes(nindex);
+  s.indices_.assign(idx.begin(), idx.end());
+  // Validate every block so at() never reads out of bounds.
+  const std::size_t block_voxels = std::size_t(b * b * b);
+  for (const BlockHeader& h : s.blocks_) {
+    if (h.palette_size == 0 || std::uint64_t(h.palette_offset) + h.palette_size > npalette || h.bits > 32 ||
+        h.bits != bits_for(h.palette_size) || h.bit_offset % 8 != 0 ||
+        h.bit_offset / 8 + quant::packed_size(block_voxels, h.bits) > nindex)
+      throw FormatError(r.what, "blocks", "a block header is inconsistent");
+  }
+  return s;
+}
+
+}  // namespace strata::mixture

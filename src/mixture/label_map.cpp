@@ -1,0 +1,150 @@
+#include "strata/mixture/label_map.hpp"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <limits>
+#include <string>
+
+#include "strata/core/error.hpp"
+#include "strata/core/threads.hpp"
+#include "strata/mixture/flat_hash.hpp"
+
+namespace strata::mixture {
+
+namespace {
+
+constexpr std::int64_t kNoValue = std::numeric_limits<std::int64_t>::min();
+
+struct I64Hash {
+  std::uint64_t operator()(std::int64_t k) const { return detail::mix64(std::uint64_t(k)); }
+};
+
+template <class T>
+std::vector<std::int64_t> collect_values(std::span<const T> s) {
+  if constexpr (sizeof(T) <= 2) {
+    // Small dtypes: a presence table indexed by the value.
+    constexpr std::int64_t lo = std::numeric_limits<T>::min();
+    constexpr std::size_t range = std::size_t(std::int64_t(std::numeric_limits<T>::max()) - lo + 1);
+    std::vector<unsigned char> seen(range, 0);
+    const int nt = thread_count();
+    std::vector<std::vector<unsigned char>> local(std::size_t(nt), std::vector<unsigned char>(range, 0));
+#pragma omp parallel for num_threads(nt) schedule(static)
+    for (std::int64_t i = 0; i < std::int64_t(s.size()); ++i) local[std::size_t(omp_get_thread_num())][std::size_t(std::int64_t(s[std::size_t(i)]) - lo)] = 1;
+    for (const auto& l : local)
+      for (std::size_t v = 0; v < range; ++v) seen[v] |= l[v];
+    std::vector<std::int64_t> values;
+    for (std::size_t v = 0; v < range; ++v)
+      if (seen[v]) values.push_back(std::int64_t(v) + lo);
+    return values;
+  } else {
+    const int nt = thread_count();
+    std::vector<std::vector<std::int64_t>> local(static_cast<std::size_t>(nt));
+#pragma omp parallel num_threads(nt)
+    {
+      detail::FlatMap<std::int64_t, char, I64Hash> set(kNoValue);
+      const std::int64_t n = std::int64_t(s.size());
+      const int t = omp_get_thread_num(), T_ = omp_get_num_threads();
+      const std::int64_t b = n * t / T_, e = n * (t + 1) / T_;
+      std::int64_t last = kNoValue;
+      for (std::int64_t i = b; i < e; ++i) {
+        const std::int64_t v = std::int64_t(s[std::size_t(i)]);
+        if (v == last) continue;
+        last = v;
+        set.insert(v, 0);
+      }
+      auto& out = local[std::size_t(t)];
+      set.for_each([&](std::int64_t k, char) { out.push_back(k); });
+    }
+    std::vector<std::int64_t> values;
+    for (auto& l : local) values.insert(values.end(), l.begin(), l.end());
+    std::sort(values.begin(), values.end());
+    values.erase(std::unique(values.begin(), values.end()), values.end());
+    return values;
+  }
+}
+
+template <class T>
+void assign_ids(std::span<const T> s, std::span<const std::int64_t> values, std::vector<std::uint32_t>& ids) {
+  ids.resize(s.size());
+  if constexpr (sizeof(T) <= 2) {
+    constexpr std::int64_t lo = std::numeric_limits<T>::min();
+    constexpr std::size_t range = std::size_t(std::int64_t(std::numeric_limits<T>::max()) - lo + 1);
+    std::vector<std::uint32_t> table(range, 0);
+    for (std::size_t i = 0; i < values.size(); ++i) table[std::size_t(values[i] - lo)] = std::uint32_t(i);
+#pragma omp parallel for num_threads(thread_count()) schedule(static)
+    for (std::int64_t i = 0; i < std::int64_t(s.size()); ++i) ids[std::size_t(i)] = table[std::size_t(std::int64_t(s[std::size_t(i)]) - lo)];
+  } else {
+#pragma omp parallel num_threads(thread_count())
+    {
+      const std::int64_t n = std::int64_t(s.size());
+      const int t = omp_get_thread_num(), T_ = omp_get_num_threads();
+      const std::int64_t b = n * t / T_, e = n * (t + 1) / T_;
+      std::int64_t last = kNoValue;
+      std::uint32_t last_id = 0;
+      for (std::int64_t i = b; i < e; ++i) {
+        const std::int64_t v = std::int64_t(s[std::size_t(i)]);
+        if (v != last) {
+          last = v;
+          last_id = std::uint32_t(std::lower_bound(values.begin(), values.end(), v) - values.begin());
+        }
+        ids[std::size_t(i)] = last_id;
+      }
+    }
+  }
+}
+
+}  // namespace
+
+LabelMap::LabelMap(DType dtype, std::vector<std::int64_t> values) : dtype_(dtype), values_(std::move(values)) {
+  if (!dtype_is_integer(dtype)) throw Error("label map: dtype " + std::string(dtype_name(dtype)) + " is not an integer type");
+  for (std::size_t i = 1; i < values_.size(); ++i)
+    if (values_[i - 1] >= values_[i]) throw Error("label map: values must be strictly increasing");
+  if (values_.size() > std::numeric_limits<std::uint32_t>::max() - 1)
+    throw Error("label map: more than 2^32 - 2 distinct labels");
+}
+
+std::optional<std::uint32_t> LabelMap::id_of(std::int64_t value) const {
+  auto it = std::lower_bound(values_.begin(), values_.end(), value);
+  if (it == values_.end() || *it != value) return std::nullopt;
+  return std::uint32_t(it - values_.begin());
+}
+
+Volume LabelMap::decode(std::span<const std::uint32_t> ids, Extent dims, Spacing spacing) const {
+  if (std::int64_t(ids.size()) != dims.voxel_count())
+    throw Error("label map decode: " + std::to_string(ids.size()) + " ids for dims " + dims.to_string());
+  for (std::uint32_t id : ids)
+    if (id >= values_.size())
+      throw Error("label map decode: source id " + std::to_string(id) + " out of range (" + std::to_string(values_.size()) +
+                  " labels)");
+  Volume out(dims, dtype_, spacing);
+  visit_dtype(dtype_, [&](auto tag) {
+    using T = decltype(tag);
+    if constexpr (std::is_integral_v<T>) {
+      auto s = out.samples<T>();
+#pragma omp parallel for num_threads(thread_count()) schedule(static)
+      for (std::int64_t i = 0; i < std::int64_t(ids.size()); ++i) s[std::size_t(i)] = T(values_[ids[std::size_t(i)]]);
+    }
+  });
+  return out;
+}
+
+SourceIds to_source_ids(const Volume& labels) {
+  if (!dtype_is_integer(labels.dtype()))
+    throw Error("mixture: label volume must have an integer dtype, got " + std::string(dtype_name(labels.dtype())));
+  SourceIds out;
+  out.dims = labels.dims();
+  out.spacing = labels.spacing();
+  visit_dtype(labels.dtype(), [&](auto tag) {
+    using T = decltype(tag);
+    if constexpr (std::is_integral_v<T>) {
+      auto s = labels.samples<T>();
+      std::vector<std::int64_t> values = collect_values<T>(s);
+      assign_ids<T>(s, values, out.ids);
+      out.map = LabelMap(labels.dtype(), std::move(values));
+    }
+  });
+  return out;
+}
+
+}  // namespace strata::mixture

@@ -1,0 +1,96 @@
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <random>
+
+#include "strata/core/error.hpp"
+#include "strata/mixture/id_storage.hpp"
+
+using namespace strata;
+using namespace strata::mixture;
+
+namespace {
+
+// Locally coherent ids: a few regions per 8^3 block, as segmentations have.
+std::vector<std::uint32_t> coherent_ids(const Extent& d, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::vector<std::uint32_t> ids(std::size_t(d.voxel_count()));
+  const std::uint32_t base = 1000 + rng() % 1000;
+  for (std::int64_t z = 0; z < d.z; ++z)
+    for (std::int64_t y = 0; y < d.y; ++y)
+      for (std::int64_t x = 0; x < d.x; ++x)
+        ids[std::size_t((z * d.y + y) * d.x + x)] = base + std::uint32_t((x / 13 + 3 * (y / 11) + 11 * (z / 9)) % 37);
+  return ids;
+}
+
+template <class Storage>
+void expect_all_equal(const Storage& s, const std::vector<std::uint32_t>& ids, const Extent& d) {
+  for (std::int64_t z = 0; z < d.z; ++z)
+    for (std::int64_t y = 0; y < d.y; ++y)
+      for (std::int64_t x = 0; x < d.x; ++x)
+        ASSERT_EQ(s.at(x, y, z), ids[std::size_t((z * d.y + y) * d.x + x)]) << x << "," << y << "," << z;
+}
+
+}  // namespace
+
+TEST(IdStorage, FixedRateRoundTripsAndUsesMinimalBits) {
+  const Extent d{40, 30, 20};
+  auto ids = coherent_ids(d, 1);
+  FixedRateIds f(ids, d);
+  EXPECT_EQ(f.bits(), 5);  // ids span 0..3+3*2+11*2 = 31 above the minimum -> 32 values -> 5 bits
+  expect_all_equal(f, ids, d);
+  FixedRateIds g = FixedRateIds::deserialize(f.serialize());
+  expect_all_equal(g, ids, d);
+  std::vector<std::uint32_t> constant(std::size_t(d.voxel_count()), 42);
+  FixedRateIds c(constant, d);
+  EXPECT_EQ(c.bits(), 0);
+  EXPECT_EQ(c.at(12, 8, 6), 42u);
+}
+
+TEST(IdStorage, BlockPaletteRoundTripsOnOddSizes) {
+  const Extent d{21, 17, 10};  // edge blocks are partial on every axis
+  auto ids = coherent_ids(d, 2);
+  BlockPaletteIds b(ids, d);
+  expect_all_equal(b, ids, d);
+  BlockPaletteIds c = BlockPaletteIds::deserialize(b.serialize());
+  expect_all_equal(c, ids, d);
+  EXPECT_EQ(b.serialize().size(), b.byte_size());
+  const Box box{{3, 5, 2}, {19, 16, 9}};
+  auto part = c.decode_box(box);
+  std::size_t i = 0;
+  for (std::int64_t z = box.lo.z; z < box.hi.z; ++z)
+    for (std::int64_t y = box.lo.y; y < box.hi.y; ++y)
+      for (std::int64_t x = box.lo.x; x < box.hi.x; ++x) ASSERT_EQ(part[i++], ids[std::size_t((z * d.y + y) * d.x + x)]);
+}
+
+TEST(IdStorage, BlockPaletteIsSmallForCoherentIdsAndSharesPalettes) {
+  const Extent d{64, 64, 64};
+  auto ids = coherent_ids(d, 3);
+  BlockPaletteIds b(ids, d);
+  FixedRateIds f(ids, d);
+  // Few ids per block: far below the fixed rate of 6 bits per voxel.
+  EXPECT_LT(8.0 * double(b.byte_size()) / double(d.voxel_count()), 0.6 * 8.0 * double(f.byte_size()) / double(d.voxel_count()));
+  // A uniform volume needs no index bits and one palette entry in total.
+  std::vector<std::uint32_t> uniform(std::size_t(d.voxel_count()), 7);
+  BlockPaletteIds u(uniform, d);
+  EXPECT_LT(u.byte_size(), std::size_t(512 * 17 + 200));
+  EXPECT_EQ(u.at(63, 0, 31), 7u);
+}
+
+TEST(IdStorage, CorruptStreamsAreErrors) {
+  const Extent d{16, 16, 16};
+  auto ids = coherent_ids(d, 4);
+  auto bytes = BlockPaletteIds(ids, d).serialize();
+  EXPECT_THROW(BlockPaletteIds::deserialize(std::span(bytes).first(bytes.size() - 1)), Error);
+  auto bad = bytes;
+  bad[0] = std::byte{9};
+  EXPECT_THROW(BlockPaletteIds::deserialize(bad), Error);
+  // Point a block's palette past the palette table.
+  auto wrong = bytes;
+  const std::size_t first_header = 1 + 24 + 24;
+  std::uint32_t huge = 1u << 30;
+  std::memcpy(wrong.data() + first_header, &huge, 4);
+  EXPECT_THROW(BlockPaletteIds::deserialize(wrong), Error);
+  auto fixed = FixedRateIds(ids, d).serialize();
+  EXPECT_THROW(FixedRateIds::deserialize(std::span(fixed).first(fixed.size() - 3)), Error);
+}
