@@ -83,6 +83,16 @@ nlohmann::json container_report(const std::string& file) {
   j["levels"] = levels;
   j["payload_kinds"] = kinds;
   j["sections"] = m.value("sections", nlohmann::json::object());
+  if (m.value("codec", std::string()) == "mixture-graph") {  // label volume (strata labels encode)
+    nlohmann::json g = m.value("stats", nlohmann::json::object());
+    for (const char* key : {"ids", "bits", "bins", "strategy", "tau", "fractional"})
+      if (m.contains(key)) g[key] = m[key];
+    nlohmann::json ids = nlohmann::json::array();
+    if (m.contains("levels") && m["levels"].is_array())
+      for (const auto& l : m["levels"]) ids.push_back(l.value("ids_bytes", std::uint64_t(0)));
+    g["ids_bytes"] = ids;
+    j["mixture_graph"] = g;
+  }
   if (m.contains("source") && m["source"].contains("dims")) {
     const auto& d = m["source"]["dims"];
     const double voxels = d[0].get<double>() * d[1].get<double>() * d[2].get<double>();
@@ -106,6 +116,20 @@ void print_container_report(const nlohmann::json& j) {
     std::printf("bricks:      width %d, overlap %d, rank %d, quant %s, zstd %d\n", j["brick"].get<int>(), j["overlap"].get<int>(),
                 j.value("rank", 0), j.value("quant", std::string("?")).c_str(), j.value("zstd_level", 0));
   if (j.contains("bits_per_voxel")) std::printf("size:        %.3f bits per source voxel\n", j["bits_per_voxel"].get<double>());
+  if (j.contains("mixture_graph")) {  // label volume: graph statistics instead of bricks
+    const auto& g = j["mixture_graph"];
+    std::printf("graph:       %llu nodes (%llu sources, %llu internal), depth %u\n",
+                g.value("nodes", 0ull), g.value("sources", 0ull), g.value("internal_nodes", 0ull), g.value("depth", 0u));
+    std::printf("encoding:    %s, %d weight bits (%s bins), tau %u, ids %s\n", g.value("strategy", std::string("?")).c_str(),
+                g.value("bits", 0), g.value("bins", std::string("?")).c_str(), g.value("tau", 0u),
+                g.value("ids", std::string("?")).c_str());
+    std::printf("mixtures:    %llu distinct, %llu input pairs\n", g.value("distinct_mixtures", 0ull), g.value("input_pairs", 0ull));
+    if (g.contains("max_l1_error")) std::printf("error:       max l1 %.6f\n", g["max_l1_error"].get<double>());
+    for (std::size_t l = 0; l < j["levels"].size() && l < g["ids_bytes"].size(); ++l)
+      std::printf("level %zu:     %s, ids %s\n", l, j["levels"][l].value("dims", nlohmann::json()).dump().c_str(),
+                  human_bytes(g["ids_bytes"][l].get<std::uint64_t>()).c_str());
+    return;
+  }
   for (std::size_t l = 0; l < j["levels"].size(); ++l) {
     const auto& lv = j["levels"][l];
     std::printf("level %zu:     %s, %llu bricks (%llu constant), %s\n", l, lv.value("dims", nlohmann::json()).dump().c_str(),

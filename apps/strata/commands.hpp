@@ -24,6 +24,7 @@ void register_compare(CLI::App& app, const GlobalOptions& global);
 void register_compress(CLI::App& app, const GlobalOptions& global);
 void register_decompress(CLI::App& app, const GlobalOptions& global);
 void register_eval(CLI::App& app, const GlobalOptions& global);
+void register_labels(CLI::App& app, const GlobalOptions& global);
 void register_demo(CLI::App& app, const GlobalOptions& global);
 
 }  // namespace strata::cli

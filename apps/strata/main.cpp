@@ -24,6 +24,7 @@ int main(int argc, char** argv) {
   cli::register_compress(app, global);
   cli::register_decompress(app, global);
   cli::register_eval(app, global);
+  cli::register_labels(app, global);
   cli::register_demo(app, global);
 
   try {

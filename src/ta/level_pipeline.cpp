@@ -2,10 +2,19 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <exception>
+#include <span>
+
+#include <immintrin.h>
 
 #include "strata/core/error.hpp"
 #include "strata/core/threads.hpp"
+#include "strata/tensor/reconstruct.hpp"
+
+// The statistics kernels below pass vectors by value between always-inlined helpers of
+// target-attributed functions; the ABI note about vector arguments does not apply.
+#pragma GCC diagnostic ignored "-Wpsabi"
 
 namespace strata::ta {
 
@@ -13,30 +22,154 @@ namespace {
 
 std::int64_t clamp_index(std::int64_t i, std::int64_t n) { return std::min(std::max<std::int64_t>(i, 0), n - 1); }
 
-// Bit i set when some value falls into bin i of 64 equal bins over [lo, hi].
-std::uint64_t histogram_bits(std::span<const float> values, const HistogramRange& range) {
-  const double scale = range.hi > range.lo ? 64.0 / (range.hi - range.lo) : 0.0;
+// ---- Culling statistics of a brick ----------------------------------------------------------
+// Min, max and the 64-bin occupancy bits (bit i set when some value falls into bin i of 64 equal
+// bins over [lo, hi]) of a brick's samples and decoded values: two passes over 32K floats per
+// brick, so they are vectorised and compiled per ISA like the tensor kernels. The bin of v is
+// trunc((double(v) - lo) * scale) clamped to [0, 63]: clamping the double before the conversion
+// gives the same bin for every finite value and maps NaN to bin 0, as the scalar code does.
+
+struct BrickStats {
+  float lo = 0, hi = 0;
   std::uint64_t bits = 0;
-  for (float v : values) {
-    const auto bin = std::int64_t((double(v) - range.lo) * scale);
-    bits |= std::uint64_t(1) << std::clamp<std::int64_t>(bin, 0, 63);
-  }
-  return bits;
+};
+
+struct BinScale {
+  double lo = 0, scale = 0;
+  explicit BinScale(const HistogramRange& r) : lo(r.lo), scale(r.hi > r.lo ? 64.0 / (r.hi - r.lo) : 0.0) {}
+};
+
+inline int bin_of(float v, const BinScale& s) {
+  const double x = (double(v) - s.lo) * s.scale;
+  return !(x >= 0) ? 0 : x < 63 ? int(x) : 63;
 }
 
+// Scalar reference and tail.
+inline void accumulate_scalar(const float* v, std::size_t n, const BinScale& s, BrickStats& st) {
+  for (std::size_t i = 0; i < n; ++i) {
+    st.lo = std::min(st.lo, v[i]);
+    st.hi = std::max(st.hi, v[i]);
+    st.bits |= std::uint64_t(1) << bin_of(v[i], s);
+  }
+}
+
+// Vector types of VW lanes (a dependent typedef inside a template drops vector_size).
+template <class T, int VW>
+struct VecOf {
+  typedef T type __attribute__((vector_size(VW * sizeof(T))));
+};
+
+// VW values per step: floats in one vector, their doubles and 64-bit bin masks in another.
+template <int VW>
+[[gnu::always_inline]] inline void accumulate_vector(const float* v, std::size_t n, const BinScale& s,
+                                                     BrickStats& st) {
+  using VF = typename VecOf<float, VW>::type;
+  using VD = typename VecOf<double, VW>::type;
+  using VI = typename VecOf<std::int32_t, VW>::type;
+  using VL = typename VecOf<std::int64_t, VW>::type;
+  if (n < VW) return accumulate_scalar(v, n, s, st);
+  VF vmin, vmax;
+  __builtin_memcpy(&vmin, v, sizeof(VF));
+  vmax = vmin;
+  VL bits{};
+  const VL one = VL{} + 1;
+  const VD zero{}, top = VD{} + 63.0;
+  std::size_t i = 0;
+  for (; i + VW <= n; i += VW) {
+    VF f;
+    __builtin_memcpy(&f, v + i, sizeof(VF));
+    vmin = f < vmin ? f : vmin;
+    vmax = f > vmax ? f : vmax;
+    VD x = (__builtin_convertvector(f, VD) - s.lo) * s.scale;
+    x = x >= zero ? x : zero;  // also NaN -> 0
+    x = x < top ? x : top;
+    bits |= one << __builtin_convertvector(__builtin_convertvector(x, VI), VL);
+  }
+  for (int l = 0; l < VW; ++l) {
+    st.lo = std::min(st.lo, vmin[l]);
+    st.hi = std::max(st.hi, vmax[l]);
+    st.bits |= std::uint64_t(bits[l]);
+  }
+  accumulate_scalar(v + i, n - i, s, st);
+}
+
+void stats_generic(const float* v, std::size_t n, const BinScale& s, BrickStats& st) {
+  accumulate_scalar(v, n, s, st);
+}
+__attribute__((target("avx2,fma"))) void stats_avx2(const float* v, std::size_t n, const BinScale& s,
+                                                     BrickStats& st) {
+  accumulate_vector<4>(v, n, s, st);
+}
+// AVX-512 with intrinsics: GCC splits the generic float-to-double conversion into halves.
+// The bits of the bins of 8 values; max(x, 0) returns 0 for NaN (its second operand), then
+// min(., 63) leaves a bin index in [0, 63].
+__attribute__((target("avx512f,avx512vl,avx2,fma"), always_inline)) inline __m512i bin_bits_avx512(
+    __m256 f, __m512d lo, __m512d scale) {
+  __m512d x = _mm512_mul_pd(_mm512_sub_pd(_mm512_cvtps_pd(f), lo), scale);
+  x = _mm512_min_pd(_mm512_max_pd(x, _mm512_setzero_pd()), _mm512_set1_pd(63.0));
+  return _mm512_sllv_epi64(_mm512_set1_epi64(1), _mm512_cvtepi32_epi64(_mm512_cvttpd_epi32(x)));
+}
+
+__attribute__((target("avx512f,avx512vl,avx2,fma"))) void stats_avx512(const float* v, std::size_t n,
+                                                                        const BinScale& s, BrickStats& st) {
+  if (n < 16) return accumulate_scalar(v, n, s, st);
+  const __m512d lo = _mm512_set1_pd(s.lo), scale = _mm512_set1_pd(s.scale);
+  __m512i bits0 = _mm512_setzero_si512(), bits1 = _mm512_setzero_si512();
+  __m512 vmin = _mm512_loadu_ps(v), vmax = vmin;
+  std::size_t i = 0;
+  for (; i + 16 <= n; i += 16) {
+    const __m512 f = _mm512_loadu_ps(v + i);
+    vmin = _mm512_min_ps(vmin, f);
+    vmax = _mm512_max_ps(vmax, f);
+    bits0 = _mm512_or_si512(bits0, bin_bits_avx512(_mm256_loadu_ps(v + i), lo, scale));
+    bits1 = _mm512_or_si512(bits1, bin_bits_avx512(_mm256_loadu_ps(v + i + 8), lo, scale));
+  }
+  st.lo = std::min(st.lo, _mm512_reduce_min_ps(vmin));
+  st.hi = std::max(st.hi, _mm512_reduce_max_ps(vmax));
+  st.bits |= std::uint64_t(_mm512_reduce_or_epi64(_mm512_or_si512(bits0, bits1)));
+  accumulate_scalar(v + i, n - i, s, st);
+}
+
+using StatsFn = void (*)(const float*, std::size_t, const BinScale&, BrickStats&);
+
+StatsFn stats_kernel() {
+  static const StatsFn fn = [] {
+    switch (best_kernel_isa()) {
+      case KernelIsa::avx512: return stats_avx512;
+      case KernelIsa::avx2: return stats_avx2;
+      default: return stats_generic;
+    }
+  }();
+  return fn;
+}
+
+// Min, max and histogram bits over both spans (each non-empty).
+BrickStats brick_stats(std::span<const float> a, std::span<const float> b, const HistogramRange& range) {
+  const BinScale s(range);
+  BrickStats st{a[0], a[0], 0};
+  const StatsFn fn = stats_kernel();
+  fn(a.data(), a.size(), s, st);
+  fn(b.data(), b.size(), s, st);
+  return st;
+}
+
+// ---- Downsampling for the next level --------------------------------------------------------
+
 // 2x2 averages in x and y; an odd last column/row averages with itself.
-std::vector<float> downsample_xy(const std::vector<float>& slice, const Extent& dims) {
+void downsample_xy(const float* slice, const Extent& dims, float* out) {
   const Extent half = half_extent(dims);
-  std::vector<float> out(std::size_t(half.x * half.y));
   for (std::int64_t y = 0; y < half.y; ++y) {
-    const float* r0 = slice.data() + 2 * y * dims.x;
-    const float* r1 = slice.data() + std::min(2 * y + 1, dims.y - 1) * dims.x;
-    for (std::int64_t x = 0; x < half.x; ++x) {
-      const std::int64_t x0 = 2 * x, x1 = std::min(2 * x + 1, dims.x - 1);
-      out[std::size_t(y * half.x + x)] = 0.25f * (r0[x0] + r0[x1] + r1[x0] + r1[x1]);
+    const float* r0 = slice + 2 * y * dims.x;
+    const float* r1 = slice + std::min(2 * y + 1, dims.y - 1) * dims.x;
+    float* o = out + y * half.x;
+    const std::int64_t pairs = dims.x / 2;  // columns with a partner
+    for (std::int64_t x = 0; x < pairs; ++x)
+      o[x] = 0.25f * (r0[2 * x] + r0[2 * x + 1] + r1[2 * x] + r1[2 * x + 1]);
+    if (pairs < half.x) {
+      const std::int64_t x0 = dims.x - 1;
+      o[pairs] = 0.25f * (r0[x0] + r0[x0] + r1[x0] + r1[x0]);
     }
   }
-  return out;
 }
 
 }  // namespace
@@ -88,13 +221,79 @@ void LevelPipeline::gather_samples(std::int64_t bx, std::int64_t by, std::int64_
   const Box box = geometry_.brick_sample_box(level_, bx, by, bz);
   const Extent& d = dims_.dims;
   const std::int64_t b = geometry_.layout().brick;
+  // Columns [i0, i1) of the brick lie inside the level and are copied as a block; the others
+  // repeat the edge voxel.
+  const std::int64_t i0 = std::clamp<std::int64_t>(-box.lo.x, 0, b), i1 = std::clamp<std::int64_t>(d.x - box.lo.x, i0, b);
+  // The B^2 source rows are short pieces of B floats spread over B slices of the level: mostly
+  // cache misses. Their addresses are known up front, so each row is prefetched a few rows
+  // ahead of its copy and the misses overlap instead of queueing one after the other.
+  thread_local std::vector<const float*> rows;
+  rows.resize(std::size_t(b * b));
   for (std::int64_t k = 0; k < b; ++k) {
-    const std::int64_t z = clamp_index(box.lo.z + k, d.z);
-    const std::vector<float>& slice = window_.at(std::size_t(z - window_z0_));
-    for (std::int64_t j = 0; j < b; ++j) {
-      const float* row = slice.data() + clamp_index(box.lo.y + j, d.y) * d.x;
-      float* dst = &out(0, j, k);
-      for (std::int64_t i = 0; i < b; ++i) dst[i] = row[clamp_index(box.lo.x + i, d.x)];
+    const std::vector<float>& slice = window_.at(std::size_t(clamp_index(box.lo.z + k, d.z) - window_z0_));
+    for (std::int64_t j = 0; j < b; ++j)
+      rows[std::size_t(k * b + j)] = slice.data() + clamp_index(box.lo.y + j, d.y) * d.x;
+  }
+  constexpr std::int64_t kAhead = 12;
+  const std::int64_t count = b * b, bytes = (i1 - i0) * std::int64_t(sizeof(float));
+  auto prefetch = [&](std::int64_t r) {
+    const char* p = reinterpret_cast<const char*>(rows[std::size_t(r)] + (box.lo.x + i0));
+    for (std::int64_t offset = 0; offset < bytes; offset += 64) __builtin_prefetch(p + offset);
+    __builtin_prefetch(p + bytes - 1);
+  };
+  for (std::int64_t r = 0; r < std::min(kAhead, count); ++r) prefetch(r);
+  for (std::int64_t r = 0; r < count; ++r) {
+    if (r + kAhead < count) prefetch(r + kAhead);
+    const float* row = rows[std::size_t(r)];
+    float* dst = out.data() + r * b;
+    for (std::int64_t i = 0; i < i0; ++i) dst[i] = row[0];
+    std::memcpy(dst + i0, row + (box.lo.x + i0), std::size_t(i1 - i0) * sizeof(float));
+    for (std::int64_t i = i1; i < b; ++i) dst[i] = row[d.x - 1];
+  }
+}
+
+void LevelPipeline::downsample_core(std::span<const float> decoded, std::int64_t bx, std::int64_t by,
+                                    std::int64_t bz) {
+  const BrickLayout& l = geometry_.layout();
+  const Extent& d = dims_.dims;
+  const Extent half = half_extent(d);
+  const Box core = geometry_.brick_core_box(level_, bx, by, bz);
+  const std::int64_t b = l.brick;
+  // Brick-local index of level voxel (x, y, z).
+  const std::int64_t ox = core.lo.x - l.overlap, oy = core.lo.y - l.overlap, oz = core.lo.z - l.overlap;
+  auto at = [&](std::int64_t x, std::int64_t y, std::int64_t z) {
+    return decoded.data() + ((z - oz) * b + (y - oy)) * b + (x - ox);
+  };
+  const std::int64_t hz0 = bz * l.core() / 2;  // first half slice of this row
+  // Same arithmetic, in the same order, as downsample_xy followed by the pair average.
+  for (std::int64_t hz = core.lo.z / 2; hz < (core.hi.z + 1) / 2; ++hz) {
+    const std::int64_t za = 2 * hz, zb = 2 * hz + 1;
+    const bool pair = zb < d.z;  // an odd last slice stands for itself
+    float* out_slice = next_slices_.data() + (hz - hz0) * half.x * half.y;
+    for (std::int64_t hy = core.lo.y / 2; hy < (core.hi.y + 1) / 2; ++hy) {
+      const std::int64_t ya = 2 * hy, yb = std::min(2 * hy + 1, d.y - 1);
+      const float *a0 = at(0, ya, za), *a1 = at(0, yb, za);
+      const float *b0 = at(0, ya, pair ? zb : za), *b1 = at(0, yb, pair ? zb : za);
+      float* o = out_slice + hy * half.x;
+      const std::int64_t hx0 = core.lo.x / 2, pairs_end = core.lo.x / 2 + (core.hi.x - core.lo.x) / 2;
+      if (pair) {
+        for (std::int64_t hx = hx0; hx < pairs_end; ++hx) {
+          const std::int64_t x = 2 * hx;
+          const float h0 = 0.25f * (a0[x] + a0[x + 1] + a1[x] + a1[x + 1]);
+          const float h1 = 0.25f * (b0[x] + b0[x + 1] + b1[x] + b1[x + 1]);
+          o[hx] = 0.5f * (h0 + h1);
+        }
+      } else {
+        for (std::int64_t hx = hx0; hx < pairs_end; ++hx) {
+          const std::int64_t x = 2 * hx;
+          o[hx] = 0.25f * (a0[x] + a0[x + 1] + a1[x] + a1[x + 1]);
+        }
+      }
+      if (pairs_end < (core.hi.x + 1) / 2) {  // odd last column (level edge): averages with itself
+        const std::int64_t x = d.x - 1;
+        const float h0 = 0.25f * (a0[x] + a0[x] + a1[x] + a1[x]);
+        o[pairs_end] = pair ? 0.5f * (h0 + 0.25f * (b0[x] + b0[x] + b1[x] + b1[x])) : h0;
+      }
     }
   }
 }
@@ -103,15 +302,19 @@ void LevelPipeline::encode_row(std::int64_t row) {
   const BrickLayout& l = geometry_.layout();
   const Extent& d = dims_.dims;
   const std::int64_t z0 = row * l.core(), z1 = std::min(d.z, (row + 1) * l.core());
-  std::vector<float> decoded_row(std::size_t((z1 - z0) * d.x * d.y));
+  // Buffers for the next level are kept between rows (no page faults for a fresh multi-megabyte
+  // allocation per row) and need no clearing: every voxel lies in exactly one brick core.
+  const bool per_brick = next_ && l.core() % 2 == 0;
+  const Extent half = half_extent(d);
+  if (per_brick) next_slices_.resize(std::size_t((z1 - z0 + 1) / 2 * half.x * half.y));
+  else if (next_) decoded_row_.resize(std::size_t((z1 - z0) * d.x * d.y));
   const std::int64_t bricks_in_row = dims_.bricks.x * dims_.bricks.y;
   // Results are handed to the sink in brick order after the parallel loop, so the file's bytes
   // do not depend on which thread finishes first; errors are carried out of the OpenMP region
   // (an exception escaping it would terminate the program).
   struct RowResult {
     EncodedBrick encoded;
-    float min = 0, max = 0;
-    std::uint64_t histogram = 0;
+    BrickStats stats;
   };
   std::vector<RowResult> results(static_cast<std::size_t>(bricks_in_row));
   std::exception_ptr failure;
@@ -129,23 +332,28 @@ void LevelPipeline::encode_row(std::int64_t row) {
         gather_samples(bx, by, row, samples);
         RowResult& r = results[std::size_t(i)];
         r.encoded = encode_brick(samples, codec_);
-        decode_brick(r.encoded.kind, r.encoded.payload, r.encoded.constant_value, codec_.quant, l.brick, codec_.rank,
-                     reconstructor, scratch, decoded, "compress");
-        // Culling metadata covers what a renderer may sample: original and decoded values.
-        auto [lo_it, hi_it] = std::minmax_element(decoded.begin(), decoded.end());
-        auto [slo_it, shi_it] = std::minmax_element(samples.values().begin(), samples.values().end());
-        r.min = std::min(*lo_it, *slo_it);
-        r.max = std::max(*hi_it, *shi_it);
-        r.histogram = histogram_bits(decoded, range_) | histogram_bits(samples.values(), range_);
-        // Keep the decoded core for the parent level.
-        const Box core = geometry_.brick_core_box(level_, bx, by, row);
-        for (std::int64_t z = core.lo.z; z < core.hi.z; ++z)
-          for (std::int64_t y = core.lo.y; y < core.hi.y; ++y) {
-            const std::int64_t local_z = z - (core.lo.z - l.overlap), local_y = y - (by * l.core() - l.overlap);
-            const float* src = decoded.data() + (local_z * l.brick + local_y) * l.brick + l.overlap;
-            float* dst = decoded_row.data() + ((z - z0) * d.y + y) * d.x + core.lo.x;
-            std::copy(src, src + (core.hi.x - core.lo.x), dst);
-          }
+        // Culling metadata covers what a renderer may sample: original and decoded values. A
+        // constant brick decodes to its value, which is also every sample.
+        const bool constant = r.encoded.kind == store::PayloadKind::constant;
+        if (!constant || next_)
+          decode_brick(r.encoded.kind, r.encoded.payload, r.encoded.constant_value, codec_.quant, l.brick,
+                       codec_.rank, reconstructor, scratch, decoded, "compress");
+        const float c = r.encoded.constant_value;
+        r.stats = constant ? brick_stats(std::span(&c, 1), std::span(&c, 1), range_)
+                           : brick_stats(decoded, samples.values(), range_);
+        if (per_brick) {
+          downsample_core(decoded, bx, by, row);
+        } else if (next_) {
+          // Keep the decoded core for the parent level.
+          const Box core = geometry_.brick_core_box(level_, bx, by, row);
+          for (std::int64_t z = core.lo.z; z < core.hi.z; ++z)
+            for (std::int64_t y = core.lo.y; y < core.hi.y; ++y) {
+              const std::int64_t local_z = z - (core.lo.z - l.overlap), local_y = y - (by * l.core() - l.overlap);
+              const float* src = decoded.data() + (local_z * l.brick + local_y) * l.brick + l.overlap;
+              float* dst = decoded_row_.data() + ((z - z0) * d.y + y) * d.x + core.lo.x;
+              std::memcpy(dst, src, std::size_t(core.hi.x - core.lo.x) * sizeof(float));
+            }
+        }
       } catch (...) {
 #pragma omp critical(strata_encode_row_failure)
         if (!failure) failure = std::current_exception();
@@ -157,26 +365,42 @@ void LevelPipeline::encode_row(std::int64_t row) {
     const std::int64_t bx = i % dims_.bricks.x, by = i / dims_.bricks.x;
     const store::BrickKey key{std::uint8_t(level_), std::int32_t(bx), std::int32_t(by), std::int32_t(row)};
     RowResult& r = results[std::size_t(i)];
-    sink_(key, r.encoded, r.min, r.max, r.histogram);
+    sink_(key, r.encoded, r.stats.lo, r.stats.hi, r.stats.bits);
   }
-  if (!next_) return;
-  const std::size_t slice_size = std::size_t(d.x * d.y);
-  for (std::int64_t z = z0; z < z1; ++z)
-    emit_decoded_slice(std::vector<float>(decoded_row.begin() + std::ptrdiff_t((z - z0) * slice_size),
-                                          decoded_row.begin() + std::ptrdiff_t((z - z0 + 1) * slice_size)));
+  if (per_brick) {
+    const std::size_t half_size = std::size_t(half.x * half.y);
+    for (std::int64_t hz = 0; hz < (z1 - z0 + 1) / 2; ++hz) {
+      const float* s = next_slices_.data() + std::size_t(hz) * half_size;
+      next_->push_slice(std::vector<float>(s, s + half_size));
+    }
+    decoded_slices_ += z1 - z0;
+  } else if (next_) {
+    emit_decoded_slices(z0, z1);
+  }
 }
 
-void LevelPipeline::emit_decoded_slice(std::vector<float> slice) {
-  std::vector<float> half = downsample_xy(slice, dims_.dims);
-  ++decoded_slices_;
-  if (pending_decoded_.empty()) {
-    pending_decoded_ = std::move(half);
-    // An odd last slice has no partner: it stands for itself in the coarser level.
-    if (decoded_slices_ == dims_.dims.z) next_->push_slice(std::exchange(pending_decoded_, {}));
-    return;
+// Slice pairs (2k, 2k + 1) of this level become slice k of the next: each slice is averaged 2x2
+// in x and y, then the pair is averaged; an odd last slice stands for itself. A pair may straddle
+// two rows when the core width is odd, hence pending_decoded_.
+void LevelPipeline::emit_decoded_slices(std::int64_t z0, std::int64_t z1) {
+  const Extent& d = dims_.dims;
+  const Extent half = half_extent(d);
+  const std::size_t slice_size = std::size_t(d.x * d.y), half_size = std::size_t(half.x * half.y);
+  std::vector<float> h(half_size);
+  for (std::int64_t z = z0; z < z1; ++z) {
+    const float* slice = decoded_row_.data() + std::size_t(z - z0) * slice_size;
+    ++decoded_slices_;
+    if (pending_decoded_.empty()) {
+      pending_decoded_.resize(half_size);
+      downsample_xy(slice, d, pending_decoded_.data());
+      // An odd last slice has no partner: it stands for itself in the coarser level.
+      if (decoded_slices_ == d.z) next_->push_slice(std::exchange(pending_decoded_, {}));
+      continue;
+    }
+    downsample_xy(slice, d, h.data());
+    for (std::size_t i = 0; i < half_size; ++i) pending_decoded_[i] = 0.5f * (pending_decoded_[i] + h[i]);
+    next_->push_slice(std::exchange(pending_decoded_, {}));
   }
-  for (std::size_t i = 0; i < half.size(); ++i) pending_decoded_[i] = 0.5f * (pending_decoded_[i] + half[i]);
-  next_->push_slice(std::exchange(pending_decoded_, {}));
 }
 
 }  // namespace strata::ta

@@ -8,6 +8,7 @@
 #include <deque>
 #include <functional>
 #include <memory>
+#include <span>
 #include <vector>
 
 #include "strata/store/container.hpp"
@@ -38,7 +39,11 @@ class LevelPipeline {
   bool row_ready(std::int64_t row) const;
   void encode_row(std::int64_t row);
   void gather_samples(std::int64_t bx, std::int64_t by, std::int64_t bz, Tensor3& out) const;
-  void emit_decoded_slice(std::vector<float> slice);
+  // Feeds decoded slices [z0, z1) (in decoded_row_) to `next` as 2x2x2 averages.
+  void emit_decoded_slices(std::int64_t z0, std::int64_t z1);
+  // With an even core width every 2x2x2 block lies in one brick core: the brick writes its share
+  // of the next level's slices (next_slices_) directly from its decoded voxels.
+  void downsample_core(std::span<const float> decoded, std::int64_t bx, std::int64_t by, std::int64_t bz);
   void drop_unneeded_slices(std::int64_t next_row);
 
   const OctreeGeometry& geometry_;
@@ -51,7 +56,9 @@ class LevelPipeline {
 
   std::deque<std::vector<float>> window_;  // input slices [window_z0_, window_z0_ + size)
   std::int64_t window_z0_ = 0, slices_received_ = 0, next_row_ = 0;
-  std::vector<float> pending_decoded_;     // one decoded slice awaiting its partner for 2x2x2
+  std::vector<float> decoded_row_;        // decoded brick cores of the current row (odd core), reused
+  std::vector<float> next_slices_;        // the row's 2x2x2 averages for `next` (even core), reused
+  std::vector<float> pending_decoded_;     // one decoded slice (2x2 averaged) awaiting its partner
   std::int64_t decoded_slices_ = 0;
 };
 

@@ -4,11 +4,12 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <vector>
 
-#include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
 
 #include "strata/tensor/ttm.hpp"
+#include "tensor/decompose_kernel.hpp"
 
 namespace strata {
 
@@ -24,41 +25,148 @@ void check_ranks(const Dims3& dims, const Ranks3& ranks, const char* context) {
 namespace {
 
 using MatrixD = Matrix<double>;
-using FactorsD = Factors<double>;
+using detail::DecomposeKernels;
+using detail::DGemmArgs;
+using detail::DGramArgs;
 
-// Makes each column's largest-magnitude entry positive: singular vectors are defined only up
-// to sign, and a fixed choice makes results reproducible across platforms and solvers.
-void fix_signs(MatrixD& u) {
-  for (Eigen::Index c = 0; c < u.cols(); ++c) {
-    Eigen::Index at = 0;
-    u.col(c).cwiseAbs().maxCoeff(&at);
-    if (u(at, c) < 0) u.col(c) = -u.col(c);
+// A grow-only double buffer: a loop over equally sized bricks allocates nothing.
+class Buffer {
+ public:
+  double* get(std::size_t n) {
+    if (values_.size() < n) values_.resize(n);
+    return values_.data();
+  }
+
+ private:
+  std::vector<double> values_;
+};
+
+// A dense double tensor in workspace memory, first index fastest (like BasicTensor3).
+struct TensorD {
+  double* data = nullptr;
+  Dims3 d{0, 0, 0};
+  std::int64_t dim(int mode) const { return d[std::size_t(mode - 1)]; }
+  std::int64_t size() const { return d[0] * d[1] * d[2]; }
+};
+
+// A column-major I x R factor matrix (or R x R rotation) in workspace memory.
+struct FactorD {
+  double* data = nullptr;
+  std::int64_t rows = 0, cols = 0;
+};
+using FactorsD = std::array<FactorD, 3>;
+
+// Scratch of one thread's decompositions. The roles never overlap within one call:
+// leading_left_singular_vectors uses gram/eig_*; the sweep and projections use the tensors.
+struct Workspace {
+  Buffer input;                                  // A as double
+  std::array<Buffer, 6> tensors;                 // intermediate products
+  std::array<Buffer, 3> factors, rotations, rotated;
+  Buffer transposed;                             // U^T for mode-1 products
+  Buffer gram, eig_work;
+};
+
+Workspace& workspace() {
+  thread_local Workspace ws;
+  return ws;
+}
+
+TensorD tensor_in(Buffer& b, const Dims3& d) { return {b.get(std::size_t(d[0] * d[1] * d[2])), d}; }
+
+// Y = X ×n U^T (U is I_n x J): one GEMM for modes 1 and 3, one per frontal slice for mode 2.
+TensorD ttm_transposed(const DecomposeKernels& k, const TensorD& x, int mode, const FactorD& u, Buffer& out,
+                       Buffer& transposed) {
+  Dims3 od = x.d;
+  od[std::size_t(mode - 1)] = u.cols;
+  const TensorD y = tensor_in(out, od);
+  const std::int64_t i1 = x.d[0], i2 = x.d[1], i3 = x.d[2], j = u.cols;
+  DGemmArgs g;
+  if (mode == 1) {
+    // Y (J x I2 I3) = U^T (J x I1) · X (I1 x I2 I3); U^T copied so that its columns are contiguous.
+    double* ut = transposed.get(std::size_t(j * i1));
+    for (std::int64_t c = 0; c < j; ++c)
+      for (std::int64_t r = 0; r < i1; ++r) ut[c + r * j] = u.data[r + c * i1];
+    g = DGemmArgs{j, i2 * i3, i1, ut, j, x.data, 1, i1, y.data, j};
+  } else if (mode == 2) {
+    // Y(:, :, i3) (I1 x J) = X(:, :, i3) (I1 x I2) · U (I2 x J), for each i3.
+    g = DGemmArgs{i1, j, i2, x.data, i1, u.data, 1, i2, y.data, i1};
+    g.batch = i3;
+    g.l_step = i1 * i2;
+    g.out_step = i1 * j;
+  } else {
+    // Y (I1 I2 x J) = X (I1 I2 x I3) · U (I3 x J).
+    g = DGemmArgs{i1 * i2, j, i3, x.data, i1 * i2, u.data, 1, i3, y.data, i1 * i2};
+  }
+  k.gemm(g);
+  return y;
+}
+
+// X_(n) X_(n)^T (I_n x I_n, column-major) without forming the unfolding.
+void gram(const DecomposeKernels& k, const TensorD& x, int mode, double* g) {
+  const std::int64_t i1 = x.d[0], i2 = x.d[1], i3 = x.d[2];
+  if (mode == 1) {
+    // X viewed as I1 x (I2 I3): G = X X^T, lower triangle by GEMM, then mirrored.
+    DGemmArgs a{i1, i1, i2 * i3, x.data, i1, x.data, i1, 1, g, i1};
+    a.lower = true;
+    k.gemm(a);
+    for (std::int64_t c = 1; c < i1; ++c)
+      for (std::int64_t r = 0; r < c; ++r) g[r + c * i1] = g[c + r * i1];
+  } else if (mode == 2) {
+    // Columns of X_(2) are the rows of the frontal slices: runs of I1 per slice.
+    k.gram(DGramArgs{i2, i3, i1 * i2, i1, i1, x.data, g});
+  } else {
+    // X viewed as (I1 I2) x I3: inner products of whole frontal slices.
+    k.gram(DGramArgs{i3, 1, 0, i1 * i2, i1 * i2, x.data, g});
   }
 }
 
-// The r leading eigenvectors of a symmetric positive semi-definite matrix. Eigen returns the
-// eigenvalues in increasing order, so the leading vectors are the last columns, reversed.
-MatrixD leading_eigenvectors(const MatrixD& g, int r) {
-  Eigen::SelfAdjointEigenSolver<MatrixD> solver(g);
-  if (solver.info() != Eigen::Success) throw Error("hosvd: eigen-decomposition of the Gram matrix failed");
-  return solver.eigenvectors().rightCols(r).rowwise().reverse();
+// Makes each column's largest-magnitude entry positive (the first one on ties): singular vectors
+// are defined only up to sign, and a fixed choice makes results reproducible across platforms.
+void fix_signs(FactorD& u) {
+  for (std::int64_t c = 0; c < u.cols; ++c) {
+    double* col = u.data + c * u.rows;
+    double largest = 0;  // branch-free passes: the largest magnitude, then its first position
+    for (std::int64_t i = 0; i < u.rows; ++i) largest = std::max(largest, std::abs(col[i]));
+    std::int64_t at = 0;
+    while (at + 1 < u.rows && std::abs(col[at]) != largest) ++at;
+    if (col[at] < 0)
+      for (std::int64_t i = 0; i < u.rows; ++i) col[i] = -col[i];
+  }
 }
 
-// The r leading left singular vectors of the mode-n unfolding X_(n) (I_n x J).
+MatrixD unfold(const TensorD& x, int mode) {
+  const Dims3& d = x.d;
+  MatrixD m(x.dim(mode), x.size() / std::max<std::int64_t>(x.dim(mode), 1));
+  for (std::int64_t i3 = 0; i3 < d[2]; ++i3)
+    for (std::int64_t i2 = 0; i2 < d[1]; ++i2)
+      for (std::int64_t i1 = 0; i1 < d[0]; ++i1) {
+        const double v = x.data[i1 + d[0] * (i2 + d[1] * i3)];
+        if (mode == 1) m(i1, i2 + d[1] * i3) = v;
+        else if (mode == 2) m(i2, i1 + d[0] * i3) = v;
+        else m(i3, i1 + d[0] * i2) = v;
+      }
+  return m;
+}
+
+// The r leading left singular vectors of the mode-n unfolding X_(n) (I_n x J), into `out`.
 // Wide unfolding (I_n <= J, every brick): the I_n x I_n Gram matrix costs I_n^2 J and its
 // eigen-decomposition I_n^3, far less than an SVD of the I_n x J matrix. Tall unfolding with
 // r <= J: a thin SVD of X_(n) costs I_n J^2 and avoids squaring the condition number. Tall with
 // r > J: X_(n) has rank <= J, so any orthonormal completion is optimal; the Gram eigenvectors
 // provide one.
-MatrixD leading_left_singular_vectors(const Tensor3d& x, int mode, int r) {
+FactorD leading_left_singular_vectors(const DecomposeKernels& k, Workspace& ws, const TensorD& x, int mode, int r,
+                                      Buffer& out) {
   const std::int64_t rows = x.dim(mode);
   const std::int64_t cols = rows == 0 ? 0 : x.size() / rows;
-  MatrixD u;
+  FactorD u{out.get(std::size_t(rows * r)), rows, r};
   if (rows > cols && r <= cols) {
     Eigen::BDCSVD<MatrixD> svd(unfold(x, mode), Eigen::ComputeThinU);
-    u = svd.matrixU().leftCols(r);
+    Eigen::Map<MatrixD>(u.data, rows, r) = svd.matrixU().leftCols(r);
   } else {
-    u = leading_eigenvectors(gram(x, mode), r);
+    double* g = ws.gram.get(std::size_t(rows * rows));
+    gram(k, x, mode, g);
+    if (!k.leading_eigen(g, rows, r, u.data, ws.eig_work.get(std::size_t(detail::leading_eigen_work(rows)))))
+      throw Error("hosvd: eigen-decomposition of the Gram matrix failed");
   }
   fix_signs(u);
   return u;
@@ -72,71 +180,127 @@ double fit_from_norms(double norm_a, double norm_core) {
   return 1.0 - std::sqrt(residual_sq) / norm_a;
 }
 
-Tucker to_float_model(const Tensor3d& core, const FactorsD& u, double fit, int iterations) {
+double norm(const DecomposeKernels& k, const TensorD& x) { return std::sqrt(k.sum_squares(x.data, x.size())); }
+
+Tucker to_float_model(const TensorD& core, const FactorsD& u, double fit, int iterations) {
   Tucker t;
-  t.core = core.cast<float>();
-  for (std::size_t n = 0; n < 3; ++n) t.factors[n] = u[n].cast<float>();
+  t.core = Tensor3(core.d);
+  std::transform(core.data, core.data + core.size(), t.core.data(), [](double v) { return float(v); });
+  for (std::size_t n = 0; n < 3; ++n)
+    t.factors[n] = Eigen::Map<const MatrixD>(u[n].data, u[n].rows, u[n].cols).cast<float>();
   t.fit = fit;
   t.iterations = iterations;
   return t;
 }
 
-FactorsD hosvd_factors(const Tensor3d& a, const Ranks3& ranks) {
-  FactorsD u;
-  for (int n = 1; n <= 3; ++n) u[std::size_t(n - 1)] = leading_left_singular_vectors(a, n, ranks[std::size_t(n - 1)]);
-  return u;
+// A as double in the workspace; returns ‖A‖.
+TensorD widen(const DecomposeKernels& k, Workspace& ws, const Tensor3& a, double& norm_a) {
+  const TensorD ad = tensor_in(ws.input, a.dims());
+  norm_a = std::sqrt(k.widen(a.data(), ad.data, a.size()));
+  return ad;
+}
+
+// A ×1 U1^T ×2 U2^T ×3 U3^T; each product shrinks the tensor, so the intermediates stay small
+// when R_n < I_n. Uses tensors[3..5]; the result lives in tensors[5].
+TensorD project(const DecomposeKernels& k, Workspace& ws, const TensorD& a, const FactorsD& u) {
+  const TensorD t1 = ttm_transposed(k, a, 1, u[0], ws.tensors[3], ws.transposed);
+  const TensorD t2 = ttm_transposed(k, t1, 2, u[1], ws.tensors[4], ws.transposed);
+  return ttm_transposed(k, t2, 3, u[2], ws.tensors[5], ws.transposed);
 }
 
 // One HOOI sweep: each factor becomes the leading left singular vectors of A projected on the
 // other two (current) factors. A ×3 U3^T is shared by the updates of U1 and U2, because U3 only
-// changes last. Returns the core of the updated factors.
-Tensor3d hooi_sweep(const Tensor3d& a, const Ranks3& ranks, FactorsD& u) {
-  const Tensor3d a3 = ttm_transposed(a, 3, u[2]);
-  u[0] = leading_left_singular_vectors(ttm_transposed(a3, 2, u[1]), 1, ranks[0]);
-  u[1] = leading_left_singular_vectors(ttm_transposed(a3, 1, u[0]), 2, ranks[1]);
-  const Tensor3d a12 = ttm_transposed(ttm_transposed(a, 1, u[0]), 2, u[1]);
-  u[2] = leading_left_singular_vectors(a12, 3, ranks[2]);
-  return ttm_transposed(a12, 3, u[2]);
+// changes last. Returns the core of the updated factors (in tensors[5]).
+TensorD hooi_sweep(const DecomposeKernels& k, Workspace& ws, const TensorD& a, const Ranks3& ranks, FactorsD& u,
+                   bool a3_ready) {
+  auto& t = ws.tensors;
+  const TensorD a3 = a3_ready ? TensorD{t[0].get(0), {a.d[0], a.d[1], u[2].cols}}
+                              : ttm_transposed(k, a, 3, u[2], t[0], ws.transposed);
+  u[0] = leading_left_singular_vectors(k, ws, ttm_transposed(k, a3, 2, u[1], t[1], ws.transposed), 1, ranks[0],
+                                       ws.factors[0]);
+  u[1] = leading_left_singular_vectors(k, ws, ttm_transposed(k, a3, 1, u[0], t[1], ws.transposed), 2, ranks[1],
+                                       ws.factors[1]);
+  const TensorD a1 = ttm_transposed(k, a, 1, u[0], t[0], ws.transposed);
+  const TensorD a12 = ttm_transposed(k, a1, 2, u[1], t[1], ws.transposed);
+  u[2] = leading_left_singular_vectors(k, ws, a12, 3, ranks[2], ws.factors[2]);
+  return ttm_transposed(k, a12, 3, u[2], t[5], ws.transposed);
 }
 
 // Rotates (core, U) by the full HOSVD of the core: core' = core ×n V_n^T, U_n' = U_n V_n with
 // square orthogonal V_n. The product is unchanged; the new core is all-orthogonal with
 // decreasing slice norms, so leading-rank truncation drops the weakest components first.
-void order_by_core_hosvd(Tensor3d& core, FactorsD& u) {
-  const Ranks3 full{int(core.dims()[0]), int(core.dims()[1]), int(core.dims()[2])};
-  const FactorsD v = hosvd_factors(core, full);
-  core = project(core, v);
-  for (std::size_t n = 0; n < 3; ++n) u[n] = u[n] * v[n];
+// Reads `core` from tensors[5] and returns the rotated core in tensors[2].
+TensorD order_by_core_hosvd(const DecomposeKernels& k, Workspace& ws, const TensorD& core, FactorsD& u) {
+  // Mode 3 needs no rotation: the sweep ended with U3 = the leading eigenvectors of the mode-3
+  // Gram matrix of A ×1 U1^T ×2 U2^T and core = that tensor ×3 U3^T, so the core's mode-3 Gram
+  // matrix is already diagonal with decreasing entries (V3 = I up to rounding), and the rotations
+  // of modes 1 and 2 leave it unchanged.
+  FactorsD v;
+  for (int n = 1; n <= 2; ++n) {
+    const std::size_t i = std::size_t(n - 1);
+    v[i] = leading_left_singular_vectors(k, ws, core, n, int(core.dim(n)), ws.rotations[i]);
+  }
+  auto& t = ws.tensors;
+  const TensorD c1 = ttm_transposed(k, core, 1, v[0], t[3], ws.transposed);
+  const TensorD rotated = ttm_transposed(k, c1, 2, v[1], t[2], ws.transposed);
+  for (std::size_t n = 0; n < 2; ++n) {
+    // U_n V_n: (I_n x R_n) · (R_n x R_n).
+    FactorD un{ws.rotated[n].get(std::size_t(u[n].rows * u[n].cols)), u[n].rows, u[n].cols};
+    k.gemm(DGemmArgs{un.rows, un.cols, u[n].cols, u[n].data, u[n].rows, v[n].data, 1, v[n].rows, un.data, un.rows});
+    u[n] = un;
+  }
+  return rotated;
 }
 
 }  // namespace
 
 Tucker hosvd(const Tensor3& a, const Ranks3& ranks) {
   check_ranks(a.dims(), ranks, "hosvd");
-  const Tensor3d ad = a.cast<double>();
-  const FactorsD u = hosvd_factors(ad, ranks);
-  const Tensor3d core = project(ad, u);
-  return to_float_model(core, u, fit_from_norms(ad.norm(), core.norm()), 0);
+  const DecomposeKernels& k = detail::decompose_kernels();
+  Workspace& ws = workspace();
+  double norm_a = 0;
+  const TensorD ad = widen(k, ws, a, norm_a);
+  FactorsD u;
+  for (int n = 1; n <= 3; ++n)
+    u[std::size_t(n - 1)] =
+        leading_left_singular_vectors(k, ws, ad, n, ranks[std::size_t(n - 1)], ws.factors[std::size_t(n - 1)]);
+  const TensorD core = project(k, ws, ad, u);
+  return to_float_model(core, u, fit_from_norms(norm_a, norm(k, core)), 0);
 }
 
 Tucker hooi(const Tensor3& a, const Ranks3& ranks, const HooiOptions& options) {
   check_ranks(a.dims(), ranks, "hooi");
   if (options.max_iterations < 1) throw Error("hooi: max_iterations must be at least 1");
-  const Tensor3d ad = a.cast<double>();
-  const double norm_a = ad.norm();
-  FactorsD u = hosvd_factors(ad, ranks);
-  double fit = fit_from_norms(norm_a, project(ad, u).norm());
-  Tensor3d core;
+  const DecomposeKernels& k = detail::decompose_kernels();
+  Workspace& ws = workspace();
+  double norm_a = 0;
+  const TensorD ad = widen(k, ws, a, norm_a);
+  // Initialisation: the sequentially truncated HOSVD (Vannieuwenhoven et al. 2012) in the order
+  // 3, 2, 1: U3 from A, U2 from A ×3 U3^T, U1 from A ×3 U3^T ×2 U2^T. A ×3 U3^T is also the
+  // first product of the first sweep, and U1 only serves the fit that the first sweep's
+  // convergence test compares against (a sweep recomputes U1 from U2 and U3 alone).
+  FactorsD u;
+  auto& t = ws.tensors;
+  u[2] = leading_left_singular_vectors(k, ws, ad, 3, ranks[2], ws.factors[2]);
+  const TensorD a3 = ttm_transposed(k, ad, 3, u[2], t[0], ws.transposed);
+  u[1] = leading_left_singular_vectors(k, ws, a3, 2, ranks[1], ws.factors[1]);
+  double fit = 0;
+  if (options.max_iterations > 1) {
+    const TensorD a32 = ttm_transposed(k, a3, 2, u[1], t[1], ws.transposed);
+    u[0] = leading_left_singular_vectors(k, ws, a32, 1, ranks[0], ws.factors[0]);
+    fit = fit_from_norms(norm_a, norm(k, ttm_transposed(k, a32, 1, u[0], t[5], ws.transposed)));
+  }
+  TensorD core;
   int sweeps = 0;
   while (sweeps < options.max_iterations) {
-    core = hooi_sweep(ad, ranks, u);
+    core = hooi_sweep(k, ws, ad, ranks, u, sweeps == 0);
     ++sweeps;
-    const double new_fit = fit_from_norms(norm_a, core.norm());
+    const double new_fit = fit_from_norms(norm_a, norm(k, core));
     const bool converged = std::abs(new_fit - fit) < options.tolerance;
     fit = new_fit;
     if (converged) break;
   }
-  if (options.order_core) order_by_core_hosvd(core, u);
+  if (options.order_core) core = order_by_core_hosvd(k, ws, core, u);
   return to_float_model(core, u, fit, sweeps);
 }
 

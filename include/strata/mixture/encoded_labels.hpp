@@ -1,0 +1,143 @@
+#pragma once
+// A label (segmentation) volume stored as a Mixture Graph in a .strata container
+// (metadata "codec": "mixture-graph"; byte layout in docs/format.md, "Codec mixture-graph"):
+//   section "mixture_graph"  the graph bitstream of paper Table 1 (header, node triples, codebook)
+//   section "label_map"      the original label values (level 0 decodes bit for bit)
+//   section "ids_L<n>"       per mip level n the node id of every voxel (FixedRateIds or BlockPaletteIds)
+// encode_labels() builds the histogram mipmap, factorises it and writes the file atomically;
+// EncodedLabels opens and validates one and serves node ids (NodeGrid), the original labels,
+// dominant labels and per-label fractions of the coarser levels.
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <span>
+#include <string>
+#include <string_view>
+#include <variant>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "strata/core/progress.hpp"
+#include "strata/core/volume.hpp"
+#include "strata/mixture/factorize.hpp"
+#include "strata/mixture/id_storage.hpp"
+#include "strata/mixture/label_map.hpp"
+#include "strata/mixture/lookup.hpp"
+#include "strata/mixture/node_grid.hpp"
+#include "strata/mixture/schedule.hpp"
+
+namespace strata::io {
+class VolumeSource;
+}
+namespace strata::store {
+class ContainerReader;
+}
+
+namespace strata::mixture {
+
+inline constexpr const char* kMixtureCodecName = "mixture-graph";
+
+enum class IdsMode : std::uint8_t { blocks, fixed };
+std::string_view ids_mode_name(IdsMode m);   // "blocks", "fixed"
+IdsMode parse_ids_mode(std::string_view name);  // throws Error
+// "max-reduction" | "max-occurrence" | "reuse" (also the bare PairScore names).
+std::string_view strategy_name(PairScore s);
+PairScore parse_strategy(std::string_view name);
+
+struct EncodeOptions {
+  int bits = 9;                              // weight quantisation bitrate, 1..16
+  PairScore strategy = PairScore::reduction;  // max-reduction
+  std::uint32_t tau = 3;
+  IdsMode ids = IdsMode::blocks;
+  WeightBins bins = WeightBins::symmetric;
+  bool measure_error = true;                 // max l1 error over all levels (costs a lookup build)
+  // zstd level applied to each serialized ids_L<n> section (0 = stored as is). Readers
+  // decompress once at open; random access then works on the in-memory id storage.
+  int ids_zstd = 9;
+};
+
+struct EncodeReport {
+  std::uint64_t nodes = 0, internal_nodes = 0, sources = 0;
+  std::uint32_t depth = 0;
+  std::uint64_t distinct_mixtures = 0, input_pairs = 0;
+  std::optional<double> max_l1;               // when measured
+  std::uint64_t file_bytes = 0, graph_bytes = 0, label_map_bytes = 0;
+  std::vector<std::uint64_t> ids_bytes;        // per level
+  std::uint64_t level0_voxels = 0;
+  double bits_per_voxel = 0.0;                // whole file / level-0 voxels
+  double seconds = 0.0, factor_seconds = 0.0;
+};
+
+EncodeReport encode_labels(const Volume& labels, const std::filesystem::path& out, const EncodeOptions& options = {},
+                           ProgressSink& progress = silent_progress());
+EncodeReport encode_labels(io::VolumeSource& labels, const std::filesystem::path& out,
+                           const EncodeOptions& options = {}, ProgressSink& progress = silent_progress());
+
+// The graph bitstream (paper Table 1 header, node triples, 20-bit codebook). `name` names the
+// input in errors. Decoded codebook values are the 20-bit quantised ones (uses are not stored).
+struct GraphHeader {
+  std::uint32_t num_sources = 0;
+  bool fractional = false;
+  int bits_per_node = 1;
+  float sigma_max = 0.0f;
+  Extent resolution;
+  int quant_bits = 9;
+  WeightBins layout = WeightBins::symmetric;
+  std::uint64_t internal_nodes = 0;
+};
+std::vector<std::byte> write_graph_bitstream(const MixtureGraph& g, bool fractional, Extent resolution);
+MixtureGraph read_graph_bitstream(std::span<const std::byte> bytes, const std::string& name,
+                                  GraphHeader* header = nullptr);
+
+class EncodedLabels final : public NodeGrid {
+ public:
+  explicit EncodedLabels(const std::filesystem::path& path);  // throws FormatError naming file and field
+  ~EncodedLabels() override;
+
+  // NodeGrid
+  int level_count() const override { return int(level_dims_.size()); }
+  Extent level_dims(int level) const override;
+  std::uint32_t node_at(int level, std::int64_t x, std::int64_t y, std::int64_t z) const override;
+  void decode_box(int level, const Box& box, std::span<std::uint32_t> out) const override;
+
+  const std::filesystem::path& path() const { return path_; }
+  const MixtureGraph& graph() const { return graph_; }
+  const GraphHeader& graph_header() const { return header_; }
+  const LabelMap& label_map() const { return label_map_; }
+  const Schedule& schedule() const { return schedule_; }
+  const MixtureLookup& lookup() const;  // built on first use (thread-safe)
+  IdsMode ids_mode() const { return ids_mode_; }
+  bool ids_compressed() const { return ids_zstd_; }
+  Spacing spacing() const { return spacing_; }
+  const nlohmann::json& metadata() const;
+
+  Volume decode_level0() const;  // original dtype and values, bit-exact
+  // Per voxel the label of the node's largest mean weight (ties: the smaller label), source dtype.
+  Volume dominant_labels(int level) const;
+  // Per voxel the fraction (f32) of `label_value` (a value of the label map; Error otherwise).
+  Volume label_fraction(int level, std::int64_t label_value) const;
+
+ private:
+  std::vector<std::uint32_t> level_ids(int level) const;
+  Spacing level_spacing(int level) const;
+
+  std::filesystem::path path_;
+  std::unique_ptr<store::ContainerReader> reader_;
+  GraphHeader header_;
+  MixtureGraph graph_;
+  LabelMap label_map_;
+  Schedule schedule_;
+  IdsMode ids_mode_ = IdsMode::blocks;
+  bool ids_zstd_ = false;
+  Spacing spacing_;
+  std::vector<Extent> level_dims_;
+  std::vector<FixedRateIds> fixed_;
+  std::vector<BlockPaletteIds> blocks_;
+  mutable std::once_flag lookup_once_;
+  mutable std::unique_ptr<MixtureLookup> lookup_;
+};
+
+}  // namespace strata::mixture

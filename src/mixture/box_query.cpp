@@ -1,0 +1,433 @@
+#include "strata/mixture/box_query.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <bit>
+#include <cmath>
+#include <exception>
+#include <limits>
+#include <mutex>
+
+#include <omp.h>
+
+#include "strata/core/error.hpp"
+#include "strata/core/threads.hpp"
+#include "strata/mixture/flat_hash.hpp"
+
+namespace strata::mixture {
+
+namespace {
+
+constexpr std::uint32_t kNoNode = std::numeric_limits<std::uint32_t>::max();
+
+struct NodeAcc {
+  double w = 0.0;   // sum of sample weights (voxels covered)
+  double w2 = 0.0;  // sum of squared sample weights (variance scale)
+};
+using NodeMap = detail::FlatMap<std::uint32_t, NodeAcc>;
+
+// Dense per-source accumulator with a touched list, reused across queries on one thread so a
+// small query does not pay for zeroing num_sources entries.
+struct SourceSink {
+  std::vector<double> count, var;
+  std::vector<std::uint8_t> mark;
+  std::vector<std::uint32_t> touched;
+
+  void prepare(std::uint32_t ns) {
+    if (count.size() < ns) {
+      count.resize(ns, 0.0);
+      var.resize(ns, 0.0);
+      mark.resize(ns, 0);
+    }
+  }
+  void touch(std::uint32_t s) {
+    if (!mark[s]) {
+      mark[s] = 1;
+      touched.push_back(s);
+    }
+  }
+  void add(std::uint32_t s, double c) {
+    touch(s);
+    count[s] += c;
+  }
+  // Every node of `nodes` through the lookup: returns how many internal nodes were expanded.
+  std::uint64_t expand(const NodeMap& nodes, const MixtureLookup& lookup, std::uint32_t ns) {
+    std::uint64_t expanded = 0;
+    nodes.for_each([&](std::uint32_t id, const NodeAcc& a) {
+      if (id < ns) {
+        add(id, a.w);
+        return;
+      }
+      ++expanded;
+      const auto ix = lookup.index(id);
+      const auto mu = lookup.mean_weights(id);
+      const auto sg = lookup.sigma(id);
+      // The lookup's means are convex combinations of unit vectors: they sum to 1 to rounding,
+      // so the counts of all nodes sum to the box volume without renormalising.
+      const double w = a.w, w2 = a.w2;
+      for (std::size_t k = 0; k < ix.size(); ++k) {
+        const std::uint32_t s = ix[k];
+        touch(s);
+        count[s] += w * mu[k];
+        var[s] += w2 * sg[k] * sg[k];
+      }
+    });
+    return expanded;
+  }
+  // Zeroes the touched entries (after an exception; drain() leaves nothing behind).
+  void clear() {
+    for (std::uint32_t s : touched) count[s] = var[s] = 0.0, mark[s] = 0;
+    touched.clear();
+  }
+  // Moves the touched entries out (ascending source) and clears them.
+  void drain(std::vector<BoxCount>& out) {
+    std::sort(touched.begin(), touched.end());
+    out.reserve(out.size() + touched.size());
+    for (std::uint32_t s : touched) {
+      if (count[s] > 0.0) out.push_back({s, count[s], std::sqrt(var[s])});
+      count[s] = 0.0;
+      var[s] = 0.0;
+      mark[s] = 0;
+    }
+    touched.clear();
+  }
+};
+
+SourceSink& local_sink(std::uint32_t ns) {
+  thread_local SourceSink sink;
+  sink.prepare(ns);
+  return sink;
+}
+
+// Leaves the thread's sink clean however the query ends.
+struct SinkGuard {
+  SourceSink& sink;
+  ~SinkGuard() { sink.clear(); }
+};
+
+std::vector<std::uint32_t>& local_buffer(std::size_t n) {
+  thread_local std::vector<std::uint32_t> buf;
+  if (buf.size() < n) buf.resize(n);
+  return buf;
+}
+
+// Level-0 ids with weight 1 each: run-length, sources straight to the sink.
+inline void accumulate_unit(const std::uint32_t* ids, std::size_t n, std::uint32_t ns, SourceSink& sink,
+                            NodeMap& nodes) {
+  std::size_t i = 0;
+  while (i < n) {
+    const std::uint32_t id = ids[i];
+    std::size_t j = i + 1;
+    while (j < n && ids[j] == id) ++j;
+    const double r = double(j - i);
+    if (id < ns) {
+      sink.add(id, r);
+    } else {
+      NodeAcc* a = nodes.insert(id, {}).first;
+      a->w += r;
+      a->w2 += r;
+    }
+    i = j;
+  }
+}
+
+struct Piece {
+  std::int64_t start = 0;
+  int k = 0;              // log2 nominal size
+  std::int64_t length = 0;  // real length (clipped at the volume border)
+};
+
+std::vector<Piece> pieces_of(std::int64_t lo, std::int64_t hi, std::int64_t dim, int max_level) {
+  std::vector<Piece> out;
+  for (const auto& [p, k] : aligned_pieces(lo, hi, dim, max_level))
+    out.push_back({p, k, std::min<std::int64_t>(std::int64_t(1) << k, dim - p)});
+  return out;
+}
+
+std::int64_t cells(std::int64_t length, int l) { return (length + (std::int64_t(1) << l) - 1) >> l; }
+
+}  // namespace
+
+std::string_view query_method_name(QueryMethod m) {
+  switch (m) {
+    case QueryMethod::hybrid: return "hybrid";
+    case QueryMethod::footprint: return "footprint";
+    case QueryMethod::naive: return "naive";
+  }
+  return "?";
+}
+
+QueryMethod parse_query_method(std::string_view name) {
+  if (name == "hybrid") return QueryMethod::hybrid;
+  if (name == "footprint") return QueryMethod::footprint;
+  if (name == "naive") return QueryMethod::naive;
+  throw Error("query method: expected hybrid, footprint or naive, got '" + std::string(name) + "'");
+}
+
+double BoxHistogram::total() const {
+  double t = 0.0;
+  for (const auto& c : counts) t += c.count;
+  return t;
+}
+
+const BoxCount* BoxHistogram::find(std::uint32_t source) const {
+  auto it = std::lower_bound(counts.begin(), counts.end(), source,
+                             [](const BoxCount& c, std::uint32_t s) { return c.source < s; });
+  return it != counts.end() && it->source == source ? &*it : nullptr;
+}
+
+// Greedy from lo: the largest aligned piece that fits. A piece of level k at p (p a multiple of
+// 2^k) may run past dim when hi == dim and the real length dim - p is a power of two: the
+// level-k voxel then has a single chain of children down to a full voxel of that size, so its
+// mixture is the exact histogram of its real support. (Eq. 4 averages children with equal
+// weights: a border voxel whose children have unequal supports - real length not a power of
+// two - is NOT the histogram of its support, so it is never sampled.)
+std::vector<std::pair<std::int64_t, int>> aligned_pieces(std::int64_t lo, std::int64_t hi, std::int64_t dim,
+                                                          int max_level) {
+  std::vector<std::pair<std::int64_t, int>> out;
+  if (lo < 0 || hi > dim || lo >= hi) throw Error("aligned_pieces: range [" + std::to_string(lo) + ", " +
+                                                  std::to_string(hi) + ") not inside [0, " + std::to_string(dim) + ")");
+  const bool to_end = hi == dim;
+  std::int64_t p = lo;
+  while (p < hi) {
+    int k = 0;
+    while (k + 1 <= max_level) {
+      const std::int64_t size = std::int64_t(1) << (k + 1);
+      if (p % size != 0) break;
+      if (p + size <= hi) {
+        ++k;
+        continue;
+      }
+      // Past the end: only for a range ending at the border whose rest is a power of two.
+      if (to_end && std::has_single_bit(std::uint64_t(dim - p))) {
+        ++k;
+        continue;
+      }
+      break;
+    }
+    out.emplace_back(p, k);
+    p = std::min(hi, p + (std::int64_t(1) << k));
+  }
+  return out;
+}
+
+BoxQuery::BoxQuery(const NodeGrid& grid, const MixtureLookup& lookup, std::uint32_t num_sources)
+    : grid_(grid), lookup_(lookup), num_sources_(num_sources) {
+  if (grid.level_count() <= 0) throw Error("box query: the node grid has no levels");
+  for (int l = 0; l < grid.level_count(); ++l) dims_.push_back(grid.level_dims(l));
+  const auto expect = mip_level_dims(dims_[0]);
+  if (expect.size() != dims_.size()) throw Error("box query: the node grid's levels are not a full mip chain");
+  for (std::size_t l = 0; l < dims_.size(); ++l)
+    if (!(expect[l] == dims_[l])) throw Error("box query: level " + std::to_string(l) + " has dims " +
+                                              dims_[l].to_string() + ", expected " + expect[l].to_string());
+}
+
+void BoxQuery::check(const Box& box) const {
+  if (box.empty() || !Box::whole(dims_[0]).contains(box))
+    throw Error("box query: box " + box.to_string() + " is empty or not inside the volume (" + dims_[0].to_string() +
+                ")");
+}
+
+std::vector<FootprintBox> BoxQuery::plan(const Box& box, const QueryOptions& options) const {
+  check(box);
+  const int lmax = int(dims_.size()) - 1;
+  const auto px = pieces_of(box.lo.x, box.hi.x, dims_[0].x, lmax);
+  const auto py = pieces_of(box.lo.y, box.hi.y, dims_[0].y, lmax);
+  const auto pz = pieces_of(box.lo.z, box.hi.z, dims_[0].z, lmax);
+  std::vector<FootprintBox> out;
+  out.reserve(px.size() * py.size() * pz.size());
+  const bool hybrid = options.method == QueryMethod::hybrid;
+  // A short row costs a cache line of its own; long rows stream (about one voxel's cost).
+  auto row_cost = [&](std::int64_t length) { return length <= 16 ? options.row_cost : 1.0; };
+  double plan_cost = 0.0;
+  for (const Piece& z : pz)
+    for (const Piece& y : py)
+      for (const Piece& x : px) {
+        const int m = std::min({x.k, y.k, z.k});
+        int level = m;
+        if (hybrid) {
+          double best = std::numeric_limits<double>::infinity();
+          for (int l = 0; l <= m; ++l) {
+            const double rows = double(cells(y.length, l)) * double(cells(z.length, l));
+            const double n = double(cells(x.length, l)) * rows;
+            const double cost = n * (l == 0 ? 1.0 : options.sample_cost) + rows * row_cost(cells(x.length, l)) +
+                                options.box_cost;
+            if (cost < best) best = cost, level = l;
+          }
+          plan_cost += best;
+        }
+        FootprintBox b;
+        b.level = level;
+        b.covered = {{x.start, y.start, z.start}, {x.start + x.length, y.start + y.length, z.start + z.length}};
+        b.cells = {{x.start >> level, y.start >> level, z.start >> level},
+                   {(x.start >> level) + cells(x.length, level), (y.start >> level) + cells(y.length, level),
+                    (z.start >> level) + cells(z.length, level)}};
+        out.push_back(b);
+      }
+  if (hybrid) {
+    // The whole box at level 0 in one scan when that is cheaper (small boxes).
+    const Extent sz = box.size();
+    const double rows = double(sz.y) * double(sz.z);
+    const double scan = double(box.voxel_count()) + rows * row_cost(sz.x) + options.box_cost;
+    if (scan <= plan_cost) return {FootprintBox{0, box, box}};
+  }
+  return out;
+}
+
+BoxHistogram BoxQuery::run(const Box& box, const QueryOptions& options) const {
+  if (options.method == QueryMethod::naive) return naive(box, options.threads);
+  const auto plan_boxes = plan(box, options);
+  BoxHistogram result;
+  result.box = box;
+  result.pieces = plan_boxes.size();
+
+  std::uint64_t samples_estimate = 0;
+  for (const auto& b : plan_boxes)
+    if (b.level > 0) samples_estimate += std::uint64_t(b.cells.voxel_count());
+  // Distinct nodes are far fewer than samples (coherent labels); the map grows when needed.
+  NodeMap nodes(kNoNode, std::min<std::uint64_t>(samples_estimate / 4 + 16, 4096));
+  SourceSink& sink = local_sink(num_sources_);
+  const SinkGuard guard{sink};
+  const std::uint32_t ns = num_sources_;
+
+  std::vector<double> wx, wy, wz;
+  for (const FootprintBox& b : plan_boxes) {
+    const std::uint64_t n = std::uint64_t(b.cells.voxel_count());
+    auto& buf = local_buffer(n);
+    const Extent cs = b.cells.size();
+    if (cs.x <= 4) {
+      // Short rows (the x faces of the shell): per-voxel reads beat a copy call per row.
+      std::uint32_t* o = buf.data();
+      for (std::int64_t z = b.cells.lo.z; z < b.cells.hi.z; ++z)
+        for (std::int64_t y = b.cells.lo.y; y < b.cells.hi.y; ++y)
+          for (std::int64_t x = b.cells.lo.x; x < b.cells.hi.x; ++x) *o++ = grid_.node_at(b.level, x, y, z);
+    } else {
+      grid_.decode_box(b.level, b.cells, {buf.data(), n});
+    }
+    result.fetches += n;
+    if (b.level == 0) {
+      result.level0_voxels += n;
+      accumulate_unit(buf.data(), n, ns, sink, nodes);
+      continue;
+    }
+    result.samples += n;
+    // Per-axis support of each cell (only the last one can be clipped at the volume border).
+    auto axis = [&](std::vector<double>& w, std::int64_t c0, std::int64_t c1, std::int64_t lo, std::int64_t hi) {
+      w.resize(std::size_t(c1 - c0));
+      for (std::int64_t c = c0; c < c1; ++c) {
+        const std::int64_t a = std::max(lo, c << b.level), e = std::min(hi, (c + 1) << b.level);
+        w[std::size_t(c - c0)] = double(e - a);
+      }
+    };
+    axis(wx, b.cells.lo.x, b.cells.hi.x, b.covered.lo.x, b.covered.hi.x);
+    axis(wy, b.cells.lo.y, b.cells.hi.y, b.covered.lo.y, b.covered.hi.y);
+    axis(wz, b.cells.lo.z, b.cells.hi.z, b.covered.lo.z, b.covered.hi.z);
+    const std::size_t sx = wx.size(), sy = wy.size(), sz = wz.size();
+    const std::uint32_t* id = buf.data();
+    for (std::size_t z = 0; z < sz; ++z)
+      for (std::size_t y = 0; y < sy; ++y) {
+        const double wyz = wy[y] * wz[z];
+        std::size_t x = 0;
+        while (x < sx) {
+          const std::uint32_t node = id[x];
+          double w = wx[x] * wyz, w2 = w * w;
+          std::size_t j = x + 1;
+          for (; j < sx && id[j] == node; ++j) {
+            const double v = wx[j] * wyz;
+            w += v;
+            w2 += v * v;
+          }
+          if (node < ns) {
+            sink.add(node, w);
+          } else {
+            NodeAcc* a = nodes.insert(node, {}).first;
+            a->w += w;
+            a->w2 += w2;
+          }
+          x = j;
+        }
+        id += sx;
+      }
+  }
+  result.distinct_nodes = sink.expand(nodes, lookup_, ns);
+  sink.drain(result.counts);
+  return result;
+}
+
+BoxHistogram BoxQuery::naive(const Box& box, int threads) const {
+  check(box);
+  BoxHistogram result;
+  result.box = box;
+  result.pieces = 1;
+  const Extent s = box.size();
+  const std::uint64_t slice = std::uint64_t(s.x) * std::uint64_t(s.y);
+  result.fetches = result.level0_voxels = std::uint64_t(box.voxel_count());
+  const std::uint32_t ns = num_sources_;
+  int nt = threads > 0 ? threads : thread_count();
+  if (box.voxel_count() < 32768 || s.z < 2) nt = 1;
+  nt = int(std::min<std::int64_t>(nt, s.z));
+
+  if (nt == 1) {
+    SourceSink& sink = local_sink(ns);
+    const SinkGuard guard{sink};
+    NodeMap nodes(kNoNode);
+    auto& buf = local_buffer(slice);
+    for (std::int64_t z = box.lo.z; z < box.hi.z; ++z) {
+      grid_.decode_box(0, {{box.lo.x, box.lo.y, z}, {box.hi.x, box.hi.y, z + 1}}, {buf.data(), slice});
+      accumulate_unit(buf.data(), slice, ns, sink, nodes);
+    }
+    result.distinct_nodes = sink.expand(nodes, lookup_, ns);
+    sink.drain(result.counts);
+    return result;
+  }
+
+  // Parallel over z: every thread accumulates into its own sink, then the sparse results merge.
+  std::vector<std::vector<BoxCount>> parts(static_cast<std::size_t>(nt));
+  std::vector<std::uint64_t> expanded(static_cast<std::size_t>(nt), 0);
+  std::mutex error_mutex;
+  std::exception_ptr error;
+  std::atomic<bool> failed{false};
+#pragma omp parallel num_threads(nt)
+  {
+    const int t = omp_get_thread_num();
+    try {
+      SourceSink& sink = local_sink(ns);
+      const SinkGuard guard{sink};
+      NodeMap nodes(kNoNode);
+      auto& buf = local_buffer(slice);
+      // Static partition of the slices by hand (no worksharing construct, so an exception in
+      // one thread cannot leave the others waiting at a barrier).
+      const std::int64_t team = omp_get_num_threads();
+      const std::int64_t z0 = box.lo.z + s.z * t / team, z1 = box.lo.z + s.z * (t + 1) / team;
+      for (std::int64_t z = z0; z < z1 && !failed.load(std::memory_order_relaxed); ++z) {
+        grid_.decode_box(0, {{box.lo.x, box.lo.y, z}, {box.hi.x, box.hi.y, z + 1}}, {buf.data(), slice});
+        accumulate_unit(buf.data(), slice, ns, sink, nodes);
+      }
+      expanded[std::size_t(t)] = sink.expand(nodes, lookup_, ns);
+      sink.drain(parts[std::size_t(t)]);
+    } catch (...) {
+      std::lock_guard lock(error_mutex);
+      if (!error) error = std::current_exception();
+      failed = true;
+    }
+  }
+  if (error) std::rethrow_exception(error);
+  // k-way merge by source (parts are sorted).
+  detail::FlatMap<std::uint32_t, std::pair<double, double>> merged(kNoNode, parts[0].size() * 2);
+  for (const auto& p : parts)
+    for (const BoxCount& c : p) {
+      auto* m = merged.insert(c.source, {0.0, 0.0}).first;
+      m->first += c.count;
+      m->second += c.sigma * c.sigma;
+    }
+  result.counts.reserve(merged.size());
+  merged.for_each([&](std::uint32_t s, const std::pair<double, double>& v) {
+    result.counts.push_back({s, v.first, std::sqrt(v.second)});
+  });
+  std::sort(result.counts.begin(), result.counts.end(),
+            [](const BoxCount& a, const BoxCount& b) { return a.source < b.source; });
+  for (auto e : expanded) result.distinct_nodes += e;  // per thread (a node may count twice)
+  return result;
+}
+
+}  // namespace strata::mixture

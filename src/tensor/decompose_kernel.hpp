@@ -1,0 +1,73 @@
+#pragma once
+// Double-precision kernels of the Tucker decompositions (tucker.cpp): small GEMMs for the n-mode
+// products, Gram matrices of mode unfoldings (never formed) and a symmetric eigen-solver. Private
+// to src/tensor. Like the reconstruction kernel (reconstruct_kernel.cpp) each is written once with
+// GCC vector extensions and compiled for AVX-512, AVX2+FMA and baseline x86-64; the best variant
+// the CPU runs is picked at run time, so the portable build needs no -march=native.
+//
+// Setting the environment variable STRATA_DECOMPOSE_ISA to generic, avx2 or avx512 forces a
+// variant (tests and benchmarks of the fallbacks); an unsupported or unknown value is an Error.
+#include <cstdint>
+
+#include "strata/tensor/reconstruct.hpp"  // KernelIsa
+
+namespace strata::detail {
+
+// Out(M x N) = L(M x K) · R(K x N) for `batch` independent products.
+// L and Out are column-major with leading dimensions ld_l and ld_out; R is read one scalar at a
+// time at r[k * r_k + n * r_n], so it can be a matrix, its transpose or a tensor's unfolding.
+// Product b uses l + b * l_step, r + b * r_step and out + b * out_step.
+// With `lower`, only Out(i, j) with i >= j is needed: tiles wholly above the diagonal are skipped
+// and the entries there are left unspecified (symmetric products, e.g. X X^T).
+struct DGemmArgs {
+  std::int64_t m = 0, n = 0, k = 0;
+  const double* l = nullptr;
+  std::int64_t ld_l = 0;
+  const double* r = nullptr;
+  std::int64_t r_k = 0, r_n = 0;
+  double* out = nullptr;
+  std::int64_t ld_out = 0;
+  std::int64_t batch = 1, l_step = 0, r_step = 0, out_step = 0;
+  bool lower = false;
+};
+
+// Symmetric G (n x n, column-major, ld n, both triangles written) of inner products of columns
+// made of contiguous runs: G(p, q) = Σ_s Σ_{i < len} x[s seg_stride + p col_stride + i] ·
+// x[s seg_stride + q col_stride + i]. The mode-3 Gram of an I1 x I2 x I3 tensor is one segment of
+// length I1 I2 (column stride I1 I2); the mode-2 Gram is I3 segments of length I1 (segment
+// stride I1 I2, column stride I1).
+struct DGramArgs {
+  std::int64_t n = 0, segments = 1, seg_stride = 0, col_stride = 0, len = 0;
+  const double* x = nullptr;
+  double* g = nullptr;
+};
+
+struct DecomposeKernels {
+  KernelIsa isa = KernelIsa::generic;
+  void (*gemm)(const DGemmArgs&) = nullptr;
+  void (*gram)(const DGramArgs&) = nullptr;
+  // Eigen-decomposition of the symmetric n x n matrix `a` (column-major, both triangles read,
+  // destroyed): `v` (n x n, column-major) receives orthonormal eigenvectors as columns and
+  // w[0..n) the eigenvalues in increasing order. `work` holds at least 3 n doubles. Returns false
+  // if the QL iteration does not converge (it always does for finite input).
+  bool (*sym_eigen)(double* a, std::int64_t n, double* v, double* w, double* work) = nullptr;
+  // The r eigenvectors of the r largest eigenvalues of the symmetric n x n matrix `a` (both
+  // triangles read, destroyed), in order of decreasing eigenvalue, as the columns of u (n x r,
+  // column-major), orthonormal to working precision. Eigenvectors of (numerically) equal
+  // eigenvalues are any orthonormal basis of their space. `work` holds leading_eigen_work(n)
+  // doubles. Returns false if the eigen-decomposition fails (never for finite input).
+  bool (*leading_eigen)(double* a, std::int64_t n, std::int64_t r, double* u, double* work) = nullptr;
+  // out[i] = in[i] (float to double); returns the sum of the squares.
+  double (*widen)(const float* in, double* out, std::int64_t n) = nullptr;
+  // Sum of squares.
+  double (*sum_squares)(const double* x, std::int64_t n) = nullptr;
+};
+
+std::int64_t leading_eigen_work(std::int64_t n);
+
+// The variants for the best ISA (or STRATA_DECOMPOSE_ISA), chosen once.
+const DecomposeKernels& decompose_kernels();
+// A given variant; throws Error if this CPU lacks it (`automatic` = the best).
+const DecomposeKernels& decompose_kernels(KernelIsa isa);
+
+}  // namespace strata::detail

@@ -1,0 +1,110 @@
+// `strata labels encode | decode | palette` and `strata info` on a label file: round trips,
+// JSON outputs and exit codes.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "support/test_support.hpp"
+
+using strata::test::run_command;
+using strata::test::TempDir;
+
+namespace {
+
+std::string strata_cmd(const std::string& args) { return std::string(STRATA_BINARY) + " --progress none " + args; }
+
+}  // namespace
+
+TEST(LabelsCli, EncodeDecodeRoundTripBothIdModes) {
+  TempDir dir;
+  const std::string in = (dir / "v.nrrd").string();
+  std::string out;
+  ASSERT_EQ(run_command(strata_cmd("generate voronoi --size 40,36,28 --count 30 -o " + in), &out), 0) << out;
+  for (const std::string ids : {"blocks", "fixed"}) {
+    const std::string enc = (dir / ("v-" + ids + ".strata")).string();
+    ASSERT_EQ(run_command(strata_cmd("labels encode " + in + " -o " + enc + " --ids " + ids + " --bits 8 --tau 2"), &out), 0) << out;
+    EXPECT_NE(out.find("nodes"), std::string::npos) << out;
+    EXPECT_NE(out.find("bits/voxel"), std::string::npos) << out;
+    EXPECT_NE(out.find("max l1 error"), std::string::npos) << out;
+
+    const std::string l0 = (dir / ("l0-" + ids + ".nrrd")).string();
+    ASSERT_EQ(run_command(strata_cmd("labels decode " + enc + " --level 0 -o " + l0), &out), 0) << out;
+    ASSERT_EQ(run_command(strata_cmd("compare --json " + in + " " + l0), &out), 0) << out;
+    const auto m = nlohmann::json::parse(out);
+    EXPECT_EQ(m["max_abs_error"], 0.0);
+
+    ASSERT_EQ(run_command(strata_cmd("info --json " + enc), &out), 0) << out;
+    const auto info = nlohmann::json::parse(out);
+    EXPECT_EQ(info["codec"], "mixture-graph");
+    EXPECT_GT(info["mixture_graph"]["nodes"].get<int>(), 30);
+    EXPECT_EQ(info["mixture_graph"]["ids"], ids);
+    EXPECT_EQ(info["mixture_graph"]["bits"], 8);
+    ASSERT_EQ(run_command(strata_cmd("info " + enc), &out), 0) << out;
+    EXPECT_NE(out.find("graph:"), std::string::npos) << out;
+    EXPECT_NE(out.find("depth"), std::string::npos) << out;
+  }
+  const std::string enc = (dir / "v-blocks.strata").string();
+  const std::string l2 = (dir / "l2.nrrd").string(), f2 = (dir / "f2.nrrd").string();
+  ASSERT_EQ(run_command(strata_cmd("labels decode " + enc + " --level 2 -o " + l2), &out), 0) << out;
+  ASSERT_EQ(run_command(strata_cmd("info --json " + l2), &out), 0) << out;
+  EXPECT_EQ(nlohmann::json::parse(out)["dims"], nlohmann::json({10, 9, 7}));
+  // Voronoi labels start at 1 (0 may be absent): take the first label of the decoded level.
+  ASSERT_EQ(run_command(strata_cmd("labels decode " + enc + " --level 2 --label 1 -o " + f2), &out), 0) << out;
+  ASSERT_EQ(run_command(strata_cmd("info --json " + f2), &out), 0) << out;
+  const auto fi = nlohmann::json::parse(out);
+  EXPECT_EQ(fi["dtype"], "f32");
+
+  // Palette: RGBA per node.
+  const std::string colors = (dir / "colors.json").string(), pal = (dir / "palette.json").string();
+  std::ofstream(colors) << R"({"1": [1, 0, 0, 1], "2": [0, 1, 0, 0.5], "default": [0, 0, 1, 0.25]})";
+  ASSERT_EQ(run_command(strata_cmd("labels palette " + enc + " --colors " + colors + " -o " + pal), &out), 0) << out;
+  nlohmann::json p;
+  std::ifstream(pal) >> p;
+  ASSERT_TRUE(p.contains("rgba"));
+  ASSERT_TRUE(p.contains("propagate_seconds"));
+  EXPECT_EQ(p["rgba"].size(), p["nodes"].get<std::size_t>());
+  for (const auto& c : p["rgba"]) {
+    ASSERT_EQ(c.size(), 4u);
+    const double sum = c[0].get<double>() + c[1].get<double>() + c[2].get<double>();
+    EXPECT_NEAR(sum, 1.0, 1e-4);  // convex combinations of unit colours
+  }
+}
+
+TEST(LabelsCli, ExitCodes) {
+  TempDir dir;
+  std::string out;
+  const std::string in = (dir / "v.nrrd").string(), enc = (dir / "v.strata").string();
+  ASSERT_EQ(run_command(strata_cmd("generate voronoi --size 16 --count 8 -o " + in), &out), 0) << out;
+  EXPECT_EQ(run_command(strata_cmd("labels"), &out), 2);
+  EXPECT_EQ(run_command(strata_cmd("labels encode " + in + " -o " + enc + " --ids sparse"), &out), 2);
+  EXPECT_EQ(run_command(strata_cmd("labels encode " + in + " -o " + enc + " --bits 0"), &out), 2);
+  EXPECT_EQ(run_command(strata_cmd("labels encode " + in + " -o " + enc + " --strategy best"), &out), 2);
+  EXPECT_EQ(run_command(strata_cmd("labels encode " + in), &out), 2);  // -o missing
+  EXPECT_EQ(run_command(strata_cmd("labels encode --help"), &out), 0);
+
+  EXPECT_EQ(run_command(strata_cmd("labels encode '" + (dir / "missing.nrrd").string() + "' -o " + enc), &out), 1);
+  EXPECT_NE(out.find("missing.nrrd"), std::string::npos) << out;
+  // Float input is not a label volume.
+  const std::string f = (dir / "f.nrrd").string();
+  ASSERT_EQ(run_command(strata_cmd("generate marschner-lobb --size 8 -o " + f), &out), 0) << out;
+  if (run_command(strata_cmd("info --json " + f), &out) == 0 && nlohmann::json::parse(out)["dtype"] == "f32")
+    EXPECT_EQ(run_command(strata_cmd("labels encode " + f + " -o " + enc), &out), 1) << out;
+
+  ASSERT_EQ(run_command(strata_cmd("labels encode " + in + " -o " + enc), &out), 0) << out;
+  EXPECT_EQ(run_command(strata_cmd("labels decode " + enc + " --level 9 -o x.nrrd"), &out), 1);
+  EXPECT_NE(out.find("--level"), std::string::npos) << out;
+  EXPECT_EQ(run_command(strata_cmd("labels decode " + enc + " --level 1 --label 99999 -o " + (dir / "x.nrrd").string()), &out), 1);
+  EXPECT_NE(out.find("99999"), std::string::npos) << out;
+  // A scalar .strata file or a corrupt one: exit 1 naming the file.
+  const std::string bad = (dir / "bad.strata").string();
+  std::ofstream(bad) << "not a strata file at all";
+  EXPECT_EQ(run_command(strata_cmd("labels decode " + bad + " -o " + (dir / "x.nrrd").string()), &out), 1);
+  EXPECT_NE(out.find("bad.strata"), std::string::npos) << out;
+  std::ofstream(dir / "c.json") << "{\"1\": [1, 2]}";
+  EXPECT_EQ(run_command(strata_cmd("labels palette " + enc + " --colors " + (dir / "c.json").string() + " -o " +
+                                   (dir / "p.json").string()),
+                        &out),
+            1);
+  EXPECT_NE(out.find("c.json"), std::string::npos) << out;
+}
