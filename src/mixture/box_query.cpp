@@ -81,7 +81,8 @@ struct SourceSink {
   }
   // Moves the touched entries out (ascending source) and clears them.
   void drain(std::vector<BoxCount>& out) {
-    std::sort(touched.begin(), touched.end());
+    // Already sorted when one node dominated (the lookup's indices ascend), e.g. whole volumes.
+    if (!std::is_sorted(touched.begin(), touched.end())) std::sort(touched.begin(), touched.end());
     out.reserve(out.size() + touched.size());
     for (std::uint32_t s : touched) {
       if (count[s] > 0.0) out.push_back({s, count[s], std::sqrt(var[s])});
@@ -240,6 +241,10 @@ std::vector<FootprintBox> BoxQuery::plan(const Box& box, const QueryOptions& opt
   // A short row costs a cache line of its own; long rows stream (about one voxel's cost).
   auto row_cost = [&](std::int64_t length) { return length <= 16 ? options.row_cost : 1.0; };
   double plan_cost = 0.0;
+  // Scanning the whole box at level 0 in one go (small boxes): the plan must beat this.
+  const Extent bs = box.size();
+  const double scan_cost =
+      double(box.voxel_count()) + double(bs.y) * double(bs.z) * row_cost(bs.x) + options.box_cost;
   for (const Piece& z : pz)
     for (const Piece& y : py)
       for (const Piece& x : px) {
@@ -255,6 +260,7 @@ std::vector<FootprintBox> BoxQuery::plan(const Box& box, const QueryOptions& opt
             if (cost < best) best = cost, level = l;
           }
           plan_cost += best;
+          if (plan_cost >= scan_cost) return {FootprintBox{0, box, box}};
         }
         FootprintBox b;
         b.level = level;
@@ -262,15 +268,19 @@ std::vector<FootprintBox> BoxQuery::plan(const Box& box, const QueryOptions& opt
         b.cells = {{x.start >> level, y.start >> level, z.start >> level},
                    {(x.start >> level) + cells(x.length, level), (y.start >> level) + cells(y.length, level),
                     (z.start >> level) + cells(z.length, level)}};
+        // Adjacent level-0 boxes along x (the thin pieces at either end of the x range) read
+        // their rows as one segment: one cache line per row instead of one per piece.
+        if (level == 0 && !out.empty()) {
+          FootprintBox& prev = out.back();
+          if (prev.level == 0 && prev.covered.hi.x == b.covered.lo.x && prev.covered.lo.y == b.covered.lo.y &&
+              prev.covered.hi.y == b.covered.hi.y && prev.covered.lo.z == b.covered.lo.z &&
+              prev.covered.hi.z == b.covered.hi.z) {
+            prev.covered.hi.x = prev.cells.hi.x = b.covered.hi.x;
+            continue;
+          }
+        }
         out.push_back(b);
       }
-  if (hybrid) {
-    // The whole box at level 0 in one scan when that is cheaper (small boxes).
-    const Extent sz = box.size();
-    const double rows = double(sz.y) * double(sz.z);
-    const double scan = double(box.voxel_count()) + rows * row_cost(sz.x) + options.box_cost;
-    if (scan <= plan_cost) return {FootprintBox{0, box, box}};
-  }
   return out;
 }
 

@@ -5,6 +5,7 @@
 #include <cstring>
 #include <exception>
 #include <span>
+#include <utility>
 
 #include <immintrin.h>
 
@@ -230,9 +231,8 @@ void LevelPipeline::gather_samples(std::int64_t bx, std::int64_t by, std::int64_
   thread_local std::vector<const float*> rows;
   rows.resize(std::size_t(b * b));
   for (std::int64_t k = 0; k < b; ++k) {
-    const std::vector<float>& slice = window_.at(std::size_t(clamp_index(box.lo.z + k, d.z) - window_z0_));
-    for (std::int64_t j = 0; j < b; ++j)
-      rows[std::size_t(k * b + j)] = slice.data() + clamp_index(box.lo.y + j, d.y) * d.x;
+    const float* slice = window_.at(std::size_t(clamp_index(box.lo.z + k, d.z) - window_z0_)).data();
+    for (std::int64_t j = 0; j < b; ++j) rows[std::size_t(k * b + j)] = slice + clamp_index(box.lo.y + j, d.y) * d.x;
   }
   constexpr std::int64_t kAhead = 12;
   const std::int64_t count = b * b, bytes = (i1 - i0) * std::int64_t(sizeof(float));

@@ -9,9 +9,13 @@
 //              (p a multiple of 2^k), the tensor product of the pieces gives boxes, and each box
 //              is tessellated by cubes of side 2^m = its smallest extent - one sample of level m
 //              per cube, weighted by the voxels the sample really covers. A range ending at the
-//              volume's far border may use a piece that runs past it (a border voxel of level k
-//              averages only its real support, Eq. 4), so its samples are weighted by their true
-//              support volume; this makes a whole-volume box one sample of the top level.
+//              volume's far border may use a level-k piece that runs past it when the real rest
+//              (dim - start) is a power of two: that border voxel has a single chain of children
+//              down to a full voxel, so its mixture is exactly the histogram of its real support
+//              and its samples are weighted by that true support volume (a power-of-two volume
+//              is then one sample of the top level). Other border voxels are never sampled: Eq. 4
+//              averages the children with equal weights (N = child count), so a voxel whose
+//              children have unequal supports (e.g. 64 and 36) is not its support's histogram.
 //   hybrid     (default) the same boxes, but each box picks the level (0..m) with the least
 //              estimated cost: thin boxes next to the query's faces (the level-0 boundary shell
 //              that dominates small queries) are scanned at level 0, the interior is sampled.
