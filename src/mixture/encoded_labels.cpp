@@ -524,7 +524,11 @@ Spacing EncodedLabels::level_spacing(int level) const {
 }
 
 const MixtureLookup& EncodedLabels::lookup() const {
-  std::call_once(lookup_once_, [this] { lookup_ = std::make_unique<MixtureLookup>(MixtureLookup::build(graph_, schedule_)); });
+  // First-order (linear) error propagation: Eq. 18 as printed gives a component of weight 1 - w an
+  // uncertainty of sqrt(2)(1 - w) dw / w, which swamps query sigmas for small w (see lookup.hpp).
+  std::call_once(lookup_once_, [this] {
+    lookup_ = std::make_unique<MixtureLookup>(MixtureLookup::build(graph_, schedule_, ErrorModel::linear));
+  });
   return *lookup_;
 }
 

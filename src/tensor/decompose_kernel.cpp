@@ -11,7 +11,6 @@
 #include <cstdlib>
 #include <cstring>
 #include <string>
-#include <vector>
 
 #include "strata/core/error.hpp"
 
@@ -132,41 +131,38 @@ template <int VW, int B>
 [[gnu::always_inline]] inline void gram_dot(const DGramArgs& a) {
   using V = typename DVecOf<VW>::type;
   const std::int64_t n = a.n, len = a.len, vec_len = len / VW * VW;
-  // The vector steps of all segments as one flat list of offsets: short runs (a mode-2 Gram of
-  // a 32^3 brick has runs of 32 doubles, 4 vectors) then cost no inner loop per segment.
-  thread_local std::vector<std::int64_t> steps;
-  steps.clear();
-  for (std::int64_t s = 0; s < a.segments; ++s)
-    for (std::int64_t t = 0; t < vec_len; t += VW) steps.push_back(s * a.seg_stride + t);
-  const std::int64_t* step = steps.data();
-  const std::int64_t step_count = std::int64_t(steps.size());
   for (std::int64_t p0 = 0; p0 < n; p0 += B) {
     for (std::int64_t q0 = p0; q0 < n; q0 += B) {
-      const double* pc[B];
-      const double* qc[B];
+      std::int64_t po[B], qo[B];
       for (int i = 0; i < B; ++i) {
-        pc[i] = a.x + std::min(p0 + i, n - 1) * a.col_stride;
-        qc[i] = a.x + std::min(q0 + i, n - 1) * a.col_stride;
+        po[i] = std::min(p0 + i, n - 1) * a.col_stride;
+        qo[i] = std::min(q0 + i, n - 1) * a.col_stride;
       }
       V acc[B][B];
+      double tail[B][B];
       for (int i = 0; i < B; ++i)
-        for (int j = 0; j < B; ++j) acc[i][j] = V{};
-      for (std::int64_t v = 0; v < step_count; ++v) {
-        const std::int64_t o = step[v];
-        V xp[B], xq[B];
-        for (int i = 0; i < B; ++i) xp[i] = load<VW>(pc[i] + o);
-        for (int j = 0; j < B; ++j) xq[j] = load<VW>(qc[j] + o);
-        for (int i = 0; i < B; ++i)
-          for (int j = 0; j < B; ++j) acc[i][j] += xp[i] * xq[j];
+        for (int j = 0; j < B; ++j) {
+          acc[i][j] = V{};
+          tail[i][j] = 0;
+        }
+      for (std::int64_t s = 0; s < a.segments; ++s) {
+        const double* base = a.x + s * a.seg_stride;
+        for (std::int64_t t = 0; t < vec_len; t += VW) {
+          V xp[B], xq[B];
+          for (int i = 0; i < B; ++i) xp[i] = load<VW>(base + po[i] + t);
+          for (int j = 0; j < B; ++j) xq[j] = load<VW>(base + qo[j] + t);
+          for (int i = 0; i < B; ++i)
+            for (int j = 0; j < B; ++j) acc[i][j] += xp[i] * xq[j];
+        }
+        for (std::int64_t t = vec_len; t < len; ++t)
+          for (int i = 0; i < B; ++i)
+            for (int j = 0; j < B; ++j) tail[i][j] += base[po[i] + t] * base[qo[j] + t];
       }
       for (int i = 0; i < B; ++i) {
         for (int j = 0; j < B; ++j) {
           const std::int64_t p = p0 + i, q = q0 + j;
           if (p >= n || q >= n) continue;
-          double v = hsum<VW>(acc[i][j]);
-          for (std::int64_t s = 0; s < a.segments; ++s)  // runs that do not fill a vector
-            for (std::int64_t t = vec_len; t < len; ++t)
-              v += a.x[s * a.seg_stride + p * a.col_stride + t] * a.x[s * a.seg_stride + q * a.col_stride + t];
+          const double v = hsum<VW>(acc[i][j]) + tail[i][j];
           a.g[p + q * n] = v;
           a.g[q + p * n] = v;
         }
