@@ -454,6 +454,9 @@ template <int VW, int G>
         }
       }
     }
+    // Converged: relative 2 eps, or 1e-13 absolute (T is scaled to norm ~1): the twisted vectors
+    // need lambda to within a small fraction of its gap to the neighbours, and eigenvalues below
+    // kNegligible are not resolved anyway.
     bool converged = true;
     for (int g = 0; g < G; ++g) {
       // count = number of eigenvalues below mid; lambda_target < mid iff count > target.
@@ -461,7 +464,7 @@ template <int VW, int G>
       hi[g] = below ? mid[g] : hi[g];
       lo[g] = below ? lo[g] : mid[g];
       for (int j = 0; j < VW; ++j)
-        converged &= hi[g][j] - lo[g][j] <= 2 * eps * std::max(std::abs(lo[g][j]), std::abs(hi[g][j])) + 4 * eps;
+        converged &= hi[g][j] - lo[g][j] <= 2 * eps * std::max(std::abs(lo[g][j]), std::abs(hi[g][j])) + 1e-13;
     }
     if (converged) break;
   }

@@ -2,7 +2,9 @@
 // JSON outputs and exit codes.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 
 #include "support/test_support.hpp"
@@ -107,4 +109,39 @@ TEST(LabelsCli, ExitCodes) {
                         &out),
             1);
   EXPECT_NE(out.find("c.json"), std::string::npos) << out;
+}
+
+// `labels query`: the footprint answer sums to the box volume, agrees with the exact level-0
+// scan (--naive, sigma 0) within a few sigma, and bad boxes are errors naming --box.
+TEST(LabelsCli, QueryAgreesWithTheExactScan) {
+  strata::test::TempDir dir;
+  const std::string in = (dir / "cells.nrrd").string(), enc = (dir / "cells.strata").string();
+  std::string out;
+  ASSERT_EQ(run_command(strata_cmd("generate voronoi --size 48,40,36 --count 24 -o " + in), &out), 0) << out;
+  ASSERT_EQ(run_command(strata_cmd("labels encode " + in + " -o " + enc), &out), 0) << out;
+  const std::string box = " --box 3,5,2:45,37,33 --json";
+  ASSERT_EQ(run_command(strata_cmd("labels query " + enc + box), &out), 0) << out;
+  const auto fast = nlohmann::json::parse(out);
+  ASSERT_EQ(run_command(strata_cmd("labels query " + enc + box + " --naive"), &out), 0) << out;
+  const auto exact = nlohmann::json::parse(out);
+  const double volume = 42.0 * 32.0 * 31.0;
+  double fast_total = 0, exact_total = 0;
+  std::map<long long, std::pair<double, double>> fast_counts;
+  for (const auto& l : fast["labels"]) {
+    fast_total += l["count"].get<double>();
+    fast_counts[l["label"].get<long long>()] = {l["count"].get<double>(), l["sigma"].get<double>()};
+  }
+  for (const auto& l : exact["labels"]) {
+    exact_total += l["count"].get<double>();
+    EXPECT_EQ(l["sigma"].get<double>(), 0.0);
+    EXPECT_EQ(l["count"].get<double>(), std::round(l["count"].get<double>()));  // whole voxels
+    const auto [count, sigma] = fast_counts[l["label"].get<long long>()];
+    // Quantization error bound per label: the box volume times the graph's max l1 error.
+    EXPECT_NEAR(count, l["count"].get<double>(), std::max(4 * sigma, volume * 0.006)) << l.dump();
+  }
+  EXPECT_NEAR(fast_total, volume, 1e-6 * volume);
+  EXPECT_EQ(exact_total, volume);
+  EXPECT_LT(fast["fetches"].get<double>(), exact["fetches"].get<double>());
+  EXPECT_EQ(run_command(strata_cmd("labels query " + enc + " --box 0,0,0:99,10,10"), &out), 1) << out;
+  EXPECT_NE(out.find("box"), std::string::npos) << out;
 }
