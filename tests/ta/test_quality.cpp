@@ -3,6 +3,8 @@
 // culling metadata (min, max, 64-bin histogram) in the index.
 #include <gtest/gtest.h>
 
+#include <array>
+
 #include <bit>
 #include <map>
 
@@ -157,6 +159,27 @@ TEST_F(TaQuality, BoxesAcrossBrickSeamsEqualTheSameVoxelsOfAFullDecode) {
   const Volume full1 = t.decode_box(1, Box::whole({32, 32, 32}), 16);
   const Box box1{{25, 3, 26}, {31, 30, 32}};
   EXPECT_TRUE(t.decode_box(1, box1, 16) == full1.crop(box1));
+}
+
+// Issue acceptance: one brick decoded on its own (TaVolume::decode_brick, overlap included)
+// holds bit-exactly the voxels a full decode has in its sample region (edge-clamped).
+TEST_F(TaQuality, OneBrickDecodedAloneEqualsTheSameRegionOfAFullDecode) {
+  const TaVolume t(zstd_path());
+  const Volume full = t.decode_box(0, Box::whole({64, 64, 64}), 16);
+  BrickReconstructor reconstructor;
+  DecodeScratch scratch;
+  std::vector<float> brick(32 * 32 * 32);
+  for (const auto& [bx, by, bz] : {std::array<int, 3>{1, 1, 1}, std::array<int, 3>{0, 2, 1}, std::array<int, 3>{2, 2, 2}}) {
+    t.decode_brick({0, bx, by, bz}, 16, brick, reconstructor, scratch);
+    const Box core = t.geometry().brick_core_box(0, bx, by, bz);
+    auto view = full.view<float>();
+    for (std::int64_t z = core.lo.z; z < core.hi.z; ++z)
+      for (std::int64_t y = core.lo.y; y < core.hi.y; ++y)
+        for (std::int64_t x = core.lo.x; x < core.hi.x; ++x) {
+          const std::size_t local = std::size_t(((z - bz * 28 + 2) * 32 + (y - by * 28 + 2)) * 32 + (x - bx * 28 + 2));
+          ASSERT_EQ(brick[local], view(x, y, z)) << bx << by << bz << " at " << x << "," << y << "," << z;
+        }
+  }
 }
 
 TEST_F(TaQuality, DecodeBoxRejectsBadLevelsAndBoxes) {
