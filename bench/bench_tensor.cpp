@@ -1,5 +1,6 @@
-// Tensor benchmarks: brick reconstruction (the renderer's hot path), HOSVD and HOOI per brick,
-// and a single-core FMA peak measurement that puts the reconstruction's FLOP rate in context.
+// Tensor benchmarks: brick reconstruction (the renderer's hot path), HOSVD and HOOI per brick
+// (the compressor's), the eigen-solver of the decompositions per instruction set, and a
+// single-core FMA peak measurement that puts the reconstruction's FLOP rate in context.
 //   ./bench_tensor --benchmark_counters_tabular=true
 #include <benchmark/benchmark.h>
 
@@ -7,6 +8,10 @@
 #include <ctime>
 #include <random>
 
+#include <Eigen/Eigenvalues>
+
+// The decomposition kernels are private to src/tensor; the benchmark reaches them directly.
+#include "../src/tensor/decompose_kernel.hpp"
 #include "strata/quant/brick.hpp"
 #include "strata/tensor/reconstruct.hpp"
 #include "strata/tensor/ttm.hpp"
@@ -217,6 +222,57 @@ void BM_Hooi(benchmark::State& state) {
   state.counters["sweeps"] = t.iterations;
 }
 BENCHMARK(BM_Hooi)->ArgName("noise")->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+
+// The compressor's settings (brick_codec.hpp): one sweep after the initialisation, tolerance 1e-4.
+void BM_HooiOneSweep(benchmark::State& state) {
+  const Tensor3 brick = decomposition_input(state.range(0));
+  Tucker t;
+  for (auto _ : state) t = hooi(brick, {kRank, kRank, kRank}, HooiOptions{1e-4, 1, true});
+  state.counters["bricks/s"] = benchmark::Counter(double(state.iterations()), benchmark::Counter::kIsRate);
+  state.counters["fit"] = t.fit;
+}
+BENCHMARK(BM_HooiOneSweep)->ArgName("noise")->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
+
+// ---- Eigen-decomposition of a brick's Gram matrix ---------------------------------------------
+// The decompositions' inner loop: the R leading eigenvectors of the B x B Gram matrix of a mode
+// unfolding, by the kernel of each instruction set (bisection + twisted factorisations, QL
+// fallback) and, for reference, by Eigen's SelfAdjointEigenSolver (all eigenpairs).
+Matrix<double> brick_gram(int n) {
+  const Tensor3 brick = decomposition_input(1);
+  Matrix<double> g = gram(brick, 1);
+  return g.topLeftCorner(n, n);
+}
+
+// Args: ISA (0 generic, 1 AVX2, 2 AVX-512), n (R = n / 2).
+void BM_LeadingEigenvectors(benchmark::State& state) {
+  const KernelIsa isa = state.range(0) == 0 ? KernelIsa::generic : state.range(0) == 1 ? KernelIsa::avx2 : KernelIsa::avx512;
+  if (!kernel_isa_supported(isa)) {
+    state.SkipWithError("ISA not supported by this CPU");
+    return;
+  }
+  const detail::DecomposeKernels& k = detail::decompose_kernels(isa);
+  const int n = int(state.range(1)), r = n / 2;
+  const Matrix<double> g = brick_gram(n);
+  Matrix<double> a(n, n), u(n, r);
+  std::vector<double> work(std::size_t(detail::leading_eigen_work(n)));
+  for (auto _ : state) {
+    a = g;
+    benchmark::DoNotOptimize(k.leading_eigen(a.data(), n, r, u.data(), work.data()));
+  }
+  state.SetLabel(std::string(kernel_isa_name(isa)));
+}
+BENCHMARK(BM_LeadingEigenvectors)->ArgNames({"isa", "n"})->ArgsProduct({{0, 1, 2}, {32, 16}})->Unit(benchmark::kMicrosecond);
+
+void BM_EigenSelfAdjointSolver(benchmark::State& state) {
+  const int n = int(state.range(0));
+  const Matrix<double> g = brick_gram(n);
+  Eigen::SelfAdjointEigenSolver<Matrix<double>> solver(n);
+  for (auto _ : state) {
+    solver.compute(g);
+    benchmark::DoNotOptimize(solver.eigenvectors().data());
+  }
+}
+BENCHMARK(BM_EigenSelfAdjointSolver)->ArgName("n")->Arg(32)->Arg(16)->Unit(benchmark::kMicrosecond);
 
 // ---- Decoding quantized bricks --------------------------------------------------------------
 const char* const kSchemes[] = {"u16,b8log+", "u16,b8log", "u16,b12log+", "u16,b16log", "u16,b8mu+",

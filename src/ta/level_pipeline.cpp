@@ -7,6 +7,9 @@
 #include <span>
 #include <utility>
 
+// GCC 12 reports the _mm512_undefined_* pass-through operands inside the AVX-512 intrinsics as
+// maybe-uninitialized (a false positive, fixed in later releases).
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 #include <immintrin.h>
 
 #include "strata/core/error.hpp"
@@ -125,9 +128,16 @@ __attribute__((target("avx512f,avx512vl,avx2,fma"))) void stats_avx512(const flo
     bits0 = _mm512_or_si512(bits0, bin_bits_avx512(_mm256_loadu_ps(v + i), lo, scale));
     bits1 = _mm512_or_si512(bits1, bin_bits_avx512(_mm256_loadu_ps(v + i + 8), lo, scale));
   }
-  st.lo = std::min(st.lo, _mm512_reduce_min_ps(vmin));
-  st.hi = std::max(st.hi, _mm512_reduce_max_ps(vmax));
-  st.bits |= std::uint64_t(_mm512_reduce_or_epi64(_mm512_or_si512(bits0, bits1)));
+  float lanes_min[16], lanes_max[16];
+  std::uint64_t lanes_bits[8];
+  _mm512_storeu_ps(lanes_min, vmin);
+  _mm512_storeu_ps(lanes_max, vmax);
+  _mm512_storeu_si512(lanes_bits, _mm512_or_si512(bits0, bits1));
+  for (int l = 0; l < 16; ++l) {
+    st.lo = std::min(st.lo, lanes_min[l]);
+    st.hi = std::max(st.hi, lanes_max[l]);
+  }
+  for (int l = 0; l < 8; ++l) st.bits |= lanes_bits[l];
   accumulate_scalar(v + i, n - i, s, st);
 }
 
@@ -259,12 +269,11 @@ void LevelPipeline::downsample_core(std::span<const float> decoded, std::int64_t
   const Extent half = half_extent(d);
   const Box core = geometry_.brick_core_box(level_, bx, by, bz);
   const std::int64_t b = l.brick;
-  // Brick-local index of level voxel (x, y, z).
+  // Brick-local offsets of the level's voxels: x_local = x - ox, etc.
   const std::int64_t ox = core.lo.x - l.overlap, oy = core.lo.y - l.overlap, oz = core.lo.z - l.overlap;
-  auto at = [&](std::int64_t x, std::int64_t y, std::int64_t z) {
-    return decoded.data() + ((z - oz) * b + (y - oy)) * b + (x - ox);
-  };
+  auto row_of = [&](std::int64_t y, std::int64_t z) { return decoded.data() + ((z - oz) * b + (y - oy)) * b; };
   const std::int64_t hz0 = bz * l.core() / 2;  // first half slice of this row
+  const std::int64_t hx0 = core.lo.x / 2, pairs_end = hx0 + (core.hi.x - core.lo.x) / 2;
   // Same arithmetic, in the same order, as downsample_xy followed by the pair average.
   for (std::int64_t hz = core.lo.z / 2; hz < (core.hi.z + 1) / 2; ++hz) {
     const std::int64_t za = 2 * hz, zb = 2 * hz + 1;
@@ -272,25 +281,24 @@ void LevelPipeline::downsample_core(std::span<const float> decoded, std::int64_t
     float* out_slice = next_slices_.data() + (hz - hz0) * half.x * half.y;
     for (std::int64_t hy = core.lo.y / 2; hy < (core.hi.y + 1) / 2; ++hy) {
       const std::int64_t ya = 2 * hy, yb = std::min(2 * hy + 1, d.y - 1);
-      const float *a0 = at(0, ya, za), *a1 = at(0, yb, za);
-      const float *b0 = at(0, ya, pair ? zb : za), *b1 = at(0, yb, pair ? zb : za);
+      const float *a0 = row_of(ya, za), *a1 = row_of(yb, za);
+      const float *b0 = row_of(ya, pair ? zb : za), *b1 = row_of(yb, pair ? zb : za);
       float* o = out_slice + hy * half.x;
-      const std::int64_t hx0 = core.lo.x / 2, pairs_end = core.lo.x / 2 + (core.hi.x - core.lo.x) / 2;
       if (pair) {
         for (std::int64_t hx = hx0; hx < pairs_end; ++hx) {
-          const std::int64_t x = 2 * hx;
+          const std::int64_t x = 2 * hx - ox;
           const float h0 = 0.25f * (a0[x] + a0[x + 1] + a1[x] + a1[x + 1]);
           const float h1 = 0.25f * (b0[x] + b0[x + 1] + b1[x] + b1[x + 1]);
           o[hx] = 0.5f * (h0 + h1);
         }
       } else {
         for (std::int64_t hx = hx0; hx < pairs_end; ++hx) {
-          const std::int64_t x = 2 * hx;
+          const std::int64_t x = 2 * hx - ox;
           o[hx] = 0.25f * (a0[x] + a0[x + 1] + a1[x] + a1[x + 1]);
         }
       }
       if (pairs_end < (core.hi.x + 1) / 2) {  // odd last column (level edge): averages with itself
-        const std::int64_t x = d.x - 1;
+        const std::int64_t x = d.x - 1 - ox;
         const float h0 = 0.25f * (a0[x] + a0[x] + a1[x] + a1[x]);
         o[pairs_end] = pair ? 0.5f * (h0 + 0.25f * (b0[x] + b0[x] + b1[x] + b1[x])) : h0;
       }

@@ -11,6 +11,9 @@
 #include <cstdlib>
 #include <cstring>
 #include <string>
+#include <type_traits>
+
+#include <immintrin.h>  // declares the AVX-512 builtins used below
 
 #include "strata/core/error.hpp"
 
@@ -37,10 +40,27 @@ struct LVecOf {
   typedef std::int64_t type __attribute__((vector_size(VW * sizeof(std::int64_t))));
 };
 
-template <int VW>
-[[gnu::always_inline]] inline typename DVecOf<VW>::type load(const double* p) {
+// VW doubles from p (unaligned); float operands (the decompositions' input tensor) are widened
+// on the fly, exactly.
+template <int VW, class T>
+[[gnu::always_inline]] inline typename DVecOf<VW>::type load(const T* p) {
   typename DVecOf<VW>::type v;
-  __builtin_memcpy(&v, p, sizeof(v));  // unaligned load
+  if constexpr (std::is_same_v<T, double>) {
+    __builtin_memcpy(&v, p, sizeof(v));
+  } else if constexpr (VW == 8) {
+    // One vcvtps2pd zmm, ymm (the generic conversion below becomes two half-width conversions and
+    // a merge). A builtin, not the intrinsic: builtins are checked against the target of the
+    // function they end up in (an AVX-512 entry point), intrinsics against this template's.
+    typedef float F8 __attribute__((vector_size(32)));
+    F8 f;
+    __builtin_memcpy(&f, p, sizeof(f));
+    v = __builtin_ia32_cvtps2pd512_mask((__v8sf)f, (__v8df)v, (__mmask8)-1, _MM_FROUND_CUR_DIRECTION);
+  } else {
+    typedef float F __attribute__((vector_size(VW * sizeof(float))));
+    F f;
+    __builtin_memcpy(&f, p, sizeof(f));
+    v = __builtin_convertvector(f, typename DVecOf<VW>::type);
+  }
   return v;
 }
 
@@ -59,8 +79,8 @@ template <int VW>
 // ---- GEMM -----------------------------------------------------------------------------------
 
 // Out[m0 : m0 + VW*MV, n0 : n0 + NR] = L[m0 : .., :] · R[:, n0 : ..], accumulators in registers.
-template <int VW, int MV, int NR>
-[[gnu::always_inline]] inline void gemm_tile(const DGemmArgs& g, const double* l, const double* r, double* out,
+template <int VW, int MV, int NR, class LT, class RT>
+[[gnu::always_inline]] inline void gemm_tile(const DGemmArgs& g, const LT* l, const RT* r, double* out,
                                              std::int64_t m0, std::int64_t n0) {
   using V = typename DVecOf<VW>::type;
   V acc[NR][MV];
@@ -68,13 +88,13 @@ template <int VW, int MV, int NR>
     for (int j = 0; j < MV; ++j) acc[c][j] = V{};
   // Locals, not g's fields: stores through `out` could otherwise alias them and force reloads.
   const std::int64_t depth = g.k, ld_l = g.ld_l, r_k = g.r_k, r_n = g.r_n, ld_out = g.ld_out;
-  const double* lp = l + m0;
-  const double* rp = r + n0 * r_n;
+  const LT* lp = l + m0;
+  const RT* rp = r + n0 * r_n;
   for (std::int64_t k = 0; k < depth; ++k, lp += ld_l, rp += r_k) {
     V lv[MV];
     for (int j = 0; j < MV; ++j) lv[j] = load<VW>(lp + j * VW);
     for (int c = 0; c < NR; ++c) {
-      const double b = rp[c * r_n];
+      const double b = double(rp[c * r_n]);
       for (int j = 0; j < MV; ++j) acc[c][j] += lv[j] * b;
     }
   }
@@ -84,21 +104,22 @@ template <int VW, int MV, int NR>
 }
 
 // Rows that do not fill a vector.
-inline void gemm_scalar_rows(const DGemmArgs& g, const double* l, const double* r, double* out, std::int64_t m0,
+template <class LT, class RT>
+inline void gemm_scalar_rows(const DGemmArgs& g, const LT* l, const RT* r, double* out, std::int64_t m0,
                              std::int64_t n0, int columns) {
   for (int c = 0; c < columns; ++c) {
     for (std::int64_t m = m0; m < g.m; ++m) {
       double sum = 0;
-      for (std::int64_t k = 0; k < g.k; ++k) sum += l[m + k * g.ld_l] * r[k * g.r_k + (n0 + c) * g.r_n];
+      for (std::int64_t k = 0; k < g.k; ++k) sum += double(l[m + k * g.ld_l]) * double(r[k * g.r_k + (n0 + c) * g.r_n]);
       out[(n0 + c) * g.ld_out + m] = sum;
     }
   }
 }
 
 // One block of NR columns over all rows: full MV-vector tiles, then single vectors, then scalars.
-template <int VW, int MV, int NR>
-[[gnu::always_inline]] inline void gemm_column_block(const DGemmArgs& g, const double* l, const double* r,
-                                                     double* out, std::int64_t n0) {
+template <int VW, int MV, int NR, class LT, class RT>
+[[gnu::always_inline]] inline void gemm_column_block(const DGemmArgs& g, const LT* l, const RT* r, double* out,
+                                                     std::int64_t n0) {
   constexpr std::int64_t rows_per_tile = std::int64_t(VW) * MV;
   std::int64_t m0 = 0;
   if (g.lower) m0 = std::min(n0 / VW * VW, g.m / VW * VW);  // rows above n0 are not needed
@@ -108,27 +129,40 @@ template <int VW, int MV, int NR>
 }
 
 // Columns n0.. in blocks of NR, the remainder in halving block widths (NR/2, ..., 1).
-template <int VW, int MV, int NR>
-[[gnu::always_inline]] inline void gemm_columns_from(const DGemmArgs& g, const double* l, const double* r,
-                                                     double* out, std::int64_t n0) {
+template <int VW, int MV, int NR, class LT, class RT>
+[[gnu::always_inline]] inline void gemm_columns_from(const DGemmArgs& g, const LT* l, const RT* r, double* out,
+                                                     std::int64_t n0) {
   for (; n0 + NR <= g.n; n0 += NR) gemm_column_block<VW, MV, NR>(g, l, r, out, n0);
   if constexpr (NR > 1) {
     if (n0 < g.n) gemm_columns_from<VW, MV, NR / 2>(g, l, r, out, n0);
   }
 }
 
+template <int VW, int MV, int NR, class LT, class RT>
+[[gnu::always_inline]] inline void gemm_batch_typed(const DGemmArgs& g, const LT* l, const RT* r) {
+  for (std::int64_t b = 0; b < g.batch; ++b)
+    gemm_columns_from<VW, MV, NR>(g, l + b * g.l_step, r + b * g.r_step, g.out + b * g.out_step, 0);
+}
+
+// Dispatches on which operands are float (l_f / r_f set).
 template <int VW, int MV, int NR>
 [[gnu::always_inline]] inline void gemm_batch(const DGemmArgs& g) {
-  for (std::int64_t b = 0; b < g.batch; ++b)
-    gemm_columns_from<VW, MV, NR>(g, g.l + b * g.l_step, g.r + b * g.r_step, g.out + b * g.out_step, 0);
+  if (g.l_f) {
+    if (g.r_f) gemm_batch_typed<VW, MV, NR>(g, g.l_f, g.r_f);
+    else gemm_batch_typed<VW, MV, NR>(g, g.l_f, g.r);
+  } else if (g.r_f) {
+    gemm_batch_typed<VW, MV, NR>(g, g.l, g.r_f);
+  } else {
+    gemm_batch_typed<VW, MV, NR>(g, g.l, g.r);
+  }
 }
 
 // ---- Gram matrices of unfoldings ------------------------------------------------------------
 
 // Blocks of B x B column pairs (p, q), q-block >= p-block; B^2 vector accumulators plus 2 B
 // loaded vectors stay in registers. Columns past n repeat the last one and are not written.
-template <int VW, int B>
-[[gnu::always_inline]] inline void gram_dot(const DGramArgs& a) {
+template <int VW, int B, class T>
+[[gnu::always_inline]] inline void gram_dot_typed(const DGramArgs& a, const T* x) {
   using V = typename DVecOf<VW>::type;
   const std::int64_t n = a.n, len = a.len, vec_len = len / VW * VW;
   for (std::int64_t p0 = 0; p0 < n; p0 += B) {
@@ -146,7 +180,7 @@ template <int VW, int B>
           tail[i][j] = 0;
         }
       for (std::int64_t s = 0; s < a.segments; ++s) {
-        const double* base = a.x + s * a.seg_stride;
+        const T* base = x + s * a.seg_stride;
         for (std::int64_t t = 0; t < vec_len; t += VW) {
           V xp[B], xq[B];
           for (int i = 0; i < B; ++i) xp[i] = load<VW>(base + po[i] + t);
@@ -156,7 +190,7 @@ template <int VW, int B>
         }
         for (std::int64_t t = vec_len; t < len; ++t)
           for (int i = 0; i < B; ++i)
-            for (int j = 0; j < B; ++j) tail[i][j] += base[po[i] + t] * base[qo[j] + t];
+            for (int j = 0; j < B; ++j) tail[i][j] += double(base[po[i] + t]) * double(base[qo[j] + t]);
       }
       for (int i = 0; i < B; ++i) {
         for (int j = 0; j < B; ++j) {
@@ -169,6 +203,12 @@ template <int VW, int B>
       }
     }
   }
+}
+
+template <int VW, int B>
+[[gnu::always_inline]] inline void gram_dot(const DGramArgs& a) {
+  if (a.x_f) gram_dot_typed<VW, B>(a, a.x_f);
+  else gram_dot_typed<VW, B>(a, a.x);
 }
 
 // ---- Symmetric eigen-decomposition ----------------------------------------------------------
@@ -421,7 +461,9 @@ template <int VW, int G>
   for (int g = 0; g < G; ++g) {
     lo[g] = V{} + glo;
     hi[g] = V{} + ghi;
-    for (int j = 0; j < VW; ++j) target[g][j] = std::uint64_t(n - 1 - std::min(first + g * VW + j, r - 1));
+    std::uint64_t t[VW];
+    for (int j = 0; j < VW; ++j) t[j] = std::uint64_t(n - 1 - std::min(first + g * VW + j, r - 1));
+    __builtin_memcpy(&target[g], t, sizeof(t));
   }
   constexpr double eps = 0x1p-52;
   for (int iteration = 0; iteration < 80; ++iteration) {
@@ -524,6 +566,10 @@ template <int VW, int G>
   // D+_k + D-_k - (d_k - lambda); the twist index t minimises |gamma_k|.
   V best[G];
   L twist[G];
+  for (int g = 0; g < G; ++g) {
+    best[g] = V{};
+    twist[g] = L{};
+  }
   {
     V d[G];
     for (int g = 0; g < G; ++g) d[g] = guard<VW>(ds[n - 1] - lambda[g]);
@@ -721,33 +767,19 @@ template <int VW, int G>
 
 // ---- Conversions and norms ------------------------------------------------------------------
 
-template <int VW>
-[[gnu::always_inline]] inline double widen_impl(const float* in, double* out, std::int64_t n) {
+template <int VW, class T>
+[[gnu::always_inline]] inline double sum_squares_impl(const T* x, std::int64_t n) {
   using V = typename DVecOf<VW>::type;
   V acc0{}, acc1{};
   std::int64_t i = 0;
   for (; i + 2 * VW <= n; i += 2 * VW) {
-    V x0, x1;
-    for (int j = 0; j < VW; ++j) {
-      x0[j] = double(in[i + j]);
-      x1[j] = double(in[i + VW + j]);
-    }
-    store<VW>(out + i, x0);
-    store<VW>(out + i + VW, x1);
-    acc0 += x0 * x0;
-    acc1 += x1 * x1;
+    const V a = load<VW>(x + i), b = load<VW>(x + i + VW);
+    acc0 += a * a;
+    acc1 += b * b;
   }
   double s = hsum<VW>(acc0 + acc1);
-  for (; i < n; ++i) {
-    out[i] = double(in[i]);
-    s += out[i] * out[i];
-  }
+  for (; i < n; ++i) s += double(x[i]) * double(x[i]);
   return s;
-}
-
-template <int VW>
-[[gnu::always_inline]] inline double sum_squares_impl(const double* x, std::int64_t n) {
-  return dot<VW>(x, x, n);
 }
 
 // ---- Entry points per ISA -------------------------------------------------------------------
@@ -792,21 +824,22 @@ STRATA_TARGET_AVX512 bool sym_eigen_avx512(double* a, std::int64_t n, double* v,
   return sym_eigen_impl<8>(a, n, v, w, work);
 }
 
-double widen_generic(const float* in, double* out, std::int64_t n) { return widen_impl<2>(in, out, n); }
 double sum_squares_generic(const double* x, std::int64_t n) { return sum_squares_impl<2>(x, n); }
-STRATA_TARGET_AVX2 double widen_avx2(const float* in, double* out, std::int64_t n) { return widen_impl<4>(in, out, n); }
+double sum_squares_f_generic(const float* x, std::int64_t n) { return sum_squares_impl<2>(x, n); }
 STRATA_TARGET_AVX2 double sum_squares_avx2(const double* x, std::int64_t n) { return sum_squares_impl<4>(x, n); }
-STRATA_TARGET_AVX512 double widen_avx512(const float* in, double* out, std::int64_t n) {
-  return widen_impl<8>(in, out, n);
-}
+STRATA_TARGET_AVX2 double sum_squares_f_avx2(const float* x, std::int64_t n) { return sum_squares_impl<4>(x, n); }
 STRATA_TARGET_AVX512 double sum_squares_avx512(const double* x, std::int64_t n) { return sum_squares_impl<8>(x, n); }
+STRATA_TARGET_AVX512 double sum_squares_f_avx512(const float* x, std::int64_t n) {
+  return sum_squares_impl<8>(x, n);
+}
 
-const DecomposeKernels kGeneric{KernelIsa::generic, gemm_generic,  gram_generic,       sym_eigen_generic,
-                                leading_eigen_generic, widen_generic, sum_squares_generic};
-const DecomposeKernels kAvx2{KernelIsa::avx2,      gemm_avx2,  gram_avx2,       sym_eigen_avx2,
-                             leading_eigen_avx2, widen_avx2, sum_squares_avx2};
-const DecomposeKernels kAvx512{KernelIsa::avx512,      gemm_avx512,  gram_avx512,       sym_eigen_avx512,
-                               leading_eigen_avx512, widen_avx512, sum_squares_avx512};
+const DecomposeKernels kGeneric{KernelIsa::generic,  gemm_generic,        gram_generic,
+                                sym_eigen_generic,   leading_eigen_generic, sum_squares_generic,
+                                sum_squares_f_generic};
+const DecomposeKernels kAvx2{KernelIsa::avx2,   gemm_avx2,        gram_avx2,       sym_eigen_avx2,
+                             leading_eigen_avx2, sum_squares_avx2, sum_squares_f_avx2};
+const DecomposeKernels kAvx512{KernelIsa::avx512,  gemm_avx512,        gram_avx512,         sym_eigen_avx512,
+                               leading_eigen_avx512, sum_squares_avx512, sum_squares_f_avx512};
 
 KernelIsa isa_from_environment() {
   const char* forced = std::getenv("STRATA_DECOMPOSE_ISA");

@@ -19,6 +19,8 @@ namespace strata::detail {
 // Product b uses l + b * l_step, r + b * r_step and out + b * out_step.
 // With `lower`, only Out(i, j) with i >= j is needed: tiles wholly above the diagonal are skipped
 // and the entries there are left unspecified (symmetric products, e.g. X X^T).
+// Setting l_f (r_f) reads that operand as float instead (the decompositions' float input tensor,
+// widened exactly on the fly: the result is the same as from a double copy).
 struct DGemmArgs {
   std::int64_t m = 0, n = 0, k = 0;
   const double* l = nullptr;
@@ -29,6 +31,8 @@ struct DGemmArgs {
   std::int64_t ld_out = 0;
   std::int64_t batch = 1, l_step = 0, r_step = 0, out_step = 0;
   bool lower = false;
+  const float* l_f = nullptr;
+  const float* r_f = nullptr;
 };
 
 // Symmetric G (n x n, column-major, ld n, both triangles written) of inner products of columns
@@ -36,10 +40,12 @@ struct DGemmArgs {
 // x[s seg_stride + q col_stride + i]. The mode-3 Gram of an I1 x I2 x I3 tensor is one segment of
 // length I1 I2 (column stride I1 I2); the mode-2 Gram is I3 segments of length I1 (segment
 // stride I1 I2, column stride I1).
+// x_f instead of x reads a float tensor.
 struct DGramArgs {
   std::int64_t n = 0, segments = 1, seg_stride = 0, col_stride = 0, len = 0;
   const double* x = nullptr;
   double* g = nullptr;
+  const float* x_f = nullptr;
 };
 
 struct DecomposeKernels {
@@ -57,10 +63,9 @@ struct DecomposeKernels {
   // eigenvalues are any orthonormal basis of their space. `work` holds leading_eigen_work(n)
   // doubles. Returns false if the eigen-decomposition fails (never for finite input).
   bool (*leading_eigen)(double* a, std::int64_t n, std::int64_t r, double* u, double* work) = nullptr;
-  // out[i] = in[i] (float to double); returns the sum of the squares.
-  double (*widen)(const float* in, double* out, std::int64_t n) = nullptr;
-  // Sum of squares.
+  // Sum of squares, accumulated in double.
   double (*sum_squares)(const double* x, std::int64_t n) = nullptr;
+  double (*sum_squares_f)(const float* x, std::int64_t n) = nullptr;
 };
 
 std::int64_t leading_eigen_work(std::int64_t n);

@@ -41,12 +41,16 @@ class Buffer {
   std::vector<double> values_;
 };
 
-// A dense double tensor in workspace memory, first index fastest (like BasicTensor3).
+// A dense tensor, first index fastest (like BasicTensor3): a double product in workspace memory,
+// or (input set, data null) the float tensor being decomposed, which the kernels read as float
+// and widen exactly on the fly.
 struct TensorD {
   double* data = nullptr;
   Dims3 d{0, 0, 0};
+  const float* input = nullptr;
   std::int64_t dim(int mode) const { return d[std::size_t(mode - 1)]; }
   std::int64_t size() const { return d[0] * d[1] * d[2]; }
+  double at(std::int64_t i) const { return input ? double(input[i]) : data[i]; }
 };
 
 // A column-major I x R factor matrix (or R x R rotation) in workspace memory.
@@ -59,7 +63,6 @@ using FactorsD = std::array<FactorD, 3>;
 // Scratch of one thread's decompositions. The roles never overlap within one call:
 // leading_left_singular_vectors uses gram/eig_*; the sweep and projections use the tensors.
 struct Workspace {
-  Buffer input;                                  // A as double
   std::array<Buffer, 6> tensors;                 // intermediate products
   std::array<Buffer, 3> factors, rotations, rotated;
   Buffer transposed;                             // U^T for mode-1 products
@@ -87,15 +90,18 @@ TensorD ttm_transposed(const DecomposeKernels& k, const TensorD& x, int mode, co
     for (std::int64_t c = 0; c < j; ++c)
       for (std::int64_t r = 0; r < i1; ++r) ut[c + r * j] = u.data[r + c * i1];
     g = DGemmArgs{j, i2 * i3, i1, ut, j, x.data, 1, i1, y.data, j};
+    g.r_f = x.input;
   } else if (mode == 2) {
     // Y(:, :, i3) (I1 x J) = X(:, :, i3) (I1 x I2) · U (I2 x J), for each i3.
     g = DGemmArgs{i1, j, i2, x.data, i1, u.data, 1, i2, y.data, i1};
+    g.l_f = x.input;
     g.batch = i3;
     g.l_step = i1 * i2;
     g.out_step = i1 * j;
   } else {
     // Y (I1 I2 x J) = X (I1 I2 x I3) · U (I3 x J).
     g = DGemmArgs{i1 * i2, j, i3, x.data, i1 * i2, u.data, 1, i3, y.data, i1 * i2};
+    g.l_f = x.input;
   }
   k.gemm(g);
   return y;
@@ -107,16 +113,21 @@ void gram(const DecomposeKernels& k, const TensorD& x, int mode, double* g) {
   if (mode == 1) {
     // X viewed as I1 x (I2 I3): G = X X^T, lower triangle by GEMM, then mirrored.
     DGemmArgs a{i1, i1, i2 * i3, x.data, i1, x.data, i1, 1, g, i1};
+    a.l_f = a.r_f = x.input;
     a.lower = true;
     k.gemm(a);
     for (std::int64_t c = 1; c < i1; ++c)
       for (std::int64_t r = 0; r < c; ++r) g[r + c * i1] = g[c + r * i1];
   } else if (mode == 2) {
     // Columns of X_(2) are the rows of the frontal slices: runs of I1 per slice.
-    k.gram(DGramArgs{i2, i3, i1 * i2, i1, i1, x.data, g});
+    DGramArgs a{i2, i3, i1 * i2, i1, i1, x.data, g};
+    a.x_f = x.input;
+    k.gram(a);
   } else {
     // X viewed as (I1 I2) x I3: inner products of whole frontal slices.
-    k.gram(DGramArgs{i3, 1, 0, i1 * i2, i1 * i2, x.data, g});
+    DGramArgs a{i3, 1, 0, i1 * i2, i1 * i2, x.data, g};
+    a.x_f = x.input;
+    k.gram(a);
   }
 }
 
@@ -140,7 +151,7 @@ MatrixD unfold(const TensorD& x, int mode) {
   for (std::int64_t i3 = 0; i3 < d[2]; ++i3)
     for (std::int64_t i2 = 0; i2 < d[1]; ++i2)
       for (std::int64_t i1 = 0; i1 < d[0]; ++i1) {
-        const double v = x.data[i1 + d[0] * (i2 + d[1] * i3)];
+        const double v = x.at(i1 + d[0] * (i2 + d[1] * i3));
         if (mode == 1) m(i1, i2 + d[1] * i3) = v;
         else if (mode == 2) m(i2, i1 + d[0] * i3) = v;
         else m(i3, i1 + d[0] * i2) = v;
@@ -180,7 +191,9 @@ double fit_from_norms(double norm_a, double norm_core) {
   return 1.0 - std::sqrt(residual_sq) / norm_a;
 }
 
-double norm(const DecomposeKernels& k, const TensorD& x) { return std::sqrt(k.sum_squares(x.data, x.size())); }
+double norm(const DecomposeKernels& k, const TensorD& x) {
+  return std::sqrt(x.input ? k.sum_squares_f(x.input, x.size()) : k.sum_squares(x.data, x.size()));
+}
 
 Tucker to_float_model(const TensorD& core, const FactorsD& u, double fit, int iterations) {
   Tucker t;
@@ -193,12 +206,8 @@ Tucker to_float_model(const TensorD& core, const FactorsD& u, double fit, int it
   return t;
 }
 
-// A as double in the workspace; returns ‖A‖.
-TensorD widen(const DecomposeKernels& k, Workspace& ws, const Tensor3& a, double& norm_a) {
-  const TensorD ad = tensor_in(ws.input, a.dims());
-  norm_a = std::sqrt(k.widen(a.data(), ad.data, a.size()));
-  return ad;
-}
+// The float input as an operand of the kernels.
+TensorD input_tensor(const Tensor3& a) { return TensorD{nullptr, a.dims(), a.data()}; }
 
 // A ×1 U1^T ×2 U2^T ×3 U3^T; each product shrinks the tensor, so the intermediates stay small
 // when R_n < I_n. Uses tensors[3..5]; the result lives in tensors[5].
@@ -258,8 +267,8 @@ Tucker hosvd(const Tensor3& a, const Ranks3& ranks) {
   check_ranks(a.dims(), ranks, "hosvd");
   const DecomposeKernels& k = detail::decompose_kernels();
   Workspace& ws = workspace();
-  double norm_a = 0;
-  const TensorD ad = widen(k, ws, a, norm_a);
+  const TensorD ad = input_tensor(a);
+  const double norm_a = norm(k, ad);
   FactorsD u;
   for (int n = 1; n <= 3; ++n)
     u[std::size_t(n - 1)] =
@@ -273,8 +282,8 @@ Tucker hooi(const Tensor3& a, const Ranks3& ranks, const HooiOptions& options) {
   if (options.max_iterations < 1) throw Error("hooi: max_iterations must be at least 1");
   const DecomposeKernels& k = detail::decompose_kernels();
   Workspace& ws = workspace();
-  double norm_a = 0;
-  const TensorD ad = widen(k, ws, a, norm_a);
+  const TensorD ad = input_tensor(a);
+  const double norm_a = norm(k, ad);
   // Initialisation: the sequentially truncated HOSVD (Vannieuwenhoven et al. 2012) in the order
   // 3, 2, 1: U3 from A, U2 from A ×3 U3^T, U1 from A ×3 U3^T ×2 U2^T. A ×3 U3^T is also the
   // first product of the first sweep, and U1 only serves the fit that the first sweep's

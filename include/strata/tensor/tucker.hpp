@@ -1,8 +1,11 @@
 #pragma once
 // Tucker decompositions of 3-way tensors (paper 1, Appendix A.1): truncated HOSVD and HOOI
-// (alternating least squares initialised from HOSVD). Storage is float; the decompositions run
-// in double so that the fit and the orthogonality of the factors are limited by float storage
-// of the result only.
+// (alternating least squares initialised from a sequentially truncated HOSVD). Storage is float;
+// the decompositions run in double so that the fit and the orthogonality of the factors are
+// limited by float storage of the result only. The n-mode products, Gram matrices and the
+// eigen-solver are hand-written kernels compiled for AVX-512, AVX2+FMA and baseline x86-64 and
+// chosen at run time (src/tensor/decompose_kernel.hpp); calls are thread-safe and reuse
+// per-thread scratch, so a loop over bricks does not allocate beyond the returned model.
 #include "strata/tensor/tensor3.hpp"
 
 namespace strata {
@@ -26,7 +29,9 @@ struct Tucker {
 // Singular vectors come from the eigen-decomposition of the Gram matrix A_(n) A_(n)^T when the
 // unfolding is wide (always, for bricks) and from a thin SVD of A_(n) when it is tall. Each
 // column's sign is fixed so that its largest-magnitude entry is positive (reproducible output;
-// for non-negative data the hot corner B(0,0,0) comes out positive).
+// for non-negative data the hot corner B(0,0,0) comes out positive). Singular values below
+// ~3e-7 of the largest (eigenvalues of the Gram matrix below 1e-13 of the largest, the level of
+// its rounding errors) are not resolved: their vectors are some orthonormal completion.
 Tucker hosvd(const Tensor3& a, const Ranks3& ranks);
 
 struct HooiOptions {
@@ -39,8 +44,11 @@ struct HooiOptions {
 };
 
 // Higher-order orthogonal iteration (HOOI / Tucker-ALS) for a rank-(R1, R2, R3) model,
-// initialised from the truncated HOSVD. Each sweep re-solves one factor with the others fixed,
-// which never decreases the fit, so the result fits at least as well as hosvd(a, ranks).
+// initialised from the sequentially truncated HOSVD (Vannieuwenhoven, Vandebril, Meerbergen
+// 2012) in the mode order 3, 2, 1: U3 from A_(3), U2 from (A ×3 U3^T)_(2), U1 from
+// (A ×3 U3^T ×2 U2^T)_(1). That initialisation fits like the truncated HOSVD (often better) at a
+// fraction of its cost, and its last step is the first update of the first sweep. Each sweep
+// re-solves one factor with the others fixed, which never decreases the fit.
 Tucker hooi(const Tensor3& a, const Ranks3& ranks, const HooiOptions& options = {});
 
 // The leading K1 x K2 x K3 sub-core and the first K_n columns of each factor (K_n <= R_n).
