@@ -1,6 +1,7 @@
 #include "strata/ta/brick_codec.hpp"
 
 #include <algorithm>
+#include <memory>
 
 #include <zstd.h>
 
@@ -49,7 +50,9 @@ std::vector<std::byte> deflate_payload(const std::vector<std::byte>& plain, cons
   auto [f0, f1] = factor_plane_range(plain, scheme);
   split_byte_planes(std::span(plain).subspan(f0, f1 - f0), std::span(shuffled).subspan(f0, f1 - f0));
   std::vector<std::byte> out(ZSTD_compressBound(shuffled.size()));
-  const std::size_t n = ZSTD_compress(out.data(), out.size(), shuffled.data(), shuffled.size(), level);
+  // One compression context per thread: ZSTD_compress would create and free one per brick.
+  thread_local std::unique_ptr<ZSTD_CCtx, decltype(&ZSTD_freeCCtx)> cctx(ZSTD_createCCtx(), &ZSTD_freeCCtx);
+  const std::size_t n = ZSTD_compressCCtx(cctx.get(), out.data(), out.size(), shuffled.data(), shuffled.size(), level);
   if (ZSTD_isError(n)) throw Error(std::string("zstd compression failed: ") + ZSTD_getErrorName(n));
   out.resize(n);
   return out;

@@ -23,15 +23,22 @@ HistogramRange value_range(io::VolumeSource& source, ProgressSink& progress, std
   io::for_each_slab(source, [&](const Volume& slab, std::int64_t) {
     visit_dtype(slab.dtype(), [&](auto tag) {
       using T = decltype(tag);
-      for (T v : slab.samples<T>()) {
-        if constexpr (std::is_floating_point_v<T>) {
-          // A NaN would slip through min/max and poison every decomposition it touches.
+      const auto values = slab.samples<T>();
+      if (values.empty()) return;
+      if constexpr (std::is_floating_point_v<T>) {
+        // A NaN would slip through min/max and poison every decomposition it touches.
+        for (T v : values)
           if (!std::isfinite(v))
             throw Error(source.path().string() + ": samples: NaN or infinite values cannot be compressed");
-        }
-        lo = std::min(lo, double(v));
-        hi = std::max(hi, double(v));
       }
+      // Branch-free min/max in the sample type (vectorised), widened once per slab.
+      T mn = values[0], mx = values[0];
+      for (T v : values) {
+        mn = v < mn ? v : mn;
+        mx = v > mx ? v : mx;
+      }
+      lo = std::min(lo, double(mn));
+      hi = std::max(hi, double(mx));
     });
   }, progress, "scan range", slab_bytes);
   if (!std::isfinite(lo) || !std::isfinite(hi))

@@ -74,6 +74,17 @@ Workspace& workspace() {
   return ws;
 }
 
+// Bricks keep their scratch between calls; a decomposition of a large tensor (a whole volume)
+// hands its buffers back when it ends instead of holding them for the thread's lifetime.
+struct ReleaseLargeWorkspace {
+  Workspace& ws;
+  bool large;
+  ~ReleaseLargeWorkspace() {
+    if (large) ws = Workspace{};
+  }
+};
+constexpr std::int64_t kLargeTensor = std::int64_t(1) << 22;  // elements
+
 TensorD tensor_in(Buffer& b, const Dims3& d) { return {b.get(std::size_t(d[0] * d[1] * d[2])), d}; }
 
 // Y = X ×n U^T (U is I_n x J): one GEMM for modes 1 and 3, one per frontal slice for mode 2.
@@ -267,6 +278,7 @@ Tucker hosvd(const Tensor3& a, const Ranks3& ranks) {
   check_ranks(a.dims(), ranks, "hosvd");
   const DecomposeKernels& k = detail::decompose_kernels();
   Workspace& ws = workspace();
+  const ReleaseLargeWorkspace release{ws, a.size() > kLargeTensor};
   const TensorD ad = input_tensor(a);
   const double norm_a = norm(k, ad);
   FactorsD u;
@@ -282,6 +294,7 @@ Tucker hooi(const Tensor3& a, const Ranks3& ranks, const HooiOptions& options) {
   if (options.max_iterations < 1) throw Error("hooi: max_iterations must be at least 1");
   const DecomposeKernels& k = detail::decompose_kernels();
   Workspace& ws = workspace();
+  const ReleaseLargeWorkspace release{ws, a.size() > kLargeTensor};
   const TensorD ad = input_tensor(a);
   const double norm_a = norm(k, ad);
   // Initialisation: the sequentially truncated HOSVD (Vannieuwenhoven et al. 2012) in the order
