@@ -58,6 +58,11 @@ struct Reader {
 
 constexpr std::uint8_t kFixedTag = 1, kBlockTag = 2;
 
+Extent block_grid(const Extent& dims) {
+  const std::int64_t b = BlockPaletteIds::kBlock;
+  return {(dims.x + b - 1) / b, (dims.y + b - 1) / b, (dims.z + b - 1) / b};
+}
+
 Extent read_dims(Reader& r) {
   Extent d{r.get<std::int64_t>(), r.get<std::int64_t>(), r.get<std::int64_t>()};
   if (d.x < 1 || d.y < 1 || d.z < 1 || d.x > (1 << 24) || d.y > (1 << 24) || d.z > (1 << 24))
@@ -122,7 +127,7 @@ FixedRateIds FixedRateIds::deserialize(std::span<const std::byte> bytes) {
 BlockPaletteIds::BlockPaletteIds(std::span<const std::uint32_t> ids, const Extent& dims) : dims_(dims) {
   check_ids(ids, dims, "BlockPaletteIds");
   const std::int64_t b = kBlock;
-  grid_ = {(dims.x + b - 1) / b, (dims.y + b - 1) / b, (dims.z + b - 1) / b};
+  grid_ = block_grid(dims);
   blocks_.resize(std::size_t(grid_.voxel_count()));
   std::map<std::vector<std::uint32_t>, std::uint32_t> palette_offsets;  // dedupe identical palettes
   std::vector<std::uint32_t> block_ids(std::size_t(b * b * b)), codes(block_ids.size()), palette;
@@ -221,7 +226,7 @@ BlockPaletteIds BlockPaletteIds::deserialize(std::span<const std::byte> bytes) {
   BlockPaletteIds s;
   s.dims_ = read_dims(r);
   const std::int64_t b = kBlock;
-  s.grid_ = {(s.dims_.x + b - 1) / b, (s.dims_.y + b - 1) / b, (s.dims_.z + b - 1) / b};
+  s.grid_ = block_grid(s.dims_);
   const auto nblocks = r.get<std::uint64_t>(), npalette = r.get<std::uint64_t>(), nindex = r.get<std::uint64_t>();
   if (nblocks != std::uint64_t(s.grid_.voxel_count())) throw FormatError(r.what, "blocks", "count does not match dims");
   r.need(std::size_t(nblocks) * 17);

@@ -13,14 +13,6 @@
 namespace strata::mixture {
 namespace {
 
-gen::Params gen_params(gen::Kind kind, Extent dims, std::uint64_t seed, std::int64_t count) {
-  gen::Params p;
-  p.kind = kind;
-  p.dims = dims;
-  p.seed = seed;
-  p.count = count;
-  return p;
-}
 
 std::uint32_t add(MixtureTable& t, std::vector<std::uint32_t> ix, std::vector<double> ms) {
   MixtureTable::canonicalize(ms, t.integral());
@@ -248,7 +240,7 @@ void check_graph(const MixtureGraph& g) {
 // One interpolation with |w - code| < 2^-b moves at most 2 * 2^-b of l1 mass; a mixture
 // factored greedily uses nnz - 1 of them (each scaled by the fraction it carries <= 1).
 TEST(Factorize, ReconstructionWithinQuantizationBound) {
-  const Volume v = gen::generate(gen_params(gen::Kind::voronoi, {37, 29, 21}, 5, 40));
+  const Volume v = gen::generate(gen::Params{gen::Kind::voronoi, {37, 29, 21}, 5, 40});
   const HistogramMipmap h = HistogramMipmap::from_labels(v);
   for (PairScore s : kScores)
     for (int bits : {4, 9, 12})
@@ -288,7 +280,7 @@ TEST(Factorize, ReconstructionWithinQuantizationBound) {
 // Dense mixtures are built from their children's nodes: the error adds at most the
 // interpolations of <= 8 children on top of the worst child.
 TEST(Factorize, DenseMixturesViaChildren) {
-  const Volume v = gen::generate(gen_params(gen::Kind::fibres, {40, 36, 30}, 3, 60));
+  const Volume v = gen::generate(gen::Params{gen::Kind::fibres, {40, 36, 30}, 3, 60});
   const HistogramMipmap h = HistogramMipmap::from_labels(v);
   FactorOptions o;
   o.dense_threshold = 6;
@@ -326,7 +318,7 @@ TEST(Factorize, DenseMixturesViaChildren) {
 }
 
 TEST(Factorize, DeterministicAndMoveEquivalent) {
-  const Volume v = gen::generate(gen_params(gen::Kind::voronoi, {30, 30, 30}, 9, 25));
+  const Volume v = gen::generate(gen::Params{gen::Kind::voronoi, {30, 30, 30}, 9, 25});
   HistogramMipmap h = HistogramMipmap::from_labels(v);
   const Factorization a = factorize(h, {});
   const Factorization b = factorize(h, {});

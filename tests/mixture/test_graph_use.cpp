@@ -16,14 +16,6 @@
 namespace strata::mixture {
 namespace {
 
-gen::Params gen_params(gen::Kind kind, Extent dims, std::uint64_t seed, std::int64_t count) {
-  gen::Params p;
-  p.kind = kind;
-  p.dims = dims;
-  p.seed = seed;
-  p.count = count;
-  return p;
-}
 
 // A hand-made graph: sources 0..3; 4 = (0,1), 5 = (2,4), 6 = (3,5), 7 = (0,2), 8 = (1,3).
 MixtureGraph hand_graph() {
@@ -71,7 +63,7 @@ void check_schedule(const MixtureGraph& g, const Schedule& s) {
 }
 
 TEST(Schedule, BalancedPhasesRespectDependencies) {
-  const Volume v = gen::generate(gen_params(gen::Kind::voronoi, {40, 40, 40}, 2, 50));
+  const Volume v = gen::generate(gen::Params{gen::Kind::voronoi, {40, 40, 40}, 2, 50});
   const HistogramMipmap h = HistogramMipmap::from_labels(v);
   const Factorization f = factorize(h, {});
   const Schedule b = make_schedule(f.graph, true);
@@ -89,7 +81,7 @@ TEST(Schedule, BalancedPhasesRespectDependencies) {
 }
 
 TEST(Palette, EqualsBruteForceMixing) {
-  const Volume v = gen::generate(gen_params(gen::Kind::fibres, {48, 40, 32}, 4, 80));
+  const Volume v = gen::generate(gen::Params{gen::Kind::fibres, {48, 40, 32}, 4, 80});
   const HistogramMipmap h = HistogramMipmap::from_labels(v);
   const Factorization f = factorize(h, {});
   const Schedule s = make_schedule(f.graph);
@@ -173,7 +165,7 @@ TEST(Lookup, ErrorPropagationOnAHandExample) {
 }
 
 TEST(Lookup, ReconstructAnyVoxel) {
-  const Volume v = gen::generate(gen_params(gen::Kind::voronoi, {20, 18, 14}, 6, 12));
+  const Volume v = gen::generate(gen::Params{gen::Kind::voronoi, {20, 18, 14}, 6, 12});
   const HistogramMipmap h = HistogramMipmap::from_labels(v);
   const Factorization f = factorize(h, {});
   const MixtureLookup lut = MixtureLookup::build(f.graph, make_schedule(f.graph));

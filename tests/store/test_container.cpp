@@ -20,15 +20,6 @@ std::vector<std::byte> random_bytes(std::size_t n, unsigned seed) {
   return v;
 }
 
-void flip_byte(const std::filesystem::path& p, std::uint64_t offset) {
-  std::fstream f(p, std::ios::in | std::ios::out | std::ios::binary);
-  f.seekg(std::streamoff(offset));
-  char c;
-  f.read(&c, 1);
-  c = char(c ^ 0x5a);
-  f.seekp(std::streamoff(offset));
-  f.write(&c, 1);
-}
 
 std::string error_of(const std::function<void()>& f) {
   try {
@@ -94,7 +85,7 @@ TEST(Container, CorruptPayloadIsReportedWithTheBrick) {
     w.finish({});
   }
   std::uint64_t offset = ContainerReader(path).find({2, 4, 5, 6})->offset;
-  flip_byte(path, offset + 100);
+  test::flip_byte(path, offset + 100);
   ContainerReader r(path);  // header, index and metadata are still intact
   std::string msg = error_of([&] { r.payload(*r.find({2, 4, 5, 6})); });
   EXPECT_NE(msg.find("c.strata"), std::string::npos) << msg;
@@ -118,7 +109,7 @@ TEST(Container, RejectsBadHeadersAndTruncation) {
   EXPECT_NE(msg.find("t2.strata"), std::string::npos) << msg;
   EXPECT_NE(msg.find("outside"), std::string::npos) << msg;
 
-  flip_byte(path, 9);  // version field: caught by the header checksum
+  test::flip_byte(path, 9);  // version field: caught by the header checksum
   msg = error_of([&] { ContainerReader r(path); });
   EXPECT_NE(msg.find("header"), std::string::npos) << msg;
 

@@ -2,6 +2,7 @@
 
 #include <array>
 #include <cstdio>
+#include <fstream>
 #include <random>
 #include <sys/wait.h>
 
@@ -34,6 +35,16 @@ std::optional<std::filesystem::path> mricron_data(const std::string& name) {
   std::filesystem::path p = std::filesystem::path("/usr/share/mricron/templates") / name;
   if (std::filesystem::exists(p)) return p;
   return std::nullopt;
+}
+
+void flip_byte(const std::filesystem::path& path, std::uint64_t offset) {
+  std::fstream f(path, std::ios::in | std::ios::out | std::ios::binary);
+  f.seekg(std::streamoff(offset));
+  char c;
+  f.read(&c, 1);
+  c = char(c ^ 0x5a);
+  f.seekp(std::streamoff(offset));
+  f.write(&c, 1);
 }
 
 int run_command(const std::string& command, std::string* output) {

@@ -1,5 +1,6 @@
 #pragma once
 // Helpers shared by all test programs: temporary directories and locating sample data.
+#include <cstdint>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -21,6 +22,9 @@ class TempDir {
 std::optional<std::filesystem::path> shared_data(const std::string& name);
 // `/usr/share/mricron/templates/<name>` if the mricron-data package is installed.
 std::optional<std::filesystem::path> mricron_data(const std::string& name);
+
+// XORs one byte of a file in place (corruption tests).
+void flip_byte(const std::filesystem::path& path, std::uint64_t offset);
 
 // Runs a shell command, capturing stdout+stderr; returns the exit code.
 int run_command(const std::string& command, std::string* output = nullptr);

@@ -63,15 +63,6 @@ class TaRobustness : public ::testing::Test {
   static inline test::TempDir* dir_ = nullptr;
 };
 
-void flip_byte(const fs::path& p, std::uint64_t offset) {
-  std::fstream f(p, std::ios::in | std::ios::out | std::ios::binary);
-  f.seekg(std::streamoff(offset));
-  char c;
-  f.read(&c, 1);
-  c = char(c ^ 0x5a);
-  f.seekp(std::streamoff(offset));
-  f.write(&c, 1);
-}
 
 }  // namespace
 
@@ -84,7 +75,7 @@ TEST_F(TaRobustness, CorruptPayloadByteNamesTheBrick) {
   fs::copy_file(good(), p);
   const store::BrickEntry e = *store::ContainerReader(p).find({0, 1, 2, 1});
   ASSERT_TRUE(is_tucker(e.kind));
-  flip_byte(p, e.offset + e.size / 2);
+  strata::test::flip_byte(p, e.offset + e.size / 2);
   TaVolume t(p);  // metadata and index are intact: opening works, the brick fails when read
   std::string msg = error_of([&] { t.decode_box(0, {{10, 20, 10}, {20, 30, 20}}, 8); });
   EXPECT_TRUE(contains(msg, "corrupt.strata")) << msg;
