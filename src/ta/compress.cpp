@@ -46,14 +46,20 @@ HistogramRange value_range(io::VolumeSource& source, ProgressSink& progress, std
   return {lo, hi};
 }
 
+// Converts each slice straight into the float vector the pipeline keeps (one pass, no float
+// copy of the whole slab).
 void push_slab_to_level0(const Volume& slab, LevelPipeline& level0) {
-  const Volume as_float = slab.dtype() == DType::f32 ? Volume() : slab.converted(DType::f32);
-  const Volume& f = slab.dtype() == DType::f32 ? slab : as_float;
-  const std::size_t slice = std::size_t(f.dims().x * f.dims().y);
-  auto samples = f.samples<float>();
-  for (std::int64_t z = 0; z < f.dims().z; ++z)
-    level0.push_slice(std::vector<float>(samples.begin() + std::ptrdiff_t(z * slice),
-                                         samples.begin() + std::ptrdiff_t((z + 1) * slice)));
+  const std::size_t slice = std::size_t(slab.dims().x * slab.dims().y);
+  visit_dtype(slab.dtype(), [&](auto tag) {
+    using T = decltype(tag);
+    const auto samples = slab.samples<T>();
+    for (std::int64_t z = 0; z < slab.dims().z; ++z) {
+      const T* src = samples.data() + std::size_t(z) * slice;
+      std::vector<float> values(slice);
+      for (std::size_t i = 0; i < slice; ++i) values[i] = float(src[i]);
+      level0.push_slice(std::move(values));
+    }
+  });
 }
 
 // Allowance for everything not proportional to the volume: code, per-thread brick scratch,
@@ -76,8 +82,8 @@ std::uint64_t fixed_working_set(const OctreeGeometry& geometry) {
 std::uint64_t input_slab_bytes(const OctreeGeometry& geometry, const VolumeInfo& source, const CompressParams& params) {
   if (params.memory_limit == 0) return io::kDefaultSlabBytes;
   const std::uint64_t fixed = fixed_working_set(geometry) + kBaselineBytes;
-  // A slab is held in the source type, as floats, and as per-slice copies while pushed.
-  const double per_source_byte = 1.0 + 2.0 * double(sizeof(float)) / double(dtype_size(source.dtype));
+  // A slab is held in the source type plus its per-slice float copies while pushed.
+  const double per_source_byte = 1.0 + double(sizeof(float)) / double(dtype_size(source.dtype));
   const std::uint64_t slice = source.bytes_per_slice();
   if (params.memory_limit < fixed + std::uint64_t(double(slice) * per_source_byte))
     throw Error("--memory-limit: compressing " + source.dims.to_string() + " with brick " + std::to_string(params.layout.brick) +
