@@ -134,8 +134,33 @@ void BM_Medulla250Gt(benchmark::State& s) { run(s, kMedullaGt, opts()); }
 void BM_Voronoi256x2000(benchmark::State& s) { run(s, kVoronoi256, opts()); }
 void BM_Fibres512x10000(benchmark::State& s) { run(s, kFibres512, opts()); }
 
+// Palette propagation alone (a transfer-function change), medulla ws graph, range(0) threads.
+void BM_PaletteThreads(benchmark::State& state) {
+  if (!std::filesystem::exists(data_dir() / kMedulla.file)) {
+    state.SkipWithError("missing fibsem_medulla_250_ws.nrrd");
+    return;
+  }
+  static const Factorization f = factorize(HistogramMipmap::from_labels(load(kMedulla)), opts());
+  static const Schedule s = make_schedule(f.graph);
+  std::vector<float> rgba(std::size_t(f.graph.num_sources) * 4);
+  for (std::size_t i = 0; i < rgba.size(); ++i) rgba[i] = float((i * 2654435761u) % 1000) / 1000.0f;
+  std::vector<float> palette(f.graph.node_count() * 4);
+  const int previous = thread_count();
+  set_thread_count(int(state.range(0)));
+  for (auto _ : state) {
+    propagate_palette(f.graph, s, rgba, 4, palette);
+    benchmark::DoNotOptimize(palette.data());
+  }
+  set_thread_count(previous);
+  state.counters["threads"] = double(state.range(0));
+  state.counters["nodes"] = double(f.graph.node_count());
+  state.counters["nodes_per_s"] =
+      benchmark::Counter(double(f.graph.node_count()), benchmark::Counter::kIsIterationInvariantRate);
+}
+
 }  // namespace
 
+BENCHMARK(BM_PaletteThreads)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
 #define MIX_BENCH(f) BENCHMARK(f)->Unit(benchmark::kSecond)->UseRealTime()->Iterations(1)
 MIX_BENCH(BM_Gala);
 MIX_BENCH(BM_GalaUniformBins);

@@ -141,8 +141,8 @@ void run_demo(const DemoArgs& args, const GlobalOptions& global) {
   nlohmann::json report;
 
   std::printf("Generating synthetic volumes (%lld^3) into %s/\n", (long long)args.size, out.c_str());
-  gen::Params scalar{gen::Kind::prisms, {args.size, args.size, args.size}, 7, 0};
-  gen::Params labels{gen::Kind::voronoi, {args.size, args.size, args.size}, 7, 64};
+  gen::Params scalar{gen::Kind::prisms, {args.size, args.size, args.size}, 7, 0, std::nullopt};
+  gen::Params labels{gen::Kind::voronoi, {args.size, args.size, args.size}, 7, 64, std::nullopt};
   gen::generate_to_file(scalar, out / "prisms.nrrd", *progress);
   gen::generate_to_file(labels, out / "cells.nrrd", *progress);
 

@@ -38,6 +38,10 @@ void run_labels_encode(const LabelsEncodeArgs& args, const GlobalOptions& global
                      {"internal_nodes", r.internal_nodes}, {"sources", r.sources},
                      {"depth", r.depth},           {"distinct_mixtures", r.distinct_mixtures},
                      {"input_pairs", r.input_pairs}, {"file_bytes", r.file_bytes},
+                     {"mip_levels", r.mip_levels}, {"mip_voxels", r.mip_voxels},
+                     {"nnz_per_voxel", r.nnz_per_voxel}, {"raw_histogram_bytes", r.raw_histogram_bytes},
+                     {"background_fraction", r.background_fraction}, {"level0_voxels", r.level0_voxels},
+                     {"bits", o.bits}, {"strategy", args.strategy}, {"tau", o.tau}, {"ids", args.ids},
                      {"graph_bytes", r.graph_bytes}, {"ids_bytes", r.ids_bytes},
                      {"bits_per_voxel", r.bits_per_voxel}, {"seconds", r.seconds},
                      {"factor_seconds", r.factor_seconds}};

@@ -256,6 +256,18 @@ MixtureGraph read_graph_bitstream(std::span<const std::byte> bytes, const std::s
 // ---------------------------------------------------------------------------------------------
 // Encoding
 
+namespace {
+
+// Share of level-0 voxels whose original label is 0 (Table 2's "background"); 0 when absent.
+double background_fraction(const MipLevel& level0, const LabelMap& map) {
+  const std::optional<std::uint32_t> zero = map.id_of(0);
+  if (!zero || level0.ids.empty()) return 0.0;
+  const auto n = std::count(level0.ids.begin(), level0.ids.end(), *zero);
+  return double(n) / double(level0.ids.size());
+}
+
+}  // namespace
+
 EncodeReport encode_labels(const Volume& labels, const std::filesystem::path& out, const EncodeOptions& options,
                            ProgressSink& progress) {
   using clock = std::chrono::steady_clock;
@@ -280,6 +292,11 @@ EncodeReport encode_labels(const Volume& labels, const std::filesystem::path& ou
   rep.depth = f.stats.depth;
   rep.distinct_mixtures = ms.distinct_mixtures;
   rep.input_pairs = ms.input_pairs;
+  rep.mip_levels = h.level_count();
+  rep.mip_voxels = ms.voxels;
+  rep.nnz_per_voxel = ms.nnz_per_voxel;
+  rep.raw_histogram_bytes = std::uint64_t(std::llround(ms.nnz_per_voxel * double(ms.voxels))) * 8;
+  rep.background_fraction = background_fraction(h.level(0), map);
   rep.factor_seconds = f.stats.seconds;
   rep.level0_voxels = std::uint64_t(labels.dims().voxel_count());
 

@@ -24,10 +24,14 @@ void propagate_palette(const MixtureGraph& g, const Schedule& schedule, std::spa
   std::vector<float> w(g.codebook.value.begin(), g.codebook.value.end());
   float* o = out.data();
   const int nt = thread_count();
+  // A phase is one fork/join: below ~32k RGBA nodes (about 0.2 ms of lerps) the join costs
+  // more than it saves, and on a loaded machine a descheduled worker stalls it for a whole
+  // time slice, so small phases run on the calling thread.
+  const std::int64_t parallel_min_values = 131072;
   for (std::uint32_t p = 1; p <= schedule.depth; ++p) {
     const auto phase = schedule.phase(p);
     const std::int64_t n = std::int64_t(phase.size());
-#pragma omp parallel for num_threads(nt) schedule(static) if (n > 4096)
+#pragma omp parallel for num_threads(nt) schedule(static) if (n * std::int64_t(C) >= parallel_min_values)
     for (std::int64_t i = 0; i < n; ++i) {
       const std::uint32_t id = phase[std::size_t(i)];
       const InternalNode& node = g.node(id);

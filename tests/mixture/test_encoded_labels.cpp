@@ -185,6 +185,25 @@ TEST(EncodedLabels, KeepsDtypeAndSignedValues) {
   round_trip(one, IdsMode::fixed, "single");
 }
 
+// Table 2 columns of the report, on a volume whose mipmap is known by hand: 4x2x2 voxels, the
+// left half label 0 (background), the right half labels 5 and 9 in alternating rows.
+TEST(EncodedLabels, ReportDescribesTheMipmap) {
+  Volume v({4, 2, 2}, DType::u8);
+  auto s = v.samples<std::uint8_t>();
+  for (std::int64_t z = 0; z < 2; ++z)
+    for (std::int64_t y = 0; y < 2; ++y)
+      for (std::int64_t x = 0; x < 4; ++x) s[std::size_t((z * 2 + y) * 4 + x)] = x < 2 ? 0 : (y == 0 ? 5 : 9);
+  test::TempDir dir;
+  const EncodeReport r = encode_labels(v, dir.path() / "r.strata");
+  // Levels 4x2x2 (16 voxels, one label each), 2x1x1 (a pure 0 and a 5/9 mix), 1x1x1 (0/5/9).
+  EXPECT_EQ(r.mip_levels, 3);
+  EXPECT_EQ(r.mip_voxels, 19u);
+  EXPECT_DOUBLE_EQ(r.nnz_per_voxel, (16.0 + 1.0 + 2.0 + 3.0) / 19.0);
+  EXPECT_EQ(r.raw_histogram_bytes, 22u * 8u);
+  EXPECT_DOUBLE_EQ(r.background_fraction, 0.5);
+  EXPECT_EQ(r.level0_voxels, 16u);
+}
+
 TEST(EncodedLabels, GalaFibsemRoundTrip) {
   const auto path = test::shared_data("gala_fibsem_test_gt.nrrd");
   if (!path) GTEST_SKIP() << "gala_fibsem_test_gt.nrrd not available";

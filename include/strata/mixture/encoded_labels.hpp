@@ -63,6 +63,12 @@ struct EncodeReport {
   std::uint64_t nodes = 0, internal_nodes = 0, sources = 0;
   std::uint32_t depth = 0;
   std::uint64_t distinct_mixtures = 0, input_pairs = 0;
+  // Paper Table 2 columns: the histogram mipmap the graph replaces.
+  int mip_levels = 0;
+  std::uint64_t mip_voxels = 0;               // voxels of all mip levels
+  double nnz_per_voxel = 0.0;                 // mean mixture entries per voxel, all levels
+  std::uint64_t raw_histogram_bytes = 0;      // sparse mipmap as (u32 id, f32 weight) pairs
+  double background_fraction = 0.0;           // level-0 voxels labelled 0
   std::optional<double> max_l1;               // when measured
   std::uint64_t file_bytes = 0, graph_bytes = 0, label_map_bytes = 0;
   std::vector<std::uint64_t> ids_bytes;        // per level
