@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
+#include "report.hpp"
 #include "strata/core/error.hpp"
 #include "strata/core/metrics.hpp"
 #include "strata/core/statistics.hpp"
@@ -70,18 +71,6 @@ nlohmann::json metrics_line(const std::string& what, const ErrorMetrics& m, doub
           {"max_abs_error", m.max_abs_error}, {"bits_per_voxel", bits}};
 }
 
-void write_report(const fs::path& path, const nlohmann::json& report) {
-  fs::path tmp = path;
-  tmp += ".tmp";
-  {
-    std::FILE* f = std::fopen(tmp.c_str(), "wb");
-    if (!f) throw Error(tmp.string() + ": cannot open for writing");
-    std::string text = report.dump(2) + "\n";
-    const bool ok = std::fwrite(text.data(), 1, text.size(), f) == text.size();
-    if (std::fclose(f) != 0 || !ok) throw Error(tmp.string() + ": write failed");
-  }
-  fs::rename(tmp, path);
-}
 
 // Compresses `input` with the default TA settings and evaluates it at ranks 16, 8 and 4 (the
 // rank slider), printing one table row per rank.
@@ -177,7 +166,7 @@ void run_demo(const DemoArgs& args, const GlobalOptions& global) {
   const fs::path aal = "/usr/share/mricron/templates/aal.nii.gz";
   if (fs::exists(aal))
     report["labels"].push_back(encode_and_query_labels("aal atlas", io::read_volume(aal), out / "aal.strata", *progress));
-  write_report(out / "report.json", report);
+  write_json_file(out / "report.json", report);
   std::printf("Wrote %s\n", (out / "report.json").c_str());
 }
 

@@ -8,7 +8,7 @@
 
 #include "commands.hpp"
 #include "strata/core/error.hpp"
-#include "strata/io/files.hpp"
+#include "report.hpp"
 #include "strata/mixture/encoded_labels.hpp"
 #include "strata/mixture/palette.hpp"
 
@@ -79,12 +79,7 @@ void run_labels_palette(const LabelsPaletteArgs& args, const GlobalOptions&) {
   nlohmann::json rgba = nlohmann::json::array();
   for (std::size_t n = 0; n < out.size() / 4; ++n) rgba.push_back({out[4 * n], out[4 * n + 1], out[4 * n + 2], out[4 * n + 3]});
   j["rgba"] = std::move(rgba);
-  {
-    const std::string text = j.dump();
-    io::AtomicOutputFile f(args.output);
-    f.write(text.data(), text.size());
-    f.commit();
-  }
+  write_json_file(args.output, j, -1);
   std::printf("%s: %llu nodes, depth %u, propagated in %.3f ms (%llu labels coloured, %llu unknown)\n", args.output.c_str(),
               (unsigned long long)labels.graph().node_count(), labels.schedule().depth, seconds * 1e3,
               (unsigned long long)assigned, (unsigned long long)unknown);

@@ -26,5 +26,6 @@ void register_decompress(CLI::App& app, const GlobalOptions& global);
 void register_eval(CLI::App& app, const GlobalOptions& global);
 void register_labels(CLI::App& app, const GlobalOptions& global);
 void register_demo(CLI::App& app, const GlobalOptions& global);
+void register_render(CLI::App& app, const GlobalOptions& global);
 
 }  // namespace strata::cli

@@ -25,6 +25,7 @@ int main(int argc, char** argv) {
   cli::register_decompress(app, global);
   cli::register_eval(app, global);
   cli::register_labels(app, global);
+  cli::register_render(app, global);
   cli::register_demo(app, global);
 
   try {

@@ -4,6 +4,7 @@
 #include <sstream>
 
 #include "strata/core/error.hpp"
+#include "strata/io/files.hpp"
 
 namespace strata::cli {
 
@@ -63,6 +64,13 @@ std::uint64_t parse_byte_size(const std::string& text, const std::string& option
   else if (!suffix.empty()) throw Error(option + ": unknown unit '" + suffix + "' (use k, M or G)");
   if (!(value > 0)) throw Error(option + ": must be positive, got '" + text + "'");
   return std::uint64_t(value * scale);
+}
+
+void write_json_file(const std::filesystem::path& path, const nlohmann::json& j, int indent) {
+  const std::string text = j.dump(indent) + "\n";
+  io::AtomicOutputFile out(path);
+  out.write(text.data(), text.size());
+  out.commit();
 }
 
 }  // namespace strata::cli

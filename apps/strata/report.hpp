@@ -2,7 +2,10 @@
 // Small helpers shared by subcommands: raw-input flags and human-readable numbers.
 #include <CLI/CLI.hpp>
 
+#include <filesystem>
 #include <string>
+
+#include <nlohmann/json.hpp>
 
 #include "strata/io/volume_io.hpp"
 
@@ -17,6 +20,8 @@ struct RawInputArgs {
 };
 
 std::string human_bytes(std::uint64_t bytes);
+// Writes `j` (indented when `indent` >= 0) through a temporary file and a rename.
+void write_json_file(const std::filesystem::path& path, const nlohmann::json& j, int indent = 2);
 // "512M", "2G", "64k" or plain bytes (binary multiples); throws Error naming `option`.
 std::uint64_t parse_byte_size(const std::string& text, const std::string& option);
 

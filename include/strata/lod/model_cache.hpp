@@ -1,0 +1,39 @@
+#pragma once
+// The cache of dequantized Tucker models at full stored rank, keyed by brick. It is what makes
+// the rank slider cheap (paper 1, §3): a new K re-runs only the reconstruction (TTM) from the
+// cached core and factors, never the file read, checksum and dequantization. A model is a few
+// times smaller than its reconstructed brick (R^3 + 3 B R floats against B^3). Thread-safe.
+#include <cstdint>
+#include <memory>
+#include <mutex>
+
+#include "strata/lod/lru_cache.hpp"
+#include "strata/quant/brick.hpp"
+#include "strata/store/container.hpp"
+
+namespace strata::lod {
+
+using BrickModel = std::shared_ptr<const quant::DequantizedModel>;
+
+// Bytes of a model's floats (what the cache budget counts).
+std::uint64_t model_bytes(const quant::DequantizedModel& model);
+
+class ModelCache {
+ public:
+  explicit ModelCache(std::uint64_t budget_bytes);
+
+  BrickModel find(const store::BrickKey& key);  // marked recently used; nullptr when absent
+  bool insert(const store::BrickKey& key, BrickModel model);  // false when larger than the budget
+  void clear();
+
+  std::uint64_t bytes() const;
+  std::uint64_t budget() const { return budget_; }
+  std::size_t size() const;
+
+ private:
+  std::uint64_t budget_;
+  mutable std::mutex mutex_;
+  LruCache<store::BrickKey, BrickModel, store::BrickKeyHash> lru_;
+};
+
+}  // namespace strata::lod

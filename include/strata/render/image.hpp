@@ -1,0 +1,36 @@
+#pragma once
+// An 8-bit RGBA image (row 0 at the top) and PNG output through libspng, written to a
+// temporary file and renamed, so a failed write never leaves a partial image.
+#include <cstdint>
+#include <filesystem>
+#include <vector>
+
+namespace strata::render {
+
+struct Rgba8 {
+  std::uint8_t r = 0, g = 0, b = 0, a = 255;
+  bool operator==(const Rgba8&) const = default;
+};
+
+class Image {
+ public:
+  Image() = default;
+  Image(int width, int height, Rgba8 fill = {});
+
+  int width() const { return width_; }
+  int height() const { return height_; }
+  Rgba8& at(int x, int y) { return pixels_[std::size_t(y) * std::size_t(width_) + std::size_t(x)]; }
+  const Rgba8& at(int x, int y) const { return pixels_[std::size_t(y) * std::size_t(width_) + std::size_t(x)]; }
+  const std::vector<Rgba8>& pixels() const { return pixels_; }
+  std::vector<Rgba8>& pixels() { return pixels_; }
+  Rgba8* row(int y) { return pixels_.data() + std::size_t(y) * std::size_t(width_); }
+
+ private:
+  int width_ = 0, height_ = 0;
+  std::vector<Rgba8> pixels_;
+};
+
+void write_png(const Image& image, const std::filesystem::path& path);  // throws Error naming the file
+Image read_png(const std::filesystem::path& path);                       // for tests and comparisons
+
+}  // namespace strata::render

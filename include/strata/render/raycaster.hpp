@@ -1,0 +1,126 @@
+#pragma once
+// CPU ray caster over reconstructed bricks (paper 1 §3: the renderer works on decoded bricks,
+// with pre-integrated 1D transfer functions).
+//
+// Sampling. Each sample lies on a per-ray lattice t = k * h_l (t measured from the ray origin),
+// h_l = step * 2^l * min(spacing) for a brick of level l, so a coarse level takes
+// proportionally longer world steps; opacities are corrected for h_l against the reference step
+// of one level-0 voxel. Trilinear interpolation and central-difference gradients read only the
+// sampled brick: its 2-voxel overlap holds the neighbours' voxels, so bricks of one level join
+// without seams (the "over-represented sub-volumes" case of deferred filtering: no second
+// brick is ever read per sample). A segment that crosses a brick face is classified from the
+// last sample of one brick and the first of the next, exactly as inside a brick.
+//
+// Between levels (paper 1 §6.3: interblock interpolation / deferred filtering would be needed
+// for C0 continuity): coverage has no holes, because the frame index assigns every level-0
+// brick cell to exactly one brick (the finest resident one) and the segment crossing a level
+// change is composited with its true length (opacity corrected from the new level's step).
+// The field itself may jump by the difference between a level and its 2x2x2 average; that
+// value step, not a crack, is what can remain visible at a level boundary.
+//
+// Empty space: cells without a brick are skipped whole, as are bricks whose [min, max] maps to
+// zero opacity (TransferFunction::visible). When the ray leaves a brick into skipped space it
+// still composites the one segment that starts inside the brick (sampled from its overlap), so
+// skipping never changes the image for step <= overlap - 0.5.
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include <nlohmann/json_fwd.hpp>
+
+#include "strata/core/volume.hpp"
+#include "strata/lod/frame_bricks.hpp"
+#include "strata/render/camera.hpp"
+#include "strata/render/image.hpp"
+#include "strata/render/transfer_function.hpp"
+#include "strata/ta/octree.hpp"
+
+namespace strata::store {
+class ContainerReader;
+}
+namespace strata::ta {
+class TaVolume;
+}
+
+namespace strata::render {
+
+struct ShadingParams {
+  float ambient = 0.3f, diffuse = 0.7f, specular = 0.25f;
+  int shininess = 24;  // Blinn-Phong exponent (integer: evaluated by repeated squaring)
+};
+
+struct RenderOptions {
+  double step = 0.5;            // sample distance in voxels of the sampled brick's level
+  bool shading = true;          // Blinn-Phong with a headlight, central-difference gradients
+  ShadingParams light;
+  bool preintegrated = true;    // pre-integrated pairs (else post-classified lookup table)
+  int table_size = 256;         // pre-integrated table is size^2; lookup table 16 * size
+  std::array<float, 4> background{0, 0, 0, 1};  // straight RGBA
+  float termination_alpha = 0.99f;  // early ray termination
+  int threads = 0;              // 0 = strata::thread_count()
+  int tile = 16;                // tile edge in pixels (dynamic OpenMP schedule over tiles)
+};
+
+struct RenderStats {
+  std::uint64_t rays = 0;            // rays that hit the volume's box
+  std::uint64_t samples = 0;         // trilinear samples (gradient taps not counted)
+  std::uint64_t bricks_in_frame = 0; // bricks handed to the renderer
+  std::uint64_t bricks_culled = 0;   // transparent under the TF ([min, max] test)
+  std::uint64_t bricks_sampled = 0;  // bricks at least one ray sampled
+  double setup_ms = 0;               // frame index and tables
+  double raycast_ms = 0;
+  double total_ms = 0;
+};
+
+// {"render": {...}, "load": {...}} with the loader's figures when given (paper 1 Figs. 4-5).
+nlohmann::json stats_json(const RenderStats& stats, const lod::LoadStats* load = nullptr);
+
+// One frame's data: the resident bricks plus what places them in world space.
+struct FrameInput {
+  const lod::FrameBricks* bricks = nullptr;
+  const ta::OctreeGeometry* geometry = nullptr;
+  Spacing spacing;
+  double value_min = 0, value_max = 1;  // the file's value range: TF normalisation
+  // Optional: brick [min, max] from the file's index (cheaper than scanning samples). Absent
+  // bricks (or no index) are scanned.
+  const store::ContainerReader* index = nullptr;
+};
+
+class RayCaster {
+ public:
+  explicit RayCaster(TransferFunction tf, RenderOptions options = {});
+  ~RayCaster();
+  RayCaster(RayCaster&&) noexcept;
+  RayCaster& operator=(RayCaster&&) noexcept;
+
+  const TransferFunction& transfer_function() const { return tf_; }
+  const RenderOptions& options() const { return options_; }
+
+  // Renders the bricks of `frame`. Throws Error when a brick's key lies outside the geometry
+  // or its samples are not B^3 floats. Not reentrant (classification tables are cached per
+  // level); use one RayCaster per concurrent render.
+  Image render(const Camera& camera, const FrameInput& frame, RenderStats* stats = nullptr);
+  // Renders an in-memory volume as a single block (no bricks, nothing skipped): the reference
+  // image bricked renders are compared with, and a path for plain volume files.
+  Image render(const Camera& camera, const Volume& volume, double value_min, double value_max,
+               RenderStats* stats = nullptr);
+
+  struct Tables;  // per-level classification tables (raycaster.cpp)
+
+ private:
+  TransferFunction tf_;
+  RenderOptions options_;
+  std::vector<std::unique_ptr<Tables>> tables_;  // by level, built on first use
+};
+
+// Every brick of `level` decoded at rank `rank` (clamped to the file's rank), in parallel;
+// bricks whose histogram misses `visible_mask` (TransferFunction::visible_bins) are left out,
+// constant bricks carry only their value. For rendering without the lod module.
+lod::FrameBricks level_bricks(const ta::TaVolume& volume, int level, int rank,
+                              std::uint64_t visible_mask = ~std::uint64_t(0));
+// Cuts level 0 of an in-memory volume into bricks of `geometry` (edge-clamped overlap, as the
+// compressor stores them), converted to float: uncompressed bricks for comparisons.
+lod::FrameBricks bricks_from_volume(const Volume& volume, const ta::OctreeGeometry& geometry);
+
+}  // namespace strata::render

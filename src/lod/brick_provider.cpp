@@ -1,0 +1,142 @@
+#include "strata/lod/brick_provider.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <unordered_set>
+
+#include "strata/core/error.hpp"
+#include "strata/lod/brick_decode.hpp"
+
+namespace strata::lod {
+
+namespace {
+
+store::BrickKey parent_of(const store::BrickKey& k) {
+  return {std::uint8_t(k.level + 1), k.x / 2, k.y / 2, k.z / 2};
+}
+
+}  // namespace
+
+BrickProvider::BrickProvider(const ta::TaVolume& volume, const ProviderOptions& options)
+    : volume_(volume),
+      cache_(options.cache_bytes),
+      models_(options.model_cache_bytes),
+      loader_([this](const LoadRequest& r, BrickReconstructor& rec, ta::DecodeScratch& s) { decode(r.key, rec, s); },
+              options.loader_threads) {}
+
+int BrickProvider::clamp_rank(int k) const { return std::clamp(k, 1, volume_.rank()); }
+
+ResidentBrick BrickProvider::constant_brick(const store::BrickEntry& entry, int rank) const {
+  ResidentBrick r;
+  r.key = entry.key;
+  r.rank = rank;
+  r.constant_value = entry.min;  // constant entries store their value as min == max
+  return r;
+}
+
+BrickSamples BrickProvider::decode(const RankedKey& key, BrickReconstructor& reconstructor, ta::DecodeScratch& scratch) {
+  const auto start = std::chrono::steady_clock::now();
+  const store::BrickEntry* entry = volume_.container().find(key.brick);
+  if (!entry) throw FormatError(volume_.container().path().string(), "index", brick_context(volume_, key.brick) + " is missing");
+  BrickModel model = models_.find(key.brick);
+  if (!model) {
+    std::uint64_t read = 0;
+    model = fetch_model(volume_, *entry, scratch, read);
+    bytes_read_ += read;
+    models_.insert(key.brick, model);
+  }
+  const int b = volume_.geometry().layout().brick;
+  auto samples = std::make_shared<std::vector<float>>(std::size_t(b) * b * b);
+  reconstruct_at_rank(*model, key.rank, reconstructor, *samples);
+  cache_.insert(key.brick, key.rank, samples);
+  decode_ns_ += std::uint64_t(std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - start).count());
+  return samples;
+}
+
+bool BrickProvider::stand_in(const CutBrick& brick, int rank, ResidentBrick& out, std::vector<LoadRequest>& requests,
+                             std::unordered_set<RankedKey, RankedKeyHash>& requested) {
+  int found = 0;
+  // After a rank change the brick at its old rank is the closest picture of it.
+  if (BrickSamples s = cache_.find_any_rank(brick.key, rank, &found)) {
+    out = {brick.key, found, std::move(s), 0};
+    return true;
+  }
+  const int top = volume_.geometry().level_count() - 1;
+  for (store::BrickKey key = brick.key; key.level < top;) {
+    key = parent_of(key);
+    const store::BrickEntry* entry = volume_.container().find(key);
+    if (!entry) return false;
+    if (entry->kind == store::PayloadKind::constant) {
+      out = constant_brick(*entry, rank);
+      return true;
+    }
+    if (BrickSamples s = cache_.find_any_rank(key, rank, &found)) {
+      out = {key, found, std::move(s), 0};
+      return true;
+    }
+    // Coarse bricks load first (queue order), so a cold start shows a coarse picture early.
+    const RankedKey wanted{key, rank};
+    if (requested.insert(wanted).second) requests.push_back({wanted, brick.depth});
+  }
+  return false;
+}
+
+void BrickProvider::resolve_exact(const Selection& cut, const std::vector<std::size_t>& missing, int rank,
+                                  std::vector<LoadRequest> requests, FrameBricks& frame) {
+  loader_.submit(requests);
+  loader_.drain(reconstructor_, scratch_);
+  loader_.wait_idle();
+  for (std::size_t i : missing) {
+    const store::BrickKey& key = cut.bricks[i].key;
+    BrickSamples s = cache_.find(key, rank);
+    // Evicted already when the cache is smaller than the cut: decode again and keep our share.
+    if (!s) s = decode({key, rank}, reconstructor_, scratch_);
+    frame.bricks.push_back({key, rank, std::move(s), 0});
+  }
+}
+
+FrameBricks BrickProvider::acquire(const Selection& cut, int rank, bool exact) {
+  loader_.rethrow_failure();
+  const int k = clamp_rank(rank);
+  FrameBricks frame;
+  LoadStats& st = frame.stats;
+  st.selected = cut.bricks.size();
+  std::vector<std::size_t> missing;
+  std::vector<LoadRequest> requests;
+  for (std::size_t i = 0; i < cut.bricks.size(); ++i) {
+    const CutBrick& b = cut.bricks[i];
+    if (b.entry->kind == store::PayloadKind::constant) {
+      frame.bricks.push_back(constant_brick(*b.entry, k));
+      ++st.cache_hits;  // resident by definition: nothing to decode
+    } else if (BrickSamples s = cache_.find(b.key, k)) {
+      frame.bricks.push_back({b.key, k, std::move(s), 0});
+      ++st.cache_hits;
+    } else {
+      ++st.cache_misses;
+      missing.push_back(i);
+      requests.push_back({{b.key, k}, b.depth});
+    }
+  }
+  if (exact) {
+    resolve_exact(cut, missing, k, std::move(requests), frame);
+  } else {
+    std::unordered_set<RankedKey, RankedKeyHash> requested;
+    for (const LoadRequest& r : requests) requested.insert(r.key);
+    std::unordered_set<store::BrickKey, store::BrickKeyHash> shown;
+    for (std::size_t i : missing) {
+      ResidentBrick r;
+      if (stand_in(cut.bricks[i], k, r, requests, requested) && shown.insert(r.key).second)
+        frame.bricks.push_back(std::move(r));
+    }
+    loader_.submit(requests);
+  }
+  st.resident = frame.bricks.size();
+  st.bytes_read = bytes_read_.exchange(0);
+  st.decode_ms = double(decode_ns_.exchange(0)) * 1e-6;
+  st.pending = loader_.queued() + loader_.running();
+  return frame;
+}
+
+void BrickProvider::wait_idle() { loader_.wait_idle(); }
+
+}  // namespace strata::lod

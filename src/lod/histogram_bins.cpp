@@ -1,0 +1,27 @@
+#include "strata/lod/histogram_bins.hpp"
+
+namespace strata::lod {
+
+int histogram_bin(double value, double lo, double hi) {
+  // Same arithmetic as the compressor's brick statistics (src/ta/level_pipeline.cpp), so a
+  // constant brick lands in the bin the writer would have set.
+  const double scale = hi > lo ? double(kHistogramBins) / (hi - lo) : 0.0;
+  const double x = (value - lo) * scale;
+  return !(x >= 0) ? 0 : x < kHistogramBins - 1 ? int(x) : kHistogramBins - 1;
+}
+
+std::uint64_t visible_bins_where(double lo, double hi, const std::function<bool(double, double)>& visible) {
+  std::uint64_t mask = 0;
+  const double width = (hi - lo) / kHistogramBins;
+  for (int i = 0; i < kHistogramBins; ++i)
+    if (visible(lo + i * width, lo + (i + 1) * width)) mask |= std::uint64_t(1) << i;
+  return mask;
+}
+
+bool brick_visible(const store::BrickEntry& entry, std::uint64_t visible_bins, double lo, double hi) {
+  if (entry.kind == store::PayloadKind::constant)
+    return (visible_bins >> histogram_bin(entry.min, lo, hi)) & 1u;
+  return (entry.histogram & visible_bins) != 0;
+}
+
+}  // namespace strata::lod

@@ -1,0 +1,40 @@
+#include "strata/lod/model_cache.hpp"
+
+namespace strata::lod {
+
+std::uint64_t model_bytes(const quant::DequantizedModel& model) {
+  std::uint64_t floats = model.core.size();
+  for (const auto& f : model.factors) floats += f.size();
+  return floats * sizeof(float);
+}
+
+ModelCache::ModelCache(std::uint64_t budget_bytes) : budget_(budget_bytes), lru_(budget_bytes) {}
+
+BrickModel ModelCache::find(const store::BrickKey& key) {
+  std::lock_guard lock(mutex_);
+  const BrickModel* m = lru_.find(key);
+  return m ? *m : nullptr;
+}
+
+bool ModelCache::insert(const store::BrickKey& key, BrickModel model) {
+  const std::uint64_t bytes = model ? model_bytes(*model) : 0;
+  std::lock_guard lock(mutex_);
+  return lru_.insert(key, std::move(model), bytes);
+}
+
+void ModelCache::clear() {
+  std::lock_guard lock(mutex_);
+  lru_.clear();
+}
+
+std::uint64_t ModelCache::bytes() const {
+  std::lock_guard lock(mutex_);
+  return lru_.bytes();
+}
+
+std::size_t ModelCache::size() const {
+  std::lock_guard lock(mutex_);
+  return lru_.size();
+}
+
+}  // namespace strata::lod

@@ -1,0 +1,174 @@
+#include "strata/lod/selection.hpp"
+
+#include <queue>
+#include <string>
+
+#include "strata/core/error.hpp"
+#include "strata/lod/brick_bounds.hpp"
+#include "strata/lod/histogram_bins.hpp"
+
+namespace strata::lod {
+
+void SelectionOptions::validate(int brick_width) const {
+  if (!(lod > 0)) throw Error("lod selection: the lod threshold must be positive, got " + std::to_string(lod));
+  if (max_bricks < 1) throw Error("lod selection: the brick budget must be at least 1");
+  const std::uint64_t one = std::uint64_t(brick_width) * brick_width * brick_width * sizeof(float);
+  if (memory_budget < one)
+    throw Error("lod selection: the memory budget of " + std::to_string(memory_budget) +
+                " bytes is below one reconstructed brick (" + std::to_string(one) + " bytes)");
+}
+
+std::uint64_t reconstructed_bytes(const store::BrickEntry& entry, int brick_width) {
+  if (entry.kind == store::PayloadKind::constant) return 0;
+  return std::uint64_t(brick_width) * brick_width * brick_width * sizeof(float);
+}
+
+namespace {
+
+void check_view(const View& view) {
+  const double size = view.perspective ? view.pixel_angle : view.pixel_world;
+  if (!(size > 0))
+    throw Error(std::string("lod selection: view.") + (view.perspective ? "pixel_angle" : "pixel_world") +
+                " must be positive");
+}
+
+// Larger projected voxels first; equal ones (all bricks of a level in orthographic views)
+// nearest first.
+struct Refinement {
+  bool operator()(const CutBrick& a, const CutBrick& b) const {
+    if (a.pixels_per_voxel != b.pixels_per_voxel) return a.pixels_per_voxel < b.pixels_per_voxel;
+    return a.depth > b.depth;
+  }
+};
+
+class CutBuilder {
+ public:
+  CutBuilder(const ta::TaVolume& volume, const View& view, std::uint64_t visible_bins, const SelectionOptions& options)
+      : volume_(volume), view_(view), bins_(visible_bins), options_(options),
+        width_(volume.geometry().layout().brick) {
+    cut_.per_level.assign(std::size_t(volume.geometry().level_count()), 0);
+  }
+
+  Selection build() {
+    if (bins_ != 0) {
+      const int top = volume_.geometry().level_count() - 1;
+      const Extent grid = volume_.geometry().level(top).bricks;
+      std::vector<CutBrick> roots;
+      Culled culled;
+      for (std::int32_t z = 0; z < grid.z; ++z)
+        for (std::int32_t y = 0; y < grid.y; ++y)
+          for (std::int32_t x = 0; x < grid.x; ++x) examine({std::uint8_t(top), x, y, z}, roots, culled);
+      admit(roots, culled);
+      refine();
+    }
+    return std::move(cut_);
+  }
+
+ private:
+  struct Culled {
+    std::int64_t frustum = 0, empty = 0;
+  };
+
+  // Appends the brick to `out` unless it is culled (then counts why in `culled`).
+  void examine(const store::BrickKey& key, std::vector<CutBrick>& out, Culled& culled) const {
+    const store::BrickEntry* entry = volume_.container().find(key);
+    if (!entry)
+      throw FormatError(volume_.container().path().string(), "index",
+                        "brick (level " + std::to_string(key.level) + ", " + std::to_string(key.x) + "," +
+                            std::to_string(key.y) + "," + std::to_string(key.z) + ") is missing");
+    const WorldBox box = brick_world_box(volume_.geometry(), volume_.source_info().spacing, key);
+    if (!in_frustum(view_, box)) {
+      ++culled.frustum;
+      return;
+    }
+    if (!brick_visible(*entry, bins_, volume_.value_min(), volume_.value_max())) {
+      ++culled.empty;
+      return;
+    }
+    const double depth = view_depth(view_, box);
+    out.push_back({key, entry, depth, voxel_edge(volume_.source_info().spacing, key.level) / view_.pixel_size_at(depth)});
+  }
+
+  void admit(const std::vector<CutBrick>& bricks, const Culled& culled) {
+    for (const CutBrick& b : bricks) {
+      queue_.push(b);
+      ++count_;
+      bytes_ += reconstructed_bytes(*b.entry, width_);
+    }
+    cut_.culled_frustum += culled.frustum;
+    cut_.culled_empty += culled.empty;
+  }
+
+  void refine() {
+    while (!queue_.empty()) {
+      const CutBrick brick = queue_.top();
+      queue_.pop();
+      if (brick.key.level == 0 || brick.pixels_per_voxel <= options_.lod || !try_split(brick)) keep(brick);
+    }
+  }
+
+  // Replaces `brick` by its visible children when both budgets allow it. The cut holds every
+  // queued brick, so the budgets bound the queue plus the kept bricks at every step.
+  bool try_split(const CutBrick& brick) {
+    std::vector<CutBrick> children;
+    Culled culled;
+    for_each_child(brick.key, [&](const store::BrickKey& k) { examine(k, children, culled); });
+    const std::uint64_t parent_bytes = reconstructed_bytes(*brick.entry, width_);
+    std::uint64_t child_bytes = 0;
+    for (const CutBrick& c : children) child_bytes += reconstructed_bytes(*c.entry, width_);
+    if (count_ - 1 + std::int64_t(children.size()) > options_.max_bricks) {
+      cut_.brick_budget_hit = true;
+      return false;
+    }
+    if (bytes_ - parent_bytes + child_bytes > options_.memory_budget) {
+      cut_.memory_budget_hit = true;
+      return false;
+    }
+    --count_;
+    bytes_ -= parent_bytes;
+    admit(children, culled);
+    return true;
+  }
+
+  template <class F>
+  void for_each_child(const store::BrickKey& key, F&& f) const {
+    const int level = key.level - 1;
+    const Extent grid = volume_.geometry().level(level).bricks;
+    for (int dz = 0; dz < 2; ++dz)
+      for (int dy = 0; dy < 2; ++dy)
+        for (int dx = 0; dx < 2; ++dx) {
+          const std::int64_t x = 2 * std::int64_t(key.x) + dx, y = 2 * std::int64_t(key.y) + dy,
+                             z = 2 * std::int64_t(key.z) + dz;
+          // Odd level extents leave the last parent with a single child along that axis.
+          if (x < grid.x && y < grid.y && z < grid.z)
+            f(store::BrickKey{std::uint8_t(level), std::int32_t(x), std::int32_t(y), std::int32_t(z)});
+        }
+  }
+
+  void keep(const CutBrick& brick) {
+    cut_.bricks.push_back(brick);
+    ++cut_.per_level[brick.key.level];
+    cut_.bytes += reconstructed_bytes(*brick.entry, width_);
+  }
+
+  const ta::TaVolume& volume_;
+  const View& view_;
+  std::uint64_t bins_;
+  const SelectionOptions& options_;
+  int width_;
+  Selection cut_;
+  std::priority_queue<CutBrick, std::vector<CutBrick>, Refinement> queue_;
+  std::int64_t count_ = 0;   // bricks queued or kept
+  std::uint64_t bytes_ = 0;  // their reconstructed bytes
+};
+
+}  // namespace
+
+Selection select_cut(const ta::TaVolume& volume, const View& view, std::uint64_t visible_bins,
+                     const SelectionOptions& options) {
+  options.validate(volume.geometry().layout().brick);
+  check_view(view);
+  return CutBuilder(volume, view, visible_bins, options).build();
+}
+
+}  // namespace strata::lod

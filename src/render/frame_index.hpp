@@ -1,0 +1,47 @@
+#pragma once
+// The per-frame spatial index of the ray caster: a grid over level-0 brick cells, each cell
+// pointing at the block (a resident brick of any level, or a whole in-memory volume) that
+// covers it, with every per-brick constant the sampling loop needs precomputed.
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "strata/core/volume.hpp"
+#include "strata/render/raycaster.hpp"
+
+namespace strata::render::detail {
+
+struct Block {
+  const float* data = nullptr;  // nullptr: every sample equals `constant`
+  float constant = 0;
+  std::array<int, 3> n{};       // samples per axis (x fastest)
+  int level = 0;
+  std::array<double, 3> lo{}, hi{};          // world box the block answers for (clipped to the volume)
+  std::array<double, 3> scale{}, offset{};   // world -> local sample coordinates
+  std::array<float, 3> gradient_scale{};     // local central difference -> world gradient
+  float value_lo = 0, value_hi = 0;          // range of the samples
+  bool culled = false;                       // transparent under the TF
+  bool exclusive = true;                     // owns every cell its box covers (else walk cells)
+};
+
+struct FrameIndex {
+  std::vector<Block> blocks;
+  std::array<std::int64_t, 3> cells{1, 1, 1};
+  std::array<double, 3> cell_size{};      // world size of one cell
+  std::vector<std::int32_t> cell_block;   // -1 = empty
+  std::array<double, 3> volume_hi{};      // world box [0, volume_hi]
+  double min_spacing = 1;
+  int max_level = 0;
+  std::vector<float> owned_samples;       // converted samples of a non-float in-memory volume
+
+  std::int32_t block_at(std::int64_t x, std::int64_t y, std::int64_t z) const {
+    return cell_block[std::size_t((z * cells[1] + y) * cells[0] + x)];
+  }
+};
+
+// Culling uses `tf` through `mapping` (normalised value = (v - lo) * scale).
+FrameIndex build_frame_index(const FrameInput& frame, const TransferFunction& tf);
+FrameIndex build_volume_index(const Volume& volume, const TransferFunction& tf, double value_min, double value_max);
+
+}  // namespace strata::render::detail

@@ -1,0 +1,78 @@
+#include "strata/render/image.hpp"
+
+#include <spng.h>
+
+#include <cstdlib>
+#include <fstream>
+#include <iterator>
+#include <memory>
+#include <string>
+
+#include "strata/core/error.hpp"
+#include "strata/io/files.hpp"
+
+namespace strata::render {
+
+namespace {
+
+static_assert(sizeof(Rgba8) == 4, "Rgba8 must be tightly packed for PNG encoding");
+
+struct SpngDeleter {
+  void operator()(spng_ctx* ctx) const { spng_ctx_free(ctx); }
+};
+using SpngPtr = std::unique_ptr<spng_ctx, SpngDeleter>;
+
+void check(int rc, const std::filesystem::path& path, const char* what) {
+  if (rc != 0) throw Error(path.string() + ": " + what + ": " + spng_strerror(rc));
+}
+
+}  // namespace
+
+Image::Image(int width, int height, Rgba8 fill) : width_(width), height_(height) {
+  if (width < 0 || height < 0) throw Error("image: negative size");
+  pixels_.assign(std::size_t(width) * std::size_t(height), fill);
+}
+
+void write_png(const Image& image, const std::filesystem::path& path) {
+  if (image.width() <= 0 || image.height() <= 0) throw Error(path.string() + ": cannot write an empty image");
+  SpngPtr ctx(spng_ctx_new(SPNG_CTX_ENCODER));
+  if (!ctx) throw Error(path.string() + ": out of memory creating the PNG encoder");
+  // Encode to memory, then write through AtomicOutputFile so a failure leaves no partial PNG.
+  check(spng_set_option(ctx.get(), SPNG_ENCODE_TO_BUFFER, 1), path, "PNG encoder option");
+  spng_ihdr ihdr{};
+  ihdr.width = std::uint32_t(image.width());
+  ihdr.height = std::uint32_t(image.height());
+  ihdr.bit_depth = 8;
+  ihdr.color_type = SPNG_COLOR_TYPE_TRUECOLOR_ALPHA;
+  check(spng_set_ihdr(ctx.get(), &ihdr), path, "PNG header");
+  const std::size_t bytes = image.pixels().size() * sizeof(Rgba8);
+  check(spng_encode_image(ctx.get(), image.pixels().data(), bytes, SPNG_FMT_PNG, SPNG_ENCODE_FINALIZE), path,
+        "PNG encoding");
+  std::size_t length = 0;
+  int error = 0;
+  std::unique_ptr<void, decltype(&std::free)> buffer(spng_get_png_buffer(ctx.get(), &length, &error), &std::free);
+  check(error, path, "PNG buffer");
+  if (!buffer) throw Error(path.string() + ": PNG encoder produced no data");
+  io::AtomicOutputFile out(path);
+  out.write(buffer.get(), length);
+  out.commit();
+}
+
+Image read_png(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(path.string() + ": cannot open PNG file");
+  const std::string data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  SpngPtr ctx(spng_ctx_new(0));
+  if (!ctx) throw Error(path.string() + ": out of memory creating the PNG decoder");
+  check(spng_set_png_buffer(ctx.get(), data.data(), data.size()), path, "PNG buffer");
+  spng_ihdr ihdr{};
+  check(spng_get_ihdr(ctx.get(), &ihdr), path, "PNG header");
+  std::size_t size = 0;
+  check(spng_decoded_image_size(ctx.get(), SPNG_FMT_RGBA8, &size), path, "PNG image size");
+  Image image(int(ihdr.width), int(ihdr.height));
+  if (size != image.pixels().size() * sizeof(Rgba8)) throw Error(path.string() + ": PNG size mismatch");
+  check(spng_decode_image(ctx.get(), image.pixels().data(), size, SPNG_FMT_RGBA8, 0), path, "PNG pixels");
+  return image;
+}
+
+}  // namespace strata::render

@@ -1,0 +1,387 @@
+#include "strata/render/label_raycaster.hpp"
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "strata/core/error.hpp"
+#include "strata/core/threads.hpp"
+
+namespace strata::render {
+
+namespace {
+
+constexpr int kMaxLevels = 64;
+
+// One mip level as the marcher sees it (read-only pointers into the LabelScene).
+struct LevelView {
+  const std::uint32_t* ids = nullptr;
+  const std::uint8_t* occupied = nullptr;
+  std::int64_t nx = 1, ny = 1, nz = 1;
+  double scale = 1;  // 1 / 2^level: level-0 voxel coordinates -> this level's
+  double size = 1;   // 2^level
+};
+
+// Everything a ray needs, fixed for the frame.
+struct Frame {
+  std::vector<LevelView> levels;
+  const float* palette = nullptr;
+  Vec3 inv_spacing;
+  Vec3 dims0;                // level-0 box in voxel coordinates
+  double voxel_world = 1;    // level-0 voxel size (geometric mean of the spacing)
+  lod::View view;
+  LabelRenderOptions options;
+  int finest = 0, top = 0;
+  double ortho_lod = 0;      // orthographic: the level does not depend on depth
+};
+
+struct RayCounters {
+  std::uint64_t rays = 0, samples = 0, skipped = 0, terminated = 0;
+};
+
+struct Premultiplied {
+  float r = 0, g = 0, b = 0, a = 0;
+};
+
+double ms_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+}
+
+void validate(const LabelRenderOptions& o, int level_count) {
+  if (!(o.step > 0)) throw Error("label render: step must be > 0, got " + std::to_string(o.step));
+  if (!(o.termination > 0 && o.termination <= 1))
+    throw Error("label render: termination must lie in (0, 1], got " + std::to_string(o.termination));
+  if (o.tile <= 0) throw Error("label render: tile must be > 0");
+  if (o.finest_level < 0 || o.finest_level >= level_count)
+    throw Error("label render: finest_level " + std::to_string(o.finest_level) + " is not in 0.." +
+                std::to_string(level_count - 1));
+  if (!std::isfinite(o.lod_bias)) throw Error("label render: lod_bias must be finite");
+  if (!(o.ambient >= 0 && o.ambient <= 1)) throw Error("label render: ambient must lie in 0..1");
+  for (float c : {o.background.r, o.background.g, o.background.b, o.background.a})
+    if (!(c >= 0 && c <= 1)) throw Error("label render: background components must lie in 0..1");
+}
+
+// floor(v) for v > -1 by truncation: the baseline x86-64 build has no inline floor, and the
+// marcher's coordinates are never below -1 (they lie in the box, up to rounding).
+std::int64_t floor_above_minus_one(double v) { return std::int64_t(v + 1.0) - 1; }
+
+std::int64_t clamp_floor(double v, std::int64_t n) {
+  return std::clamp<std::int64_t>(floor_above_minus_one(v), 0, n - 1);
+}
+
+// Trilinear interpolation of the palette colours of the 8 voxels of level `k` around the
+// level-0 voxel-space point u (voxel centres at integer + 0.5; clamp to the edge).
+Premultiplied sample_level(const Frame& f, int k, const Vec3& u) {
+  const LevelView& L = f.levels[std::size_t(k)];
+  const double v[3] = {u.x * L.scale - 0.5, u.y * L.scale - 0.5, u.z * L.scale - 0.5};
+  const std::int64_t n[3] = {L.nx, L.ny, L.nz};
+  std::int64_t lo[3], hi[3];
+  double w[3];
+  for (int a = 0; a < 3; ++a) {
+    const std::int64_t base = floor_above_minus_one(v[a]);
+    w[a] = v[a] - double(base);
+    lo[a] = std::clamp<std::int64_t>(base, 0, n[a] - 1);
+    hi[a] = std::clamp<std::int64_t>(base + 1, 0, n[a] - 1);
+  }
+  std::uint32_t ids[8];
+  float weights[8];
+  for (int c = 0; c < 8; ++c) {
+    const std::int64_t x = c & 1 ? hi[0] : lo[0], y = c & 2 ? hi[1] : lo[1], z = c & 4 ? hi[2] : lo[2];
+    ids[c] = L.ids[std::size_t((z * L.ny + y) * L.nx + x)];
+    weights[c] = float((c & 1 ? w[0] : 1 - w[0]) * (c & 2 ? w[1] : 1 - w[1]) * (c & 4 ? w[2] : 1 - w[2]));
+  }
+  // Inside a uniform region all 8 nodes agree: one palette read instead of eight.
+  if (std::all_of(ids + 1, ids + 8, [&](std::uint32_t id) { return id == ids[0]; })) {
+    const float* p = f.palette + std::size_t(ids[0]) * 4;
+    return {p[0], p[1], p[2], p[3]};
+  }
+  Premultiplied s;
+  for (int c = 0; c < 8; ++c) {
+    const float* p = f.palette + std::size_t(ids[c]) * 4;
+    s.r += weights[c] * p[0];
+    s.g += weights[c] * p[1];
+    s.b += weights[c] * p[2];
+    s.a += weights[c] * p[3];
+  }
+  return s;
+}
+
+// Level choice for a fractional LOD value: the nearest level, or (blending) the lower level
+// and the weight of the next one.
+struct LevelChoice {
+  int level = 0;
+  float next_weight = 0;
+};
+
+LevelChoice choose_level(const Frame& f, double lod) {
+  if (!f.options.blend_levels) {
+    const double k = std::clamp(std::floor(lod + 0.5), double(f.finest), double(f.top));
+    return {int(k), 0.0f};
+  }
+  const double clamped = std::clamp(lod, double(f.finest), double(f.top));
+  const int k = std::min(int(std::floor(clamped)), f.top);
+  return {k, k == f.top ? 0.0f : float(clamped - k)};
+}
+
+Premultiplied sample(const Frame& f, const LevelChoice& c, const Vec3& u) {
+  Premultiplied s = sample_level(f, c.level, u);
+  if (c.next_weight <= 0) return s;
+  const Premultiplied t = sample_level(f, c.level + 1, u);
+  const float w = c.next_weight;
+  return {s.r + w * (t.r - s.r), s.g + w * (t.g - s.g), s.b + w * (t.b - s.b), s.a + w * (t.a - s.a)};
+}
+
+// Headlight factor from the gradient of the interpolated opacity at level `k` (central
+// differences one level voxel apart); 1 where the opacity is locally flat (no surface).
+float headlight(const Frame& f, const LevelChoice& c, const Vec3& u, const Vec3& ray_direction) {
+  const double h = f.levels[std::size_t(c.level)].size;
+  double g[3];
+  for (int a = 0; a < 3; ++a) {
+    Vec3 step;
+    (a == 0 ? step.x : a == 1 ? step.y : step.z) = h;
+    g[a] = (sample(f, c, u + step).a - sample(f, c, u - step).a) / (2 * h);
+  }
+  // Voxel-space to world-space gradient: d/dp = d/du / spacing.
+  const Vec3 world = hadamard(Vec3{g[0], g[1], g[2]}, f.inv_spacing);
+  const double norm = length(world);
+  if (norm < 1e-6) return 1.0f;
+  const double facing = std::abs(dot(world, ray_direction)) / norm;
+  return float(f.options.ambient + (1 - f.options.ambient) * facing);
+}
+
+// The coarsest level L >= `from` whose voxel around u is empty (no visible node in its
+// 3x3x3 neighbourhood), or -1. Bottom-up as in the paper: inside occupied space this costs
+// one lookup; in empty space it climbs while the parent is empty too, to skip the largest
+// cube.
+int find_empty_cube(const Frame& f, int from, const Vec3& u, std::int64_t cube[3]) {
+  int found = -1;
+  for (int l = std::max(from, LabelScene::kFinestSkipLevel); l <= f.top; ++l) {
+    const LevelView& L = f.levels[std::size_t(l)];
+    const std::int64_t x = clamp_floor(u.x * L.scale, L.nx), y = clamp_floor(u.y * L.scale, L.ny),
+                       z = clamp_floor(u.z * L.scale, L.nz);
+    if (L.occupied[std::size_t((z * L.ny + y) * L.nx + x)]) break;
+    cube[0] = x, cube[1] = y, cube[2] = z;
+    found = l;
+  }
+  return found;
+}
+
+// Ray parameter where the ray (voxel space) leaves the level-`size` cube.
+double cube_exit(const Vec3& o, const Vec3& d, const std::int64_t cube[3], double size) {
+  double t = std::numeric_limits<double>::infinity();
+  for (int a = 0; a < 3; ++a) {
+    if (d[a] > 0) t = std::min(t, (double(cube[a] + 1) * size - o[a]) / d[a]);
+    else if (d[a] < 0) t = std::min(t, (double(cube[a]) * size - o[a]) / d[a]);
+  }
+  return t;
+}
+
+// Slab test against [0, dims0] in voxel space; false when the ray misses.
+bool clip_to_box(const Vec3& o, const Vec3& d, const Vec3& box, double& t0, double& t1) {
+  t0 = 0.0;
+  t1 = std::numeric_limits<double>::infinity();
+  for (int a = 0; a < 3; ++a) {
+    if (d[a] == 0) {
+      if (o[a] < 0 || o[a] > box[a]) return false;
+      continue;
+    }
+    double ta = (0.0 - o[a]) / d[a], tb = (box[a] - o[a]) / d[a];
+    if (ta > tb) std::swap(ta, tb);
+    t0 = std::max(t0, ta);
+    t1 = std::min(t1, tb);
+  }
+  return t0 < t1;
+}
+
+double lod_at(const Frame& f, double depth) {
+  return f.view.perspective ? label_lod(f.view, depth, f.voxel_world, f.options.lod_bias) : f.ortho_lod;
+}
+
+// Nearest-level choice per ray without a log2 per step: remembers the depth interval in which
+// the current level stays the nearest one (lod in [k - 0.5, k + 0.5), unbounded at the
+// clamped ends) and only recomputes when the depth leaves it.
+class LevelTracker {
+ public:
+  LevelChoice at(const Frame& f, double depth) {
+    if (f.options.blend_levels) return choose_level(f, lod_at(f, depth));
+    if (depth >= lo_ && depth < hi_) return choice_;
+    choice_ = choose_level(f, lod_at(f, depth));
+    lo_ = -std::numeric_limits<double>::infinity();
+    hi_ = std::numeric_limits<double>::infinity();
+    if (f.view.perspective) {
+      if (choice_.level > f.finest) lo_ = depth_of_lod(f, choice_.level - 0.5);
+      if (choice_.level < f.top) hi_ = depth_of_lod(f, choice_.level + 0.5);
+    }
+    return choice_;
+  }
+
+ private:
+  static double depth_of_lod(const Frame& f, double lod) {
+    return f.voxel_world * std::exp2(lod - f.options.lod_bias) / f.view.pixel_angle;
+  }
+  double lo_ = 0, hi_ = -1;  // empty: the first call computes
+  LevelChoice choice_;
+};
+
+// Front-to-back compositing along one ray; returns the premultiplied ray colour.
+Premultiplied march(const Frame& f, const Ray& ray, RayCounters& counters) {
+  const Vec3 o = hadamard(ray.origin, f.inv_spacing), d = hadamard(ray.direction, f.inv_spacing);
+  double t = 0, t_end = 0;
+  if (!clip_to_box(o, d, f.dims0, t, t_end)) return {};
+  ++counters.rays;
+  const double depth0 = dot(ray.origin - f.view.eye, f.view.forward), depth_rate = dot(ray.direction, f.view.forward);
+  const double nudge = 1e-4 * f.voxel_world;  // crosses a cube face without skipping a voxel
+  Premultiplied acc;
+  LevelTracker levels;
+  while (t < t_end) {
+    const LevelChoice level = levels.at(f, depth0 + t * depth_rate);
+    if (f.options.skip_empty) {
+      std::int64_t cube[3];
+      const int from = level.next_weight > 0 ? level.level + 1 : level.level;
+      const int l = find_empty_cube(f, from, o + d * t, cube);
+      if (l >= 0) {
+        t = std::max(cube_exit(o, d, cube, f.levels[std::size_t(l)].size), t) + nudge;
+        ++counters.skipped;
+        continue;
+      }
+    }
+    // The step grows with the level (paper §4); the last one is clipped to the box so an
+    // object's total opacity does not depend on where the steps fall.
+    const double dt = std::min(f.options.step * f.levels[std::size_t(level.level)].size * f.voxel_world, t_end - t);
+    const Vec3 at = o + d * (t + 0.5 * dt);
+    Premultiplied s = sample(f, level, at);
+    ++counters.samples;
+    t += dt;
+    if (s.a <= 1e-7f) continue;
+    if (f.options.shading) {
+      const float light = headlight(f, level, at, ray.direction);
+      s.r *= light, s.g *= light, s.b *= light;
+    }
+    // Opacity correction: label alpha is per level-0 voxel thickness.
+    const double alpha = s.a >= 1 ? 1.0 : 1.0 - std::pow(1.0 - double(s.a), dt / f.voxel_world);
+    const float scale = float(alpha / s.a) * (1 - acc.a);
+    acc.r += scale * s.r;
+    acc.g += scale * s.g;
+    acc.b += scale * s.b;
+    acc.a += float(alpha) * (1 - acc.a);
+    if (acc.a >= f.options.termination) {
+      ++counters.terminated;
+      break;
+    }
+  }
+  return acc;
+}
+
+std::uint8_t to_byte(float v) { return std::uint8_t(std::lround(std::clamp(v, 0.0f, 1.0f) * 255.0f)); }
+
+Rgba8 over_background(const Premultiplied& c, const LabelRgba& bg) {
+  const float rest = 1 - c.a;
+  const float a = c.a + rest * bg.a;
+  if (a <= 0) return {0, 0, 0, 0};
+  // PNG stores straight alpha: un-premultiply.
+  return {to_byte((c.r + rest * bg.r * bg.a) / a), to_byte((c.g + rest * bg.g * bg.a) / a),
+          to_byte((c.b + rest * bg.b * bg.a) / a), to_byte(a)};
+}
+
+Frame make_frame(const LabelScene& scene, const Camera& camera, const LabelRenderOptions& options) {
+  Frame f;
+  const Spacing s = scene.spacing();
+  f.inv_spacing = {1.0 / s.x, 1.0 / s.y, 1.0 / s.z};
+  const Extent d = scene.dims();
+  f.dims0 = {double(d.x), double(d.y), double(d.z)};
+  f.voxel_world = std::cbrt(s.x * s.y * s.z);
+  f.view = camera.view();
+  f.options = options;
+  f.top = scene.level_count() - 1;
+  f.ortho_lod = label_lod(f.view, 1.0, f.voxel_world, options.lod_bias);
+  f.levels.resize(std::size_t(scene.level_count()));
+  return f;
+}
+
+// The finest level any sample of the frame can choose: the smallest footprint is at the
+// nearest corner of the volume's box (depth is linear, so a corner attains the minimum).
+int frame_finest_level(const Frame& f, const Spacing& s) {
+  double lod = f.ortho_lod;
+  if (f.view.perspective) {
+    double nearest = std::numeric_limits<double>::infinity();
+    for (int c = 0; c < 8; ++c) {
+      const Vec3 corner{c & 1 ? f.dims0.x * s.x : 0.0, c & 2 ? f.dims0.y * s.y : 0.0, c & 4 ? f.dims0.z * s.z : 0.0};
+      nearest = std::min(nearest, dot(corner - f.view.eye, f.view.forward));
+    }
+    lod = label_lod(f.view, std::max(nearest, 0.0), f.voxel_world, f.options.lod_bias);
+  }
+  const double k = f.options.blend_levels ? std::floor(lod) : std::floor(lod + 0.5);
+  return int(std::clamp(k, double(f.options.finest_level), double(f.top)));
+}
+
+void bind_levels(Frame& f, const LabelScene& scene) {
+  f.palette = scene.palette().data();
+  for (int l = f.finest; l <= f.top; ++l) {
+    LevelView& v = f.levels[std::size_t(l)];
+    const Extent d = scene.level_dims(l);
+    v.ids = scene.level_ids(l).data();
+    if (l >= LabelScene::kFinestSkipLevel) v.occupied = scene.occupied(l).data();
+    v.nx = d.x, v.ny = d.y, v.nz = d.z;
+    v.size = std::ldexp(1.0, l);
+    v.scale = 1.0 / v.size;
+  }
+}
+
+void render_tiles(const Frame& f, const Camera& camera, Image& image, LabelRenderStats& stats) {
+  const int tile = f.options.tile;
+  const int tiles_x = (image.width() + tile - 1) / tile, tiles_y = (image.height() + tile - 1) / tile;
+  const std::int64_t tiles = std::int64_t(tiles_x) * tiles_y;
+  std::uint64_t rays = 0, samples = 0, skipped = 0, terminated = 0;
+#pragma omp parallel for schedule(dynamic, 1) num_threads(thread_count()) reduction(+ : rays, samples, skipped, terminated)
+  for (std::int64_t i = 0; i < tiles; ++i) {
+    RayCounters c;
+    const int x0 = int(i % tiles_x) * tile, y0 = int(i / tiles_x) * tile;
+    for (int y = y0; y < std::min(y0 + tile, image.height()); ++y)
+      for (int x = x0; x < std::min(x0 + tile, image.width()); ++x)
+        image.at(x, y) = over_background(march(f, camera.ray(x, y), c), f.options.background);
+    rays += c.rays, samples += c.samples, skipped += c.skipped, terminated += c.terminated;
+  }
+  stats.rays = rays, stats.samples = samples, stats.skipped_cubes = skipped, stats.terminated_rays = terminated;
+}
+
+}  // namespace
+
+double label_lod(const lod::View& view, double depth, double voxel_world, double lod_bias) {
+  const double pixel = view.pixel_size_at(depth);
+  // A zero footprint (depth 0) means "as fine as possible"; keep it finite for the clamps.
+  const double lod = pixel > 0 ? std::log2(pixel / voxel_world) : -double(kMaxLevels);
+  return std::max(lod, -double(kMaxLevels)) + lod_bias;
+}
+
+Image render_labels(LabelScene& scene, const Camera& camera, const LabelRenderOptions& options,
+                    LabelRenderStats* stats) {
+  const auto start = std::chrono::steady_clock::now();
+  validate(options, scene.level_count());
+  if (scene.level_count() > kMaxLevels) throw Error("label render: more than 64 mip levels");
+  Frame f = make_frame(scene, camera, options);
+  f.finest = frame_finest_level(f, scene.spacing());
+
+  const LabelPrepareReport prepared = scene.prepare(f.finest);
+  bind_levels(f, scene);
+
+  LabelRenderStats local;
+  local.palette_ms = prepared.palette_ms;
+  local.ids_ms = prepared.ids_ms;
+  local.skip_grid_ms = prepared.skip_ms;
+  local.ids_decoded = prepared.id_voxels_decoded;
+  local.finest_level = f.finest;
+  local.coarsest_level = f.top;
+
+  Image image(camera.width(), camera.height());
+  const auto march_start = std::chrono::steady_clock::now();
+  render_tiles(f, camera, image, local);
+  local.march_ms = ms_since(march_start);
+  local.ms = ms_since(start);
+  if (stats) *stats = local;
+  return image;
+}
+
+}  // namespace strata::render

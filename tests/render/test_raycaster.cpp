@@ -1,0 +1,333 @@
+// The ray caster against closed-form images, and bricked / compressed renders against the
+// single-block render of the uncompressed volume.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <nlohmann/json.hpp>
+
+#include "strata/core/error.hpp"
+#include "strata/gen/generators.hpp"
+#include "strata/render/raycaster.hpp"
+#include "strata/ta/ta_volume.hpp"
+#include "support/test_support.hpp"
+#include "ta/ta_test_util.hpp"
+
+using namespace strata;
+using namespace strata::render;
+
+namespace {
+
+struct Diff {
+  int max = 0;  // largest per-channel difference, in 8-bit levels
+  int x = 0, y = 0;
+};
+
+Diff max_diff(const Image& a, const Image& b) {
+  Diff d;
+  for (int y = 0; y < a.height(); ++y)
+    for (int x = 0; x < a.width(); ++x) {
+      const Rgba8 p = a.at(x, y), q = b.at(x, y);
+      const int m = std::max({std::abs(p.r - q.r), std::abs(p.g - q.g), std::abs(p.b - q.b), std::abs(p.a - q.a)});
+      if (m > d.max) d = {m, x, y};
+    }
+  return d;
+}
+
+// Sphere of radius R (voxels) centred in a 64^3 volume; the generator puts the centre at voxel
+// coordinate 31.5, i.e. world 32 (voxel i covers [i, i + 1)).
+constexpr int kDim = 64;
+constexpr double kRadius = 20;
+
+Volume sphere_volume() {
+  gen::Params p;
+  p.kind = gen::Kind::sphere;
+  p.dims = {kDim, kDim, kDim};
+  p.count = std::int64_t(kRadius);
+  return gen::generate(p);
+}
+
+// Orthographic, one pixel per voxel, looking along +y (x right, z up).
+Camera sphere_camera() {
+  CameraSpec s;
+  s.width = s.height = kDim;
+  s.projection = Projection::orthographic;
+  s.ortho_height = kDim;
+  s.orbit.azimuth_deg = 0;
+  s.orbit.elevation_deg = 0;
+  return Camera(s, {kDim, kDim, kDim}, {});
+}
+
+constexpr float kAlpha = 0.05f;
+constexpr float kColour[3] = {1.0f, 0.8f, 0.6f};
+
+// Opacity kAlpha per voxel where the value is >= 0.5 (inside the sphere's surface), else clear.
+TransferFunction step_tf() {
+  const std::array<float, 4> clear{kColour[0], kColour[1], kColour[2], 0}, solid{kColour[0], kColour[1], kColour[2], kAlpha};
+  return TransferFunction({{0, clear}, {0.5, clear}, {0.5, solid}, {1, solid}});
+}
+
+RenderOptions options(double step, bool preintegrated, bool shading) {
+  RenderOptions o;
+  o.step = step;
+  o.preintegrated = preintegrated;
+  o.shading = shading;
+  o.threads = 2;
+  return o;
+}
+
+// A frame over all level-0 bricks of an in-memory volume.
+struct BrickedVolume {
+  ta::OctreeGeometry geometry;
+  lod::FrameBricks bricks;
+  BrickedVolume(const Volume& v, int brick, int overlap)
+      : geometry(v.dims(), {brick, overlap}), bricks(bricks_from_volume(v, geometry)) {}
+  FrameInput frame(const Volume& v, double lo, double hi) const { return {&bricks, &geometry, v.spacing(), lo, hi, nullptr}; }
+};
+
+void check_sphere_image(const Image& img, double step, const char* label) {
+  // Along a ray at distance rho from the centre the TF is opaque over the chord
+  // c = 2 sqrt(R^2 - rho^2), so the pixel is colour * (1 - (1 - a)^c) over black.
+  // Chord uncertainty: sample placement costs at most one step at each end (post-
+  // classification; pre-integration does better), and the iso-0.5 surface of the trilinear
+  // interpolant of clamp(R - d + 0.5, 0, 1) sits within dR = 0.25 voxel of R (curvature:
+  // 3 / (8R) = 0.02; clamped corners within the 0.87-voxel reach of the trilinear stencil:
+  // the rest), which moves the chord by 2 dR R / sqrt(R^2 - rho^2). One more level for
+  // rounding. Pixels within 1.5 voxels of the silhouette (where that bound diverges and a
+  // pixel straddles the rim) are left out; pixels beyond it must be exact background.
+  const double tau = -std::log(1.0 - kAlpha);
+  int checked = 0, lit = 0;
+  for (int py = 0; py < img.height(); ++py)
+    for (int px = 0; px < img.width(); ++px) {
+      const double u = px + 0.5 - kDim / 2.0, v = py + 0.5 - kDim / 2.0;
+      const double rho = std::sqrt(u * u + v * v);
+      const Rgba8 p = img.at(px, py);
+      if (p.r > 0) ++lit;
+      ASSERT_EQ(p.a, 255);
+      if (std::abs(rho - kRadius) < 1.5) continue;
+      ++checked;
+      if (rho > kRadius) {
+        ASSERT_EQ(p, (Rgba8{0, 0, 0, 255})) << label << " at " << px << "," << py;
+        continue;
+      }
+      const double s = std::sqrt(kRadius * kRadius - rho * rho);
+      const double chord = 2 * s;
+      const double opacity = 1 - std::exp(-tau * chord);
+      const double dchord = 2 * step + 2 * 0.25 * kRadius / s;
+      const double dopacity = tau * std::exp(-tau * chord) * dchord;
+      const std::uint8_t got[3] = {p.r, p.g, p.b};
+      for (int c = 0; c < 3; ++c) {
+        const double expected = 255.0 * kColour[c] * opacity;
+        const double tol = 255.0 * kColour[c] * dopacity + 1.0;
+        ASSERT_NEAR(got[c], expected, tol) << label << " channel " << c << " at " << px << "," << py << " rho " << rho;
+      }
+    }
+  EXPECT_GT(checked, kDim * kDim * 3 / 4);
+  // Silhouette radius from the lit area: pi r^2 = lit, within the 1.5-voxel band above.
+  const double r = std::sqrt(lit / std::acos(-1.0));
+  EXPECT_NEAR(r, kRadius, 1.5) << label;
+}
+
+}  // namespace
+
+TEST(RayCaster, AnalyticSphereMatchesTheClosedFormImage) {
+  const Volume v = sphere_volume();
+  const BrickedVolume bricked(v, 16, 2);
+  const Camera cam = sphere_camera();
+  const double step = 0.25;
+  for (bool preint : {true, false}) {
+    RayCaster rc(step_tf(), options(step, preint, false));
+    const Image single = rc.render(cam, v, 0.0, 1.0);
+    check_sphere_image(single, step, preint ? "single block, pre-integrated" : "single block, lookup table");
+    RenderStats stats;
+    const Image bricks = rc.render(cam, bricked.frame(v, 0, 1), &stats);
+    check_sphere_image(bricks, step, preint ? "bricks, pre-integrated" : "bricks, lookup table");
+    // Bricks outside the sphere are all zero and skipped; the image does not change.
+    EXPECT_GT(stats.bricks_culled, 0u);
+    EXPECT_LE(max_diff(single, bricks).max, 1);
+    // Centre pixel: the full diameter.
+    const double centre = 1 - std::pow(1 - kAlpha, 2 * std::sqrt(kRadius * kRadius - 0.5));
+    EXPECT_NEAR(single.at(31, 31).r, 255 * centre, 2.0);
+  }
+}
+
+TEST(RayCaster, SphereRadiusFollowsTheThresholdAndBackgroundShowsThrough) {
+  // A higher threshold (0.9) shrinks the opaque disc to R - 0.4; a transparent background
+  // leaves alpha = 0 outside and straight colour inside.
+  const Volume v = sphere_volume();
+  const std::array<float, 4> clear{0, 1, 0, 0}, solid{0, 1, 0, 1};
+  RenderOptions o = options(0.25, true, false);
+  o.background = {0, 0, 0, 0};
+  RayCaster rc(TransferFunction({{0, clear}, {0.9, clear}, {0.9, solid}, {1, solid}}), o);
+  const Image img = rc.render(sphere_camera(), v, 0, 1);
+  for (int py = 0; py < kDim; ++py)
+    for (int px = 0; px < kDim; ++px) {
+      const double u = px + 0.5 - kDim / 2.0, w = py + 0.5 - kDim / 2.0, rho = std::sqrt(u * u + w * w);
+      const Rgba8 p = img.at(px, py);
+      if (rho < kRadius - 0.4 - 1.5) {
+        EXPECT_EQ(p, (Rgba8{0, 255, 0, 255})) << px << "," << py;
+      }
+      if (rho > kRadius - 0.4 + 1.5) {
+        EXPECT_EQ(p.a, 0) << px << "," << py;
+      }
+    }
+}
+
+namespace {
+
+struct CompressedCase {
+  test::TempDir dir;
+  Volume raw;
+  std::unique_ptr<ta::TaVolume> ta;
+  CompressedCase(const Volume& v, int brick, int overlap) : raw(v) {
+    // Full rank (R = B) and float coefficients: reconstruction is exact up to float rounding.
+    ta::testing::compress(v, dir / "v.strata", ta::testing::params(brick, overlap, brick, "f32"));
+    ta = std::make_unique<ta::TaVolume>(dir / "v.strata");
+  }
+};
+
+Volume prisms_volume() {
+  gen::Params p;
+  p.kind = gen::Kind::prisms;
+  p.dims = {56, 48, 40};
+  p.seed = 3;
+  return gen::generate(p);
+}
+
+Camera perspective_camera(const Extent& dims, double az, double el, int w = 128, int h = 96) {
+  CameraSpec s;
+  s.width = w;
+  s.height = h;
+  s.orbit.azimuth_deg = az;
+  s.orbit.elevation_deg = el;
+  return Camera(s, dims, {});
+}
+
+}  // namespace
+
+TEST(RayCaster, FullRankF32FileMatchesTheUncompressedVolumeWithoutSeams) {
+  CompressedCase c(prisms_volume(), 16, 2);
+  const double lo = c.ta->value_min(), hi = c.ta->value_max();
+  const lod::FrameBricks decoded = level_bricks(*c.ta, 0, c.ta->rank());
+  const lod::FrameBricks cut = bricks_from_volume(c.raw, c.ta->geometry());
+  const FrameInput from_file{&decoded, &c.ta->geometry(), c.raw.spacing(), lo, hi, &c.ta->container()};
+  const FrameInput from_raw{&cut, &c.ta->geometry(), c.raw.spacing(), lo, hi, nullptr};
+  for (const char* tf_name : {"ct", "mri", "grayscale"})
+    for (bool shading : {true, false})
+      for (double az : {30.0, 117.0}) {
+        RayCaster rc(TransferFunction::preset(tf_name), options(0.5, true, shading));
+        const Camera cam = perspective_camera(c.raw.dims(), az, 25);
+        // The single-block render has no brick borders at all: the reference.
+        const Image reference = rc.render(cam, c.raw, lo, hi);
+        const Image raw_bricks = rc.render(cam, from_raw);
+        const Image file_bricks = rc.render(cam, from_file);
+        const Diff seams = max_diff(reference, raw_bricks), codec = max_diff(reference, file_bricks);
+        SCOPED_TRACE(std::string(tf_name) + (shading ? " shaded" : " unshaded") + " az " + std::to_string(az));
+        // Bricking alone changes only float rounding (the overlap holds the neighbours' voxels).
+        EXPECT_LE(seams.max, 1) << "at " << seams.x << "," << seams.y;
+        EXPECT_LE(codec.max, 2) << "at " << codec.x << "," << codec.y;
+      }
+}
+
+TEST(RayCaster, MixedLevelsLeaveNoCracks) {
+  // A linear ramp along x is its own 2x2x2 average (level-1 voxel centres sit at the mean of
+  // their children's centres) and trilinear interpolation reproduces it exactly, so any frame
+  // mixing levels 0 and 1 must render like level 0 alone: no crack may lose opacity. What
+  // remains is the segment crossing a level change, whose pre-integrated colour is opacity
+  // corrected to its true length as if its value were constant: with this TF's steepest
+  // opacity slope (0.04 per 0.4 of the range) and a segment of at most 1.5 voxels over which
+  // the ramp moves 1.5/64 of the range, that is <= 0.0035 of opacity per crossing, and a ray
+  // crosses at most 5 level changes here: <= 0.018, i.e. 4 levels of 255 (3 observed).
+  // The TF is clear near both x faces, where edge clamping differs between levels.
+  const Extent dims{64, 48, 40};
+  Volume v(dims, DType::f32);
+  for (std::int64_t z = 0; z < dims.z; ++z)
+    for (std::int64_t y = 0; y < dims.y; ++y)
+      for (std::int64_t x = 0; x < dims.x; ++x) v.set_value(x, y, z, double(x) + 0.5);
+  CompressedCase c(v, 16, 2);
+  const double lo = 0, hi = 64;
+  const TransferFunction tf({{0, {1, 0.6f, 0.2f, 0}},
+                             {0.1, {1, 0.6f, 0.2f, 0}},
+                             {0.5, {0.2f, 0.6f, 1, 0.04f}},
+                             {0.9, {1, 1, 1, 0}},
+                             {1, {1, 1, 1, 0}}});
+  const lod::FrameBricks level0 = level_bricks(*c.ta, 0, c.ta->rank());
+  const lod::FrameBricks level1 = level_bricks(*c.ta, 1, c.ta->rank());
+  // Level-1 bricks everywhere, level-0 bricks in every other column of level-0 cells: most
+  // coarse bricks share their cells with finer ones and are walked cell by cell.
+  lod::FrameBricks mixed = level1;
+  for (const auto& b : level0.bricks)
+    if (b.key.x % 2 == 1) mixed.bricks.push_back(b);
+  for (double az : {0.0, 40.0, 90.0}) {
+    RayCaster rc(tf, options(0.5, true, false));
+    const Camera cam = perspective_camera(dims, az, 20);
+    const Image fine = rc.render(cam, FrameInput{&level0, &c.ta->geometry(), {}, lo, hi, nullptr});
+    const Image coarse = rc.render(cam, FrameInput{&level1, &c.ta->geometry(), {}, lo, hi, nullptr});
+    const Image both = rc.render(cam, FrameInput{&mixed, &c.ta->geometry(), {}, lo, hi, nullptr});
+    SCOPED_TRACE("az " + std::to_string(az));
+    const Diff d1 = max_diff(fine, coarse), d2 = max_diff(fine, both);
+    EXPECT_LE(d1.max, 4) << d1.x << "," << d1.y;
+    EXPECT_LE(d2.max, 4) << d2.x << "," << d2.y;
+  }
+}
+
+TEST(RayCaster, EmptyFrameAndMissingCellsShowTheBackground) {
+  const Extent dims{32, 32, 32};
+  const ta::OctreeGeometry g(dims, {16, 2});
+  lod::FrameBricks none;
+  RenderOptions o = options(0.5, true, true);
+  o.background = {0.2f, 0.4f, 0.6f, 1};
+  RayCaster rc(TransferFunction::preset("grayscale"), o);
+  RenderStats stats;
+  const Image img = rc.render(perspective_camera(dims, 10, 10, 32, 24), FrameInput{&none, &g, {}, 0, 1, nullptr}, &stats);
+  for (const Rgba8& p : img.pixels()) EXPECT_EQ(p, (Rgba8{51, 102, 153, 255}));
+  EXPECT_GT(stats.rays, 0u);
+  EXPECT_EQ(stats.samples, 0u);
+  const nlohmann::json j = stats_json(stats, &none.stats);
+  EXPECT_TRUE(j.contains("render") && j.contains("load"));
+}
+
+TEST(RayCaster, RejectsBricksOutsideTheGeometry) {
+  const ta::OctreeGeometry g({32, 32, 32}, {16, 2});
+  lod::FrameBricks f;
+  f.bricks.push_back({{0, 5, 0, 0}, 1, nullptr, 0});
+  RayCaster rc(TransferFunction::preset("grayscale"));
+  EXPECT_THROW(rc.render(perspective_camera({32, 32, 32}, 0, 0, 8, 8), FrameInput{&f, &g, {}, 0, 1, nullptr}), Error);
+  f.bricks[0] = {{0, 0, 0, 0}, 1, std::make_shared<std::vector<float>>(10), 0};
+  EXPECT_THROW(rc.render(perspective_camera({32, 32, 32}, 0, 0, 8, 8), FrameInput{&f, &g, {}, 0, 1, nullptr}), Error);
+}
+
+TEST(RayCaster, ThreadCountDoesNotChangeTheImage) {
+  const Volume v = prisms_volume();
+  const BrickedVolume b(v, 16, 2);
+  RenderOptions one = options(0.5, true, true), two = one;
+  one.threads = 1;
+  const Camera cam = perspective_camera(v.dims(), 33, 21, 70, 50);
+  const Image a = RayCaster(TransferFunction::preset("ct"), one).render(cam, b.frame(v, 0, 65535));
+  const Image c = RayCaster(TransferFunction::preset("ct"), two).render(cam, b.frame(v, 0, 65535));
+  EXPECT_EQ(a.pixels(), c.pixels());
+}
+
+// Timing only (run with --gtest_also_run_disabled_tests): 512x512 of a 128^3 volume.
+TEST(RayCaster, DISABLED_Timing) {
+  gen::Params p;
+  p.kind = gen::Kind::prisms;
+  p.dims = {128, 128, 128};
+  const Volume v = gen::generate(p);
+  const BrickedVolume b(v, 32, 2);
+  for (const char* tf : {"ct", "mri"})
+    for (bool shading : {false, true}) {
+      RenderOptions o = options(0.5, true, shading);
+      o.threads = 0;
+      RayCaster rc(TransferFunction::preset(tf), o);
+      CameraSpec s;
+      s.width = s.height = 512;
+      const Camera cam(s, v.dims(), {});
+      RenderStats st;
+      rc.render(cam, b.frame(v, 0, 65535), &st);  // builds the tables
+      rc.render(cam, b.frame(v, 0, 65535), &st);
+      std::printf("%s shading=%d: %.1f ms total, %.1f ms ray cast, %llu samples, %llu rays\n", tf, int(shading),
+                  st.total_ms, st.raycast_ms, (unsigned long long)st.samples, (unsigned long long)st.rays);
+    }
+}
