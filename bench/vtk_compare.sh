@@ -20,7 +20,7 @@ trap 'rm -rf "$WORK"' EXIT
 cmake -S "$ROOT" -B "$BUILD" -G Ninja -DCMAKE_BUILD_TYPE=Release -DSTRATA_BUILD_TESTS=OFF -DSTRATA_BUILD_BENCH=OFF \
   -DSTRATA_BUILD_VTK_BENCH=ON > /dev/null
 cmake --build "$BUILD" --target strata vtk_raycast > /dev/null
-STRATA="$BUILD/apps/strata/strata"
+STRATA="$BUILD/strata"
 VTK="$BUILD/bench/vtk/vtk_raycast"
 
 field() { python3 -c "import json,sys; print(json.load(open(sys.argv[1]))$2)" "$1"; }

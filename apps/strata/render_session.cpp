@@ -1,0 +1,170 @@
+#include "render_session.hpp"
+
+#include <sys/resource.h>
+
+#include <chrono>
+
+#include "strata/lod/brick_provider.hpp"
+#include "strata/lod/selection.hpp"
+#include "strata/mixture/encoded_labels.hpp"
+#include "strata/render/label_color_map.hpp"
+#include "strata/render/label_raycaster.hpp"
+#include "strata/render/label_scene.hpp"
+#include "strata/render/raycaster.hpp"
+#include "strata/render/transfer_function.hpp"
+#include "strata/store/container.hpp"
+#include "strata/ta/ta_volume.hpp"
+
+namespace strata::cli {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double cpu_seconds() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return double(u.ru_utime.tv_sec + u.ru_stime.tv_sec) + 1e-6 * double(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+}
+
+double ms_since(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
+
+render::RenderOptions render_options(const RenderSettings& s) {
+  render::RenderOptions o;
+  o.step = s.step;
+  o.shading = s.shading;
+  o.background = s.background;
+  return o;
+}
+
+lod::ProviderOptions provider_options(const RenderSettings& s) {
+  lod::ProviderOptions o;
+  o.cache_bytes = s.cache_bytes;
+  return o;
+}
+
+}  // namespace
+
+// A TA file: LOD cut -> brick provider -> ray caster.
+struct RenderSession::Scalar {
+  ta::TaVolume volume;
+  lod::BrickProvider provider;
+  render::RayCaster caster;
+  std::uint64_t visible_bins;
+  lod::SelectionOptions selection;
+  int rank;
+
+  Scalar(const std::filesystem::path& input, const RenderSettings& s)
+      : volume(input),
+        provider(volume, provider_options(s)),
+        caster(render::TransferFunction::from_argument(s.tf), render_options(s)),
+        visible_bins(caster.transfer_function().visible_bins(volume.value_min(), volume.value_max())),
+        rank(s.rank > 0 ? s.rank : volume.rank()) {
+    selection.lod = s.lod;
+    selection.max_bricks = s.max_bricks;
+    selection.memory_budget = s.cache_bytes;
+  }
+
+  render::Image frame(const render::Camera& camera, bool exact, nlohmann::json& stats) {
+    const auto t0 = Clock::now();
+    const lod::Selection cut = lod::select_cut(volume, camera.view(), visible_bins, selection);
+    const double select_ms = ms_since(t0);
+    const lod::FrameBricks bricks = provider.acquire(cut, rank, exact);
+    render::FrameInput input;
+    input.bricks = &bricks;
+    input.geometry = &volume.geometry();
+    input.spacing = volume.source_info().spacing;
+    input.value_min = volume.value_min();
+    input.value_max = volume.value_max();
+    input.index = &volume.container();
+    render::RenderStats rs;
+    render::Image image = caster.render(camera, input, &rs);
+    stats = render::stats_json(rs, &bricks.stats);
+    stats["selection"] = {{"bricks", cut.bricks.size()},  {"per_level", cut.per_level},
+                          {"bytes", cut.bytes},           {"budget_hit", cut.budget_hit()},
+                          {"culled_frustum", cut.culled_frustum}, {"culled_empty", cut.culled_empty},
+                          {"select_ms", select_ms}};
+    stats["rank"] = provider.clamp_rank(rank);
+    return image;
+  }
+};
+
+// A label file: palette through the Mixture Graph, then the label ray caster. The scene keeps
+// decoded node ids, so later frames only march (and recolour when asked).
+struct RenderSession::Labels {
+  mixture::EncodedLabels labels;
+  render::LabelScene scene;
+  render::LabelRenderOptions options;
+
+  Labels(const std::filesystem::path& input, const RenderSettings& s)
+      : labels(input), scene(labels, s.colors.empty() ? render::LabelColorMap{} : render::LabelColorMap::load(s.colors)) {
+    options.lod_bias = s.lod_bias;
+    options.step = s.step;
+    options.shading = s.shading;
+    options.background = {s.background[0], s.background[1], s.background[2], s.background[3]};
+  }
+
+  render::Image frame(const render::Camera& camera, nlohmann::json& stats) {
+    render::LabelRenderStats st;
+    render::Image image = render::render_labels(scene, camera, options, &st);
+    stats["render"] = {{"ms", st.ms},
+                       {"march_ms", st.march_ms},
+                       {"palette_ms", st.palette_ms},
+                       {"ids_ms", st.ids_ms},
+                       {"skip_grid_ms", st.skip_grid_ms},
+                       {"ids_decoded", st.ids_decoded},
+                       {"rays", st.rays},
+                       {"samples", st.samples},
+                       {"skipped_cubes", st.skipped_cubes},
+                       {"terminated_rays", st.terminated_rays},
+                       {"levels", {st.finest_level, st.coarsest_level}}};
+    return image;
+  }
+};
+
+RenderSession::RenderSession(const std::filesystem::path& input, const RenderSettings& settings) {
+  const store::ContainerReader probe(input);
+  if (probe.metadata().value("codec", std::string()) == mixture::kMixtureCodecName)
+    labels_ = std::make_unique<Labels>(input, settings);
+  else
+    scalar_ = std::make_unique<Scalar>(input, settings);
+}
+
+RenderSession::~RenderSession() = default;
+
+bool RenderSession::is_labels() const { return labels_ != nullptr; }
+Extent RenderSession::dims() const { return labels_ ? labels_->labels.level_dims(0) : scalar_->volume.source_info().dims; }
+Spacing RenderSession::spacing() const {
+  return labels_ ? labels_->labels.spacing() : scalar_->volume.source_info().spacing;
+}
+
+void RenderSession::set_rank(int rank) {
+  if (scalar_) scalar_->rank = rank > 0 ? rank : scalar_->volume.rank();
+}
+
+render::Image RenderSession::frame(const render::CameraSpec& spec, bool exact, nlohmann::json& stats) {
+  const render::Camera camera(spec, dims(), spacing());
+  const double c0 = cpu_seconds();
+  const auto t0 = Clock::now();
+  render::Image image = labels_ ? labels_->frame(camera, stats) : scalar_->frame(camera, exact, stats);
+  stats["frame_ms"] = ms_since(t0);
+  stats["cpu_s"] = cpu_seconds() - c0;
+  return image;
+}
+
+nlohmann::json frame_summary(const nlohmann::json& frames) {
+  double total = 0, decode = 0, cpu = 0;
+  for (const auto& f : frames) {
+    total += f.value("frame_ms", 0.0);
+    cpu += f.value("cpu_s", 0.0);
+    if (f.contains("load")) decode += f["load"].value("decode_ms", 0.0);
+  }
+  const double n = double(std::max<std::size_t>(1, frames.size()));
+  return {{"frames", frames.size()},
+          {"mean_frame_ms", total / n},
+          {"frames_per_s", total > 0 ? 1000.0 * n / total : 0.0},
+          {"cpu_s_per_frame", cpu / n},
+          {"decode_share", total > 0 ? decode / total : 0.0}};
+}
+
+}  // namespace strata::cli

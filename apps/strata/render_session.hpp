@@ -1,0 +1,56 @@
+#pragma once
+// Rendering a .strata file frame by frame, shared by `strata render` and `strata demo`.
+// TA files go through the LOD cut, the brick provider (cache + loader) and the ray caster
+// (paper 1, §3/§6); label files through the Mixture Graph palette (paper 4, §4).
+#include <array>
+#include <filesystem>
+#include <memory>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "strata/core/extent.hpp"
+#include "strata/core/volume.hpp"
+#include "strata/render/camera.hpp"
+#include "strata/render/image.hpp"
+
+namespace strata::cli {
+
+struct RenderSettings {
+  std::string tf = "ct";          // TA files: preset or JSON file
+  std::string colors;             // label files: JSON colour map ("" = hash colours)
+  int rank = 0;                   // reconstruction rank K; 0 = the stored rank
+  double lod = 1.0;               // pixels per voxel before a brick is refined
+  double lod_bias = 0.0;          // label files: added to the per-sample mip level
+  double step = 0.5;              // sample distance in voxels of the sampled level
+  bool shading = true;
+  std::array<float, 4> background{0, 0, 0, 1};
+  std::uint64_t cache_bytes = 1ull << 30;
+  std::int64_t max_bricks = 8192;
+};
+
+class RenderSession {
+ public:
+  RenderSession(const std::filesystem::path& input, const RenderSettings& settings);
+  ~RenderSession();
+
+  bool is_labels() const;
+  Extent dims() const;
+  Spacing spacing() const;
+  // One frame; `exact` waits for every brick of the cut (TA files). `stats` receives the
+  // frame's figures (selection, load, render, frame_ms, cpu_s).
+  render::Image frame(const render::CameraSpec& camera, bool exact, nlohmann::json& stats);
+  // Changes the reconstruction rank for later frames (the rank slider; TA files).
+  void set_rank(int rank);
+
+ private:
+  struct Scalar;
+  struct Labels;
+  std::unique_ptr<Scalar> scalar_;
+  std::unique_ptr<Labels> labels_;
+};
+
+// Mean frame time, frames/s, CPU seconds per frame and the decode share of frame time.
+nlohmann::json frame_summary(const nlohmann::json& frames);
+
+}  // namespace strata::cli
