@@ -2,7 +2,8 @@
 // (vtkFixedPointVolumeRayCastMapper) orbiting a volume with the same camera path, transfer
 // function, sample distance and shading as `strata render --orbit`. Prints one JSON object
 // with CPU seconds and wall seconds per frame.
-//   vtk_raycast VOLUME --size 1024x768 --orbit 24 --tf ct --step 0.5 --shading on --threads 2 [-o first.png]
+//   vtk_raycast VOLUME --size 1024x768 --orbit 24 --tf ct --step 0.5 --shading on --threads 2
+//               [--azimuth 30 --elevation 20] [-o first.png]
 // The camera and transfer function come from strata's own classes, so both programs agree.
 #include <sys/resource.h>
 
@@ -42,7 +43,7 @@ using namespace strata;
 struct Args {
   std::string input, tf = "ct", png;
   int width = 1024, height = 768, frames = 24, threads = 2;
-  double step = 0.5, elevation = 20;
+  double step = 0.5, azimuth = 30, elevation = 20;  // strata render's defaults
   bool shading = true;
 };
 
@@ -61,6 +62,7 @@ Args parse(int argc, char** argv) {
     } else if (k == "--orbit") a.frames = std::stoi(value());
     else if (k == "--tf") a.tf = value();
     else if (k == "--step") a.step = std::stod(value());
+    else if (k == "--azimuth") a.azimuth = std::stod(value());
     else if (k == "--elevation") a.elevation = std::stod(value());
     else if (k == "--shading") a.shading = value() == "on";
     else if (k == "--threads") a.threads = std::stoi(value());
@@ -167,7 +169,7 @@ int main(int argc, char** argv) try {
     render::CameraSpec spec;
     spec.width = args.width;
     spec.height = args.height;
-    spec.orbit.azimuth_deg = 360.0 * f / args.frames;
+    spec.orbit.azimuth_deg = args.azimuth + 360.0 * f / args.frames;  // as strata render --orbit
     spec.orbit.elevation_deg = args.elevation;
     const render::Camera cam(spec, volume.dims(), sp);
     vtkCamera* c = renderer->GetActiveCamera();
