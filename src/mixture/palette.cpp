@@ -24,10 +24,10 @@ void propagate_palette(const MixtureGraph& g, const Schedule& schedule, std::spa
   std::vector<float> w(g.codebook.value.begin(), g.codebook.value.end());
   float* o = out.data();
   const int nt = thread_count();
-  // A phase is one fork/join: below ~32k RGBA nodes (about 0.2 ms of lerps) the join costs
-  // more than it saves, and on a loaded machine a descheduled worker stalls it for a whole
-  // time slice, so small phases run on the calling thread.
-  const std::int64_t parallel_min_values = 131072;
+  // A phase is one fork/join. One thread interpolates ~250 M RGBA nodes/s, so a phase of
+  // fewer than ~256k nodes finishes in about the time a join costs on a busy machine (a
+  // descheduled worker stalls it for a whole time slice): such phases run on the caller.
+  const std::int64_t parallel_min_values = std::int64_t(1) << 20;
   for (std::uint32_t p = 1; p <= schedule.depth; ++p) {
     const auto phase = schedule.phase(p);
     const std::int64_t n = std::int64_t(phase.size());
