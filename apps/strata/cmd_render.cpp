@@ -22,7 +22,7 @@ namespace {
 
 struct RenderArgs {
   std::string input, output, size = "1024x768", tf = "ct", shading = "on", stats, colors, background = "0,0,0";
-  double azimuth = 30, elevation = 20, distance = 0, fov = 30, lod = 1.0, step = 0.5, lod_bias = 0.0;
+  double azimuth = 30, elevation = 20, distance = 0, fov = 30, lod = 1.0, step = 0.5, lod_bias = 0.0, target_fps = 0;
   int rank = 0, orbit = 0;
   bool exact = false, ortho = false;
   std::string cache = "1G";
@@ -80,6 +80,7 @@ double frame_azimuth(const RenderArgs& a, int i) { return a.orbit == 0 ? a.azimu
 
 void print_frame(const fs::path& path, const nlohmann::json& s) {
   std::printf("%s: %.1f ms", path.string().c_str(), s.value("frame_ms", 0.0));
+  if (s.value("image_scale", 1.0) > 1.0) std::printf(" (rays on a 1/%.2f grid)", s["image_scale"].get<double>());
   if (s.contains("selection"))
     std::printf(" (%llu bricks in the cut, %llu drawn", (unsigned long long)s["selection"]["bricks"].get<std::uint64_t>(),
                 (unsigned long long)s["load"].value("resident", std::uint64_t(0)));
@@ -89,6 +90,13 @@ void print_frame(const fs::path& path, const nlohmann::json& s) {
                 (unsigned long long)s["load"].value("cache_misses", std::uint64_t(0)),
                 human_bytes(s["load"].value("bytes_read", std::uint64_t(0))).c_str(), s["load"].value("decode_ms", 0.0));
   std::printf("\n");
+}
+
+void print_summary(const char* what, const nlohmann::json& sum) {
+  std::printf("%s: %llu frames, %.1f ms mean, %.1f frames/s, %.3f CPU s per frame, decode share %.1f%%\n", what,
+              (unsigned long long)sum["frames"].get<std::uint64_t>(), sum["mean_frame_ms"].get<double>(),
+              sum["frames_per_s"].get<double>(), sum["cpu_s_per_frame"].get<double>(),
+              100.0 * sum["decode_share"].get<double>());
 }
 
 RenderSettings settings_of(const RenderArgs& a) {
@@ -106,6 +114,7 @@ RenderSettings settings_of(const RenderArgs& a) {
   s.background = parse_background(a.background);
   s.cache_bytes = parse_byte_size(a.cache, "--cache");
   s.max_bricks = a.max_bricks;
+  s.target_fps = a.target_fps;
   return s;
 }
 
@@ -130,10 +139,8 @@ void run_render(const RenderArgs& a, const GlobalOptions&) {
   }
   const nlohmann::json sum = frame_summary(frames);
   if (!a.stats.empty()) write_json_file(a.stats, {{"input", a.input}, {"summary", sum}, {"frames", frames}});
-  if (a.orbit > 0)
-    std::printf("%d frames: %.1f ms mean, %.1f frames/s, %.3f CPU s per frame, decode share %.1f%%\n", count,
-                sum["mean_frame_ms"].get<double>(), sum["frames_per_s"].get<double>(),
-                sum["cpu_s_per_frame"].get<double>(), 100.0 * sum["decode_share"].get<double>());
+  if (a.orbit > 0) print_summary("all frames", sum);
+  if (sum.contains("after_first")) print_summary("after the first", sum["after_first"]);
 }
 
 }  // namespace
@@ -162,6 +169,11 @@ void register_render(CLI::App& app, const GlobalOptions& global) {
   cmd->add_flag("--exact", a->exact, "Wait for every brick of the cut in every frame (no progressive refinement)");
   cmd->add_option("--orbit", a->orbit, "Render N frames around the volume into the output folder")
       ->capture_default_str();
+  cmd->add_option("--target-fps", a->target_fps,
+                  "Orbit frames after the first (not --exact): cast rays on a coarser image grid to hold this rate "
+                  "(0 = full resolution)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   cmd->add_option("--stats", a->stats, "Write per-frame statistics as JSON");
   cmd->add_option("--cache", a->cache, "Brick cache and LOD memory budget (e.g. 512M, 2G)")->capture_default_str();
   cmd->add_option("--max-bricks", a->max_bricks, "Brick budget of the LOD cut")->capture_default_str();

@@ -2,8 +2,11 @@
 
 #include <sys/resource.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 
+#include "strata/core/error.hpp"
 #include "strata/lod/brick_provider.hpp"
 #include "strata/lod/selection.hpp"
 #include "strata/mixture/encoded_labels.hpp"
@@ -122,7 +125,9 @@ struct RenderSession::Labels {
   }
 };
 
-RenderSession::RenderSession(const std::filesystem::path& input, const RenderSettings& settings) {
+RenderSession::RenderSession(const std::filesystem::path& input, const RenderSettings& settings)
+    : target_fps_(settings.target_fps) {
+  if (!(settings.target_fps >= 0)) throw Error("target frame rate must be >= 0");
   const store::ContainerReader probe(input);
   if (probe.metadata().value("codec", std::string()) == mixture::kMixtureCodecName)
     labels_ = std::make_unique<Labels>(input, settings);
@@ -143,28 +148,58 @@ void RenderSession::set_rank(int rank) {
 }
 
 render::Image RenderSession::frame(const render::CameraSpec& spec, bool exact, nlohmann::json& stats) {
-  const render::Camera camera(spec, dims(), spacing());
+  const bool adaptive = target_fps_ > 0 && !exact;
+  render::CameraSpec cast = spec;
+  if (adaptive) {
+    cast.width = std::max(1, int(std::lround(spec.width / image_scale_)));
+    cast.height = std::max(1, int(std::lround(spec.height / image_scale_)));
+  }
+  const render::Camera camera(cast, dims(), spacing());
   const double c0 = cpu_seconds();
   const auto t0 = Clock::now();
   render::Image image = labels_ ? labels_->frame(camera, stats) : scalar_->frame(camera, exact, stats);
-  stats["frame_ms"] = ms_since(t0);
+  if (image.width() != spec.width || image.height() != spec.height)
+    image = render::resize_bilinear(image, spec.width, spec.height);
+  const double ms = ms_since(t0);
+  stats["frame_ms"] = ms;
   stats["cpu_s"] = cpu_seconds() - c0;
+  stats["image_scale"] = adaptive ? image_scale_ : 1.0;
+  if (adaptive) {
+    // Frame time scales with the ray count, i.e. with 1 / scale^2; damp the step so one slow
+    // frame (a burst of misses) does not swing the resolution.
+    const double budget_ms = 1000.0 / target_fps_;
+    const double wanted = image_scale_ * std::sqrt(ms / budget_ms);
+    image_scale_ = std::clamp(0.5 * (image_scale_ + wanted), 1.0, 8.0);
+  }
   return image;
 }
 
-nlohmann::json frame_summary(const nlohmann::json& frames) {
+namespace {
+
+nlohmann::json summarise(const nlohmann::json& frames, std::size_t first) {
   double total = 0, decode = 0, cpu = 0;
-  for (const auto& f : frames) {
+  for (std::size_t i = first; i < frames.size(); ++i) {
+    const auto& f = frames[i];
     total += f.value("frame_ms", 0.0);
     cpu += f.value("cpu_s", 0.0);
     if (f.contains("load")) decode += f["load"].value("decode_ms", 0.0);
   }
-  const double n = double(std::max<std::size_t>(1, frames.size()));
-  return {{"frames", frames.size()},
+  const std::size_t count = frames.size() > first ? frames.size() - first : 0;
+  const double n = double(std::max<std::size_t>(1, count));
+  return {{"frames", count},
           {"mean_frame_ms", total / n},
           {"frames_per_s", total > 0 ? 1000.0 * n / total : 0.0},
           {"cpu_s_per_frame", cpu / n},
           {"decode_share", total > 0 ? decode / total : 0.0}};
+}
+
+}  // namespace
+
+nlohmann::json frame_summary(const nlohmann::json& frames) {
+  nlohmann::json all = summarise(frames, 0);
+  // An orbit's first frame loads the whole cut; the rest show the interactive rate.
+  if (frames.size() > 1) all["after_first"] = summarise(frames, 1);
+  return all;
 }
 
 }  // namespace strata::cli

@@ -27,6 +27,9 @@ struct RenderSettings {
   std::array<float, 4> background{0, 0, 0, 1};
   std::uint64_t cache_bytes = 1ull << 30;
   std::int64_t max_bricks = 8192;
+  // Interactive frames (not exact): cast fewer rays to hold this frame rate, as interactive
+  // renderers do while the camera moves; 0 = always full resolution.
+  double target_fps = 0;
 };
 
 class RenderSession {
@@ -37,8 +40,10 @@ class RenderSession {
   bool is_labels() const;
   Extent dims() const;
   Spacing spacing() const;
-  // One frame; `exact` waits for every brick of the cut (TA files). `stats` receives the
-  // frame's figures (selection, load, render, frame_ms, cpu_s).
+  // One frame; `exact` waits for every brick of the cut (TA files) and always casts one ray
+  // per pixel. Otherwise, with a target frame rate, rays are cast on a coarser image grid
+  // (its pixels are larger, so the LOD cut is coarser too) and the result is resized.
+  // `stats` receives the frame's figures (selection, load, render, frame_ms, cpu_s, image_scale).
   render::Image frame(const render::CameraSpec& camera, bool exact, nlohmann::json& stats);
   // Changes the reconstruction rank for later frames (the rank slider; TA files).
   void set_rank(int rank);
@@ -48,9 +53,12 @@ class RenderSession {
   struct Labels;
   std::unique_ptr<Scalar> scalar_;
   std::unique_ptr<Labels> labels_;
+  double target_fps_ = 0;
+  double image_scale_ = 1;  // image edge divisor of interactive frames, adapted per frame
 };
 
-// Mean frame time, frames/s, CPU seconds per frame and the decode share of frame time.
+// Mean frame time, frames/s, CPU seconds per frame and the decode share of frame time, over
+// all frames and (key "after_first") without the first frame, which loads the whole cut.
 nlohmann::json frame_summary(const nlohmann::json& frames);
 
 }  // namespace strata::cli

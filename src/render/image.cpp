@@ -1,5 +1,8 @@
 #include "strata/render/image.hpp"
 
+#include <algorithm>
+#include <cmath>
+
 #include <spng.h>
 
 #include <cstdlib>
@@ -73,6 +76,50 @@ Image read_png(const std::filesystem::path& path) {
   if (size != image.pixels().size() * sizeof(Rgba8)) throw Error(path.string() + ": PNG size mismatch");
   check(spng_decode_image(ctx.get(), image.pixels().data(), size, SPNG_FMT_RGBA8, 0), path, "PNG pixels");
   return image;
+}
+
+namespace {
+
+// Source coordinate and weight of destination index i when n_in pixels stretch over n_out.
+struct Tap {
+  int lo = 0, hi = 0;
+  float t = 0;
+};
+
+std::vector<Tap> taps(int n_in, int n_out) {
+  std::vector<Tap> out(static_cast<std::size_t>(n_out));
+  const double scale = double(n_in) / double(n_out);
+  for (int i = 0; i < n_out; ++i) {
+    const double x = std::clamp((i + 0.5) * scale - 0.5, 0.0, double(n_in - 1));
+    const int lo = int(x);
+    out[std::size_t(i)] = {lo, std::min(lo + 1, n_in - 1), float(x - lo)};
+  }
+  return out;
+}
+
+std::uint8_t mix(std::uint8_t a, std::uint8_t b, std::uint8_t c, std::uint8_t d, float tx, float ty) {
+  const float top = a + (b - a) * tx, bottom = c + (d - c) * tx;
+  return std::uint8_t(std::lround(top + (bottom - top) * ty));
+}
+
+}  // namespace
+
+Image resize_bilinear(const Image& image, int width, int height) {
+  if (width <= 0 || height <= 0 || image.width() <= 0 || image.height() <= 0)
+    throw Error("resize: image sizes must be positive");
+  Image out(width, height);
+  const std::vector<Tap> xs = taps(image.width(), width), ys = taps(image.height(), height);
+  for (int y = 0; y < height; ++y) {
+    const Tap& ty = ys[std::size_t(y)];
+    for (int x = 0; x < width; ++x) {
+      const Tap& tx = xs[std::size_t(x)];
+      const Rgba8 &a = image.at(tx.lo, ty.lo), &b = image.at(tx.hi, ty.lo);
+      const Rgba8 &c = image.at(tx.lo, ty.hi), &d = image.at(tx.hi, ty.hi);
+      out.at(x, y) = {mix(a.r, b.r, c.r, d.r, tx.t, ty.t), mix(a.g, b.g, c.g, d.g, tx.t, ty.t),
+                      mix(a.b, b.b, c.b, d.b, tx.t, ty.t), mix(a.a, b.a, c.a, d.a, tx.t, ty.t)};
+    }
+  }
+  return out;
 }
 
 }  // namespace strata::render

@@ -83,6 +83,26 @@ TEST_F(RenderCli, OrbitWritesEveryFrame) {
   EXPECT_GT(j["frames"][2]["load"]["cache_hits"].get<std::uint64_t>(), 0u);
 }
 
+TEST_F(RenderCli, TargetFrameRateCastsFewerRaysAfterTheFirstFrame) {
+  const fs::path frames = dir / "fast", stats = dir / "fast.json";
+  std::string out;
+  // A 100,000 frames/s budget cannot be met: the image grid coarsens after the first frame,
+  // while every PNG keeps the requested size.
+  ASSERT_EQ(run_command(strata_cmd("render " + file.string() + " -o " + frames.string() +
+                                   " --orbit 3 --size 64x48 --target-fps 100000 --stats " + stats.string()),
+                        &out),
+            0)
+      << out;
+  const auto j = read_json(stats);
+  EXPECT_EQ(j["frames"][0]["image_scale"], 1.0) << "the first frame is always full resolution";
+  EXPECT_GT(j["frames"][2]["image_scale"].get<double>(), 1.0);
+  EXPECT_LT(j["frames"][2]["render"]["rays"].get<std::uint64_t>(), j["frames"][0]["render"]["rays"].get<std::uint64_t>());
+  const auto image = strata::render::read_png(frames / "frame_0002.png");
+  EXPECT_EQ(image.width(), 64);
+  EXPECT_EQ(image.height(), 48);
+  EXPECT_EQ(j["summary"]["after_first"]["frames"], 2);
+}
+
 TEST_F(RenderCli, RankSliderChangesTheImage) {
   const fs::path full = dir / "full.png", low = dir / "low.png";
   std::string out;

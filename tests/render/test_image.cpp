@@ -57,3 +57,22 @@ TEST(Image, ReadErrorsNameTheFile) {
     EXPECT_NE(std::string(e.what()).find("bad.png"), std::string::npos) << e.what();
   }
 }
+
+// Doubling a 2x1 image: pixel centres at 0.25/0.75 of the source span map to source x -0.25
+// (clamped to 0), 0.25, 0.75 and 1.25 (clamped to 1), so the middle pixels mix 3:1 and 1:3.
+TEST(Image, BilinearResizeInterpolatesBetweenPixelCentres) {
+  Image src(2, 1);
+  src.at(0, 0) = {0, 100, 200, 255};
+  src.at(1, 0) = {200, 100, 0, 255};
+  const Image out = resize_bilinear(src, 4, 2);
+  ASSERT_EQ(out.width(), 4);
+  ASSERT_EQ(out.height(), 2);
+  for (int y = 0; y < 2; ++y) {
+    EXPECT_EQ(out.at(0, y), (Rgba8{0, 100, 200, 255}));
+    EXPECT_EQ(out.at(1, y), (Rgba8{50, 100, 150, 255}));
+    EXPECT_EQ(out.at(2, y), (Rgba8{150, 100, 50, 255}));
+    EXPECT_EQ(out.at(3, y), (Rgba8{200, 100, 0, 255}));
+  }
+  EXPECT_EQ(resize_bilinear(out, 4, 2).pixels(), out.pixels()) << "same size is the identity";
+  EXPECT_THROW(resize_bilinear(src, 0, 2), Error);
+}

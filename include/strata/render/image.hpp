@@ -30,6 +30,10 @@ class Image {
   std::vector<Rgba8> pixels_;
 };
 
+// Bilinear resampling to width x height, pixel centres aligned (edges clamp): shows a frame
+// cast at a reduced image resolution (interactive image-space level of detail) at full size.
+Image resize_bilinear(const Image& image, int width, int height);
+
 void write_png(const Image& image, const std::filesystem::path& path);  // throws Error naming the file
 Image read_png(const std::filesystem::path& path);                       // for tests and comparisons
 
