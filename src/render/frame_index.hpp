@@ -2,11 +2,13 @@
 // The per-frame spatial index of the ray caster: a grid over level-0 brick cells, each cell
 // pointing at the block (a resident brick of any level, or a whole in-memory volume) that
 // covers it, with every per-brick constant the sampling loop needs precomputed.
+#include <algorithm>
 #include <array>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
 
+#include "render/occupancy.hpp"
 #include "strata/core/volume.hpp"
 #include "strata/render/raycaster.hpp"
 
@@ -23,6 +25,17 @@ struct Block {
   float value_lo = 0, value_hi = 0;          // range of the samples
   bool culled = false;                       // transparent under the TF
   bool exclusive = true;                     // owns every cell its box covers (else walk cells)
+  // Empty-space skipping (render/occupancy.hpp): one flag per macro-cell, non-zero where every
+  // segment ending in the cell is transparent; nullptr = no cell is empty (or skipping is off).
+  const std::uint8_t* empty = nullptr;
+  std::array<int, 3> cells{1, 1, 1};
+
+  bool empty_at(float x, float y, float z) const {
+    constexpr float inv = 1.0f / float(kCell);
+    const int cx = std::clamp(int(x * inv), 0, cells[0] - 1), cy = std::clamp(int(y * inv), 0, cells[1] - 1),
+              cz = std::clamp(int(z * inv), 0, cells[2] - 1);
+    return empty[(std::size_t(cz) * std::size_t(cells[1]) + std::size_t(cy)) * std::size_t(cells[0]) + std::size_t(cx)] != 0;
+  }
 };
 
 struct FrameIndex {

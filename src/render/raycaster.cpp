@@ -3,6 +3,13 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+#define STRATA_RENDER_AVX2 1
+#else
+#define STRATA_RENDER_AVX2 0
+#endif
+#include <type_traits>
 #include <limits>
 #include <nlohmann/json.hpp>
 
@@ -13,6 +20,8 @@
 namespace strata::render {
 
 using detail::Block;
+using detail::CellFlags;
+using detail::CellRanges;
 using detail::FrameIndex;
 
 // Classification tables of one level: the step ratio h_l / reference differs per level.
@@ -38,6 +47,7 @@ struct GridSampler {
   const float* data;
   std::ptrdiff_t dx, dy, dz;  // neighbour offsets (0 along an axis with one sample)
   float max_x, max_y, max_z;
+  int nx, ny, nz;
 
   explicit GridSampler(const Block& b)
       : data(b.data),
@@ -46,12 +56,15 @@ struct GridSampler {
         dz(b.n[2] > 1 ? std::ptrdiff_t(b.n[0]) * b.n[1] : 0),
         max_x(limit(b.n[0])),
         max_y(limit(b.n[1])),
-        max_z(limit(b.n[2])) {}
+        max_z(limit(b.n[2])),
+        nx(b.n[0]),
+        ny(b.n[1]),
+        nz(b.n[2]) {}
 
   // Largest coordinate whose +1 neighbour still exists.
   static float limit(int n) { return n > 1 ? float(n - 1) * (1.0f - 1e-6f) : 0.0f; }
 
-  float operator()(float x, float y, float z) const {
+  [[gnu::always_inline]] inline float operator()(float x, float y, float z) const {
     x = std::clamp(x, 0.0f, max_x);
     y = std::clamp(y, 0.0f, max_y);
     z = std::clamp(z, 0.0f, max_z);
@@ -67,11 +80,50 @@ struct GridSampler {
     return c0 + fz * (c1 - c0);
   }
 
-  // Central differences one voxel either side, in local voxel units (times 2).
+  // Central differences one voxel either side, in local voxel units (times 2): f(p + e_a) -
+  // f(p - e_a) of the trilinear interpolant f. Trilinear interpolation is linear in the samples
+  // and the taps are whole voxels apart, so this equals the trilinear interpolation of the
+  // per-voxel differences v[i + 1] - v[i - 1]: one 4x2x2 / 2x4x2 / 2x2x4 stencil of 32 voxels
+  // around the sample instead of six separate trilinear taps (same value up to rounding).
   void gradient(float x, float y, float z, float g[3]) const {
-    g[0] = (*this)(x + 1, y, z) - (*this)(x - 1, y, z);
-    g[1] = (*this)(x, y + 1, z) - (*this)(x, y - 1, z);
-    g[2] = (*this)(x, y, z + 1) - (*this)(x, y, z - 1);
+    // Near the grid's faces each tap is clamped on its own (as six trilinear taps).
+    if (!(x >= 1.0f && y >= 1.0f && z >= 1.0f && x < float(nx - 2) && y < float(ny - 2) && z < float(nz - 2))) {
+      g[0] = (*this)(x + 1, y, z) - (*this)(x - 1, y, z);
+      g[1] = (*this)(x, y + 1, z) - (*this)(x, y - 1, z);
+      g[2] = (*this)(x, y, z + 1) - (*this)(x, y, z - 1);
+      return;
+    }
+    const int ix = int(x), iy = int(y), iz = int(z);
+    const float fx = x - float(ix), fy = y - float(iy), fz = z - float(iz);
+    const float* p = data + ix + std::ptrdiff_t(iy) * dy + std::ptrdiff_t(iz) * dz;
+    // Rows along x through (y, z): the interpolated value and x difference.
+    auto row = [&](std::ptrdiff_t off, float& l, float& d) {
+      const float* r = p + off;
+      const float a = r[-1], b = r[0], c = r[1], e = r[2];
+      l = b + fx * (c - b);
+      d = (c - a) + fx * ((e - b) - (c - a));
+    };
+    auto lin = [&](std::ptrdiff_t off) {
+      const float* r = p + off;
+      return r[0] + fx * (r[1] - r[0]);
+    };
+    float l00, l10, l01, l11, d00, d10, d01, d11;  // l{y}{z}
+    row(0, l00, d00);
+    row(dy, l10, d10);
+    row(dz, l01, d01);
+    row(dy + dz, l11, d11);
+    const float gx0 = d00 + fy * (d10 - d00), gx1 = d01 + fy * (d11 - d01);
+    g[0] = gx0 + fz * (gx1 - gx0);
+    auto diff = [](float f, float lo_m, float l0, float l1, float hi_p) {  // lerp of (l1 - lo_m) and (hi_p - l0)
+      const float a = l1 - lo_m, b = hi_p - l0;
+      return a + f * (b - a);
+    };
+    const float gy0 = diff(fy, lin(-dy), l00, l10, lin(2 * dy));
+    const float gy1 = diff(fy, lin(dz - dy), l01, l11, lin(dz + 2 * dy));
+    g[1] = gy0 + fz * (gy1 - gy0);
+    const float gz0 = diff(fz, lin(-dz), l00, l01, lin(2 * dz));
+    const float gz1 = diff(fz, lin(dy - dz), l10, l11, lin(dy + 2 * dz));
+    g[2] = gz0 + fy * (gz1 - gz0);
   }
 };
 
@@ -89,7 +141,7 @@ struct Classifier {
   int size = 0;
   float last = 0;  // size - 1
 
-  Rgbaf pair(float front, float back) const {  // bilinear in the pre-integrated table
+  [[gnu::always_inline]] inline Rgbaf pair(float front, float back) const {  // bilinear in the pre-integrated table
     const float u = std::clamp(front, 0.0f, 1.0f) * last, v = std::clamp(back, 0.0f, 1.0f) * last;
     const int i = std::min(int(u), size - 2), j = std::min(int(v), size - 2);
     const float wu = u - float(i), wv = v - float(j);
@@ -101,7 +153,7 @@ struct Classifier {
     return lerp(lerp(r0[0], r0[1], wv), lerp(r1[0], r1[1], wv), wu);
   }
 
-  Rgbaf single(float x) const {  // linear in the post-classification table
+  [[gnu::always_inline]] inline Rgbaf single(float x) const {  // linear in the post-classification table
     const float u = std::clamp(x, 0.0f, 1.0f) * last;
     const int i = std::min(int(u), size - 2);
     const float w = u - float(i);
@@ -170,6 +222,7 @@ struct Transparency {
 };
 
 struct MarchParams {
+  bool simd;  // AVX2 path for pre-integrated grid blocks (march8)
   const LevelParams* levels;
   const std::uint16_t* next_visible;
   float value_lo, value_scale;  // normalisation
@@ -181,6 +234,278 @@ struct MarchParams {
 inline void local_position(const Block& b, const RayContext& ray, double t, float p[3]) {
   for (int a = 0; a < 3; ++a) p[a] = float((ray.origin[a] + ray.dir[a] * t) * b.scale[a] + b.offset[a]);
 }
+
+// ---- AVX2 path ---------------------------------------------------------------------------------
+// Eight consecutive lattice points of one block at a time (trilinear taps, transparency bins and
+// table indices by 8-wide gathers), composited in order per lane. The arithmetic is the scalar
+// path's, operation for operation and without FMA, so both give the same image; compiled for
+// AVX2 and used only when the CPU has it (the default build stays portable x86-64).
+
+bool have_avx2() {
+#if STRATA_RENDER_AVX2
+  static const bool yes = __builtin_cpu_supports("avx2");
+  return yes;
+#else
+  return false;
+#endif
+}
+
+#if STRATA_RENDER_AVX2
+
+// a[l] = data[idx[l]], b[l] = data[idx[l] + 1] for 8 lanes: two 4-lane gathers of float pairs
+// (half the gathered elements of two 8-lane float gathers), deinterleaved. Lanes outside
+// `mask` (all bits set or clear per lane) load nothing and hold zeros.
+[[gnu::target("avx2")]] inline void gather_pairs(const float* data, __m256i idx, __m256i mask, __m256& a, __m256& b) {
+  const double* base = reinterpret_cast<const double*>(data);
+  const __m256d zero = _mm256_setzero_pd();
+  const __m256d m0 = _mm256_castsi256_pd(_mm256_cvtepi32_epi64(_mm256_castsi256_si128(mask)));
+  const __m256d m1 = _mm256_castsi256_pd(_mm256_cvtepi32_epi64(_mm256_extracti128_si256(mask, 1)));
+  const __m256 lo = _mm256_castpd_ps(_mm256_mask_i32gather_pd(zero, base, _mm256_castsi256_si128(idx), m0, 4));
+  const __m256 hi = _mm256_castpd_ps(_mm256_mask_i32gather_pd(zero, base, _mm256_extracti128_si256(idx, 1), m1, 4));
+  a = _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(_mm256_shuffle_ps(lo, hi, 0x88)), 0xD8));
+  b = _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(_mm256_shuffle_ps(lo, hi, 0xDD)), 0xD8));
+}
+
+// Linear interpolation along x between data[idx + off] and its +x neighbour (masked lanes).
+[[gnu::target("avx2")]] inline __m256 lin_pair(const float* data, __m256i idx, int off, __m256i mask, __m256 fx) {
+  __m256 a, b;
+  gather_pairs(data, _mm256_add_epi32(idx, _mm256_set1_epi32(off)), mask, a, b);
+  return _mm256_add_ps(a, _mm256_mul_ps(fx, _mm256_sub_ps(b, a)));
+}
+
+// Marches lattice points k..k1-1 (k0: the block's first lattice point, p / dp its local position
+// and step). `front` holds the value at `last` (== k - 1 on entry). Returns where it stopped
+// (k1, or one past the sample that terminated the ray).
+template <bool Shade>
+[[gnu::target("avx2")]] std::int64_t march8(const GridSampler& s, const Block& b, const LevelParams& lp,
+                                           const MarchParams& mp, const RayContext& ray, const float p[3],
+                                           const float dp[3], std::int64_t k0, std::int64_t k, std::int64_t k1,
+                                           bool skip, float& front, std::int64_t& last, Rgbaf& acc_io,
+                                           std::uint64_t& taken) {
+  const __m256 lane = _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7);
+  const __m256i lane_i = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+  const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f);
+  const __m256 max_x = _mm256_set1_ps(s.max_x), max_y = _mm256_set1_ps(s.max_y), max_z = _mm256_set1_ps(s.max_z);
+  const __m256i sx = _mm256_set1_epi32(int(s.dx)), sy = _mm256_set1_epi32(int(s.dy)), sz = _mm256_set1_epi32(int(s.dz));
+  const int ox = int(s.dx), oy = int(s.dy), oz = int(s.dz);
+  const __m256 vlo = _mm256_set1_ps(mp.value_lo), vscale = _mm256_set1_ps(mp.value_scale);
+  const Classifier& cl = lp.classify;
+  const __m256 last_f = _mm256_set1_ps(cl.last);
+  const __m256i size2 = _mm256_set1_epi32(cl.size - 2), size_i = _mm256_set1_epi32(cl.size);
+  const __m256 bins_f = _mm256_set1_ps(float(Transparency::kBins));
+  const __m256i bin_max = _mm256_set1_epi32(Transparency::kBins - 1), low16 = _mm256_set1_epi32(0xffff);
+  const int* next_visible = reinterpret_cast<const int*>(mp.next_visible);
+  const float term = mp.termination;
+  const __m256i zero_i = _mm256_setzero_si256(), low8 = _mm256_set1_epi32(0xff);
+  const __m256i cells_x = _mm256_set1_epi32(b.cells[0]), cells_y = _mm256_set1_epi32(b.cells[1]);
+  const __m256i cell_max_x = _mm256_set1_epi32(b.cells[0] - 1), cell_max_y = _mm256_set1_epi32(b.cells[1] - 1),
+                cell_max_z = _mm256_set1_epi32(b.cells[2] - 1);
+  __m128 acc = _mm_setr_ps(acc_io.r, acc_io.g, acc_io.b, acc_io.a);
+  bool have_front = true;
+  alignas(32) float xs[8], ys[8], zs[8], vs[8], wus[8], wvs[8];
+  alignas(32) int idx[8];
+  while (k < k1) {
+    const int n = int(std::min<std::int64_t>(8, k1 - k));
+    const __m256 j = _mm256_add_ps(_mm256_set1_ps(float(k - k0)), lane);
+    __m256 x = _mm256_add_ps(_mm256_set1_ps(p[0]), _mm256_mul_ps(_mm256_set1_ps(dp[0]), j));
+    __m256 y = _mm256_add_ps(_mm256_set1_ps(p[1]), _mm256_mul_ps(_mm256_set1_ps(dp[1]), j));
+    __m256 z = _mm256_add_ps(_mm256_set1_ps(p[2]), _mm256_mul_ps(_mm256_set1_ps(dp[2]), j));
+    _mm256_store_ps(xs, x);
+    _mm256_store_ps(ys, y);
+    _mm256_store_ps(zs, z);
+    if (skip) {  // Block::empty_at for the 8 lanes
+      const __m256 inv = _mm256_set1_ps(1.0f / float(detail::kCell));
+      const __m256i cx = _mm256_min_epi32(_mm256_max_epi32(_mm256_cvttps_epi32(_mm256_mul_ps(x, inv)), zero_i), cell_max_x);
+      const __m256i cy = _mm256_min_epi32(_mm256_max_epi32(_mm256_cvttps_epi32(_mm256_mul_ps(y, inv)), zero_i), cell_max_y);
+      const __m256i cz = _mm256_min_epi32(_mm256_max_epi32(_mm256_cvttps_epi32(_mm256_mul_ps(z, inv)), zero_i), cell_max_z);
+      const __m256i cell = _mm256_add_epi32(_mm256_mullo_epi32(_mm256_add_epi32(_mm256_mullo_epi32(cz, cells_y), cy), cells_x), cx);
+      const __m256i flag = _mm256_and_si256(_mm256_i32gather_epi32(reinterpret_cast<const int*>(b.empty), cell, 1), low8);
+      const __m256i valid = _mm256_cmpgt_epi32(_mm256_set1_epi32(n), lane_i);
+      const bool any = _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_and_si256(_mm256_cmpeq_epi32(flag, zero_i), valid))) != 0;
+      if (!any) {  // every segment of the chunk is transparent
+        have_front = false;
+        k += n;
+        continue;
+      }
+    }
+    if (!have_front) {  // resuming after skipped chunks: the value at k - 1 afresh
+      const float jm = float(k - k0) - 1.0f;
+      front = (s(p[0] + dp[0] * jm, p[1] + dp[1] * jm, p[2] + dp[2] * jm) - mp.value_lo) * mp.value_scale;
+      ++taken;
+      have_front = true;
+    }
+    // Trilinear values (GridSampler::operator()).
+    x = _mm256_min_ps(_mm256_max_ps(x, zero), max_x);
+    y = _mm256_min_ps(_mm256_max_ps(y, zero), max_y);
+    z = _mm256_min_ps(_mm256_max_ps(z, zero), max_z);
+    const __m256i ix = _mm256_cvttps_epi32(x), iy = _mm256_cvttps_epi32(y), iz = _mm256_cvttps_epi32(z);
+    const __m256 fx = _mm256_sub_ps(x, _mm256_cvtepi32_ps(ix)), fy = _mm256_sub_ps(y, _mm256_cvtepi32_ps(iy)),
+                 fz = _mm256_sub_ps(z, _mm256_cvtepi32_ps(iz));
+    const __m256i base = _mm256_add_epi32(_mm256_add_epi32(_mm256_mullo_epi32(ix, sx), _mm256_mullo_epi32(iy, sy)),
+                                          _mm256_mullo_epi32(iz, sz));
+#define STRATA_TAP(off) _mm256_i32gather_ps(s.data, _mm256_add_epi32(base, _mm256_set1_epi32(off)), 4)
+#define STRATA_LERP(a, b, w) _mm256_add_ps((a), _mm256_mul_ps((w), _mm256_sub_ps((b), (a))))
+    __m256 p000, p100, p010, p110, p001, p101, p011, p111;
+    if (ox == 1) {  // x neighbours adjacent: pairs
+      const __m256i all = _mm256_set1_epi32(-1);
+      gather_pairs(s.data, base, all, p000, p100);
+      gather_pairs(s.data, _mm256_add_epi32(base, _mm256_set1_epi32(oy)), all, p010, p110);
+      gather_pairs(s.data, _mm256_add_epi32(base, _mm256_set1_epi32(oz)), all, p001, p101);
+      gather_pairs(s.data, _mm256_add_epi32(base, _mm256_set1_epi32(oy + oz)), all, p011, p111);
+    } else {
+      p000 = STRATA_TAP(0), p100 = STRATA_TAP(ox), p010 = STRATA_TAP(oy), p110 = STRATA_TAP(oy + ox);
+      p001 = STRATA_TAP(oz), p101 = STRATA_TAP(oz + ox), p011 = STRATA_TAP(oz + oy), p111 = STRATA_TAP(oz + oy + ox);
+    }
+    const __m256 c00 = STRATA_LERP(p000, p100, fx), c10 = STRATA_LERP(p010, p110, fx);
+    const __m256 c01 = STRATA_LERP(p001, p101, fx), c11 = STRATA_LERP(p011, p111, fx);
+    const __m256 c0 = STRATA_LERP(c00, c10, fy), c1 = STRATA_LERP(c01, c11, fy);
+    const __m256 v = _mm256_mul_ps(_mm256_sub_ps(STRATA_LERP(c0, c1, fz), vlo), vscale);
+#undef STRATA_TAP
+#undef STRATA_LERP
+    _mm256_store_ps(vs, v);
+    // Fronts: the previous lane's value; lane 0 takes the carried front.
+    const __m256 fr = _mm256_blend_ps(_mm256_permutevar8x32_ps(v, _mm256_setr_epi32(0, 0, 1, 2, 3, 4, 5, 6)),
+                                      _mm256_set1_ps(front), 0x01);
+    // Transparency bins (Transparency::bin, next_visible).
+    const __m256 lo = _mm256_min_ps(fr, v), hi = _mm256_max_ps(fr, v);
+    const __m256i blo = _mm256_min_epi32(_mm256_cvttps_epi32(_mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(lo, zero), one), bins_f)), bin_max);
+    const __m256i bhi = _mm256_min_epi32(_mm256_cvttps_epi32(_mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(hi, zero), one), bins_f)), bin_max);
+    const __m256i valid = _mm256_cmpgt_epi32(_mm256_set1_epi32(n), lane_i);
+    const __m256i nv = _mm256_and_si256(_mm256_i32gather_epi32(next_visible, blo, 2), low16);
+    const __m256i visible = _mm256_xor_si256(_mm256_cmpgt_epi32(nv, bhi), _mm256_set1_epi32(-1));
+    const unsigned keep = unsigned(_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_and_si256(visible, valid))));
+    if (keep == 0) {
+      front = vs[n - 1];
+      last = k + n - 1;
+      taken += std::uint64_t(n);
+      k += n;
+      continue;
+    }
+    // Pre-integrated table coordinates (Classifier::pair).
+    const __m256 u = _mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(fr, zero), one), last_f);
+    const __m256 w = _mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(v, zero), one), last_f);
+    const __m256i ti = _mm256_min_epi32(_mm256_cvttps_epi32(u), size2), tj = _mm256_min_epi32(_mm256_cvttps_epi32(w), size2);
+    _mm256_store_ps(wus, _mm256_sub_ps(u, _mm256_cvtepi32_ps(ti)));
+    _mm256_store_ps(wvs, _mm256_sub_ps(w, _mm256_cvtepi32_ps(tj)));
+    _mm256_store_si256(reinterpret_cast<__m256i*>(idx), _mm256_add_epi32(_mm256_mullo_epi32(ti, size_i), tj));
+    // Classification per lane (the pre-integrated table's 4 channels as one SSE vector).
+    __m128 cs[8];
+    alignas(32) float cas[8];
+    unsigned lit = 0;  // lanes whose colour is shaded
+    for (int l = 0; l < 8; ++l) {
+      cas[l] = 0.0f;
+      if (l >= n || !((keep >> l) & 1u)) continue;
+      const float* r0 = &cl.table[idx[l]].r;
+      const float* r1 = r0 + 4 * std::ptrdiff_t(cl.size);
+      const __m128 wv = _mm_set1_ps(wvs[l]), wu = _mm_set1_ps(wus[l]);
+      const __m128 a0 = _mm_loadu_ps(r0), a1 = _mm_loadu_ps(r0 + 4), b0 = _mm_loadu_ps(r1), b1 = _mm_loadu_ps(r1 + 4);
+      const __m128 l0 = _mm_add_ps(a0, _mm_mul_ps(wv, _mm_sub_ps(a1, a0)));
+      const __m128 l1 = _mm_add_ps(b0, _mm_mul_ps(wv, _mm_sub_ps(b1, b0)));
+      cs[l] = _mm_add_ps(l0, _mm_mul_ps(wu, _mm_sub_ps(l1, l0)));
+      cas[l] = _mm_cvtss_f32(_mm_shuffle_ps(cs[l], cs[l], 0xff));
+    }
+    alignas(32) float diffs[8], specs[8];
+    if constexpr (Shade) {
+      const __m256 ca = _mm256_load_ps(cas);
+      const unsigned want = unsigned(_mm256_movemask_ps(_mm256_cmp_ps(ca, _mm256_set1_ps(kShadeThreshold), _CMP_GT_OQ)));
+      if (want) {
+        // Gradients (GridSampler::gradient): the 32-voxel stencil for lanes inside the grid's
+        // interior, by masked gathers (its centre taps are the value's); other lanes scalar.
+        const __m256 xu = _mm256_load_ps(xs), yu = _mm256_load_ps(ys), zu = _mm256_load_ps(zs);
+        const __m256 in = _mm256_and_ps(
+            _mm256_and_ps(_mm256_and_ps(_mm256_cmp_ps(xu, one, _CMP_GE_OQ), _mm256_cmp_ps(yu, one, _CMP_GE_OQ)),
+                          _mm256_and_ps(_mm256_cmp_ps(zu, one, _CMP_GE_OQ), _mm256_cmp_ps(xu, _mm256_set1_ps(float(s.nx - 2)), _CMP_LT_OQ))),
+            _mm256_and_ps(_mm256_cmp_ps(yu, _mm256_set1_ps(float(s.ny - 2)), _CMP_LT_OQ),
+                          _mm256_cmp_ps(zu, _mm256_set1_ps(float(s.nz - 2)), _CMP_LT_OQ)));
+        // (a few lanes are cheaper one by one than 24 gathers)
+        const unsigned inside = __builtin_popcount(want & unsigned(_mm256_movemask_ps(in))) > 2
+                                    ? unsigned(_mm256_movemask_ps(in))
+                                    : 0u;
+        alignas(32) float gx[8], gy[8], gz[8];
+        if (inside) {
+#define STRATA_G(off) _mm256_mask_i32gather_ps(zero, s.data, _mm256_add_epi32(base, _mm256_set1_epi32(off)), in, 4)
+#define STRATA_LERP(a, b, w) _mm256_add_ps((a), _mm256_mul_ps((w), _mm256_sub_ps((b), (a))))
+#define STRATA_LIN(off) lin_pair(s.data, base, (off), in_i, fx)
+#define STRATA_ROWD(off, b_, c_)                                                                      \
+  _mm256_add_ps(_mm256_sub_ps((c_), STRATA_G((off) - 1)),                                            \
+                _mm256_mul_ps(fx, _mm256_sub_ps(_mm256_sub_ps(STRATA_G((off) + 2), (b_)),            \
+                                                _mm256_sub_ps((c_), STRATA_G((off) - 1)))))
+#define STRATA_DIFF(f, lo_m, l0, l1, hi_p) \
+  STRATA_LERP(_mm256_sub_ps((l1), (lo_m)), _mm256_sub_ps((hi_p), (l0)), (f))
+          const __m256i in_i = _mm256_castps_si256(in);
+          const __m256 d00 = STRATA_ROWD(0, p000, p100), d10 = STRATA_ROWD(oy, p010, p110);
+          const __m256 d01 = STRATA_ROWD(oz, p001, p101), d11 = STRATA_ROWD(oy + oz, p011, p111);
+          const __m256 gx0 = STRATA_LERP(d00, d10, fy), gx1 = STRATA_LERP(d01, d11, fy);
+          _mm256_store_ps(gx, STRATA_LERP(gx0, gx1, fz));
+          const __m256 gy0 = STRATA_DIFF(fy, STRATA_LIN(-oy), c00, c10, STRATA_LIN(2 * oy));
+          const __m256 gy1 = STRATA_DIFF(fy, STRATA_LIN(oz - oy), c01, c11, STRATA_LIN(oz + 2 * oy));
+          _mm256_store_ps(gy, STRATA_LERP(gy0, gy1, fz));
+          const __m256 gz0 = STRATA_DIFF(fz, STRATA_LIN(-oz), c00, c01, STRATA_LIN(2 * oz));
+          const __m256 gz1 = STRATA_DIFF(fz, STRATA_LIN(oy - oz), c10, c11, STRATA_LIN(oy + 2 * oz));
+          _mm256_store_ps(gz, STRATA_LERP(gz0, gz1, fy));
+#undef STRATA_DIFF
+#undef STRATA_ROWD
+#undef STRATA_LIN
+#undef STRATA_LERP
+#undef STRATA_G
+        }
+        for (int l = 0; l < n; ++l)
+          if (((want & ~inside) >> l) & 1u) {
+            float g[3];
+            s.gradient(xs[l], ys[l], zs[l], g);
+            gx[l] = g[0];
+            gy[l] = g[1];
+            gz[l] = g[2];
+          }
+        // Blinn-Phong as in Marcher::segment, 8 lanes at once (same operations and order).
+        const __m256 g0 = _mm256_mul_ps(_mm256_load_ps(gx), _mm256_set1_ps(b.gradient_scale[0]));
+        const __m256 g1 = _mm256_mul_ps(_mm256_load_ps(gy), _mm256_set1_ps(b.gradient_scale[1]));
+        const __m256 g2 = _mm256_mul_ps(_mm256_load_ps(gz), _mm256_set1_ps(b.gradient_scale[2]));
+        const __m256 len2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(g0, g0), _mm256_mul_ps(g1, g1)), _mm256_mul_ps(g2, g2));
+        const __m256 dot = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(g0, _mm256_set1_ps(ray.light[0])),
+                                                       _mm256_mul_ps(g1, _mm256_set1_ps(ray.light[1]))),
+                                         _mm256_mul_ps(g2, _mm256_set1_ps(ray.light[2])));
+        const __m256 ndl = _mm256_div_ps(_mm256_andnot_ps(_mm256_set1_ps(-0.0f), dot), _mm256_sqrt_ps(len2));
+        _mm256_store_ps(diffs, _mm256_add_ps(_mm256_set1_ps(mp.light.ambient), _mm256_mul_ps(_mm256_set1_ps(mp.light.diffuse), ndl)));
+        __m256 pw = one, base_pw = ndl;
+        for (int e = mp.light.shininess; e > 0; e >>= 1) {
+          if (e & 1) pw = _mm256_mul_ps(pw, base_pw);
+          base_pw = _mm256_mul_ps(base_pw, base_pw);
+        }
+        _mm256_store_ps(specs, _mm256_mul_ps(_mm256_mul_ps(_mm256_set1_ps(mp.light.specular), pw), ca));
+        // Lanes not asking for shading hold garbage and stay unshaded.
+        lit = want & unsigned(_mm256_movemask_ps(_mm256_cmp_ps(len2, _mm256_set1_ps(1e-12f), _CMP_GT_OQ)));
+      }
+    }
+    for (int l = 0; l < n; ++l) {
+      if (!(cas[l] > 0.0f)) continue;
+      __m128 c = cs[l];
+      if (Shade && ((lit >> l) & 1u))
+        c = _mm_add_ps(_mm_mul_ps(c, _mm_setr_ps(diffs[l], diffs[l], diffs[l], 1.0f)),
+                       _mm_setr_ps(specs[l], specs[l], specs[l], 0.0f));
+      const float wa = 1.0f - _mm_cvtss_f32(_mm_shuffle_ps(acc, acc, 0xff));
+      acc = _mm_add_ps(acc, _mm_mul_ps(_mm_set1_ps(wa), c));
+      if (_mm_cvtss_f32(_mm_shuffle_ps(acc, acc, 0xff)) > term) {
+        front = vs[l];
+        last = k + l;
+        taken += std::uint64_t(l + 1);
+        alignas(16) float out[4];
+        _mm_store_ps(out, acc);
+        acc_io = {out[0], out[1], out[2], out[3]};
+        return k + l + 1;
+      }
+    }
+    front = vs[n - 1];
+    last = k + n - 1;
+    taken += std::uint64_t(n);
+    k += n;
+  }
+  alignas(16) float out[4];
+  _mm_store_ps(out, acc);
+  acc_io = {out[0], out[1], out[2], out[3]};
+  return k;
+}
+#endif  // STRATA_RENDER_AVX2
 
 template <class Sampler, bool Preint, bool Shade>
 struct Marcher {
@@ -225,9 +550,13 @@ struct Marcher {
   // Composites lattice points k0..k1-1 of block `b` (at its level's step). The first segment
   // starts at the previous sample when it lies within one step (its true length is used), at
   // the volume entry when the ray has no sample yet, and otherwise (after skipped space) one
-  // step back, sampled here.
-  static void lattice(const Block& b, std::int64_t k0, std::int64_t k1, const RayContext& ray, const MarchParams& mp,
-                      RayState& st) {
+  // step back, sampled here. With `skip` and the block's macro-cell flags, later lattice points
+  // whose segment ends in an empty cell are not sampled (render/occupancy.hpp): such a segment
+  // is transparent; the next sampled segment takes its front value afresh. Returns false when
+  // the segment after k1 - 1 (the block's closing segment) is transparent for the same reason,
+  // so neither a closing segment nor a tail is due.
+  static bool lattice(const Block& b, std::int64_t k0, std::int64_t k1, const RayContext& ray, const MarchParams& mp,
+                      RayState& st, bool skip) {
     const Sampler sample(b);
     const LevelParams& lp = mp.levels[b.level];
     const double h = lp.h;
@@ -237,6 +566,7 @@ struct Marcher {
     const double t0 = double(k0) * h;
     float front;
     double first_ratio = 1.0;
+    std::uint64_t taken = 0;  // samples taken
     if (t0 - st.prev_t <= h * (1 + 1e-9)) {
       first_ratio = (t0 - st.prev_t) / h;
       if (st.has_prev) {
@@ -252,23 +582,83 @@ struct Marcher {
     if (std::abs(first_ratio - 1.0) < 1e-6) first_ratio = 1.0;
     Rgbaf acc = st.acc;
     std::int64_t k = k0;
-    if (k < k1) {  // the first segment, peeled so the loop below has no length test
+    std::int64_t last = k0 - 1;  // last lattice point whose value `front` holds
+    bool closing = true;
+    // The AVX2 loop takes every segment one step long, so also a first segment of ratio 1
+    // (front then holds the value one step back).
+    bool simd_block = false;
+    if constexpr (std::is_same_v<Sampler, GridSampler> && Preint)  // gather indices are 32-bit
+      simd_block = mp.simd && std::int64_t(b.n[0]) * b.n[1] * b.n[2] < (std::int64_t(1) << 31);
+    if (k < k1 && !(simd_block && first_ratio == 1.0)) {  // the first segment, peeled
       front = segment(sample, b, lp, mp, ray, p[0], p[1], p[2], front, first_ratio, acc);
+      ++taken;
+      last = k;
       ++k;
     }
-    for (; k < k1 && acc.a <= mp.termination; ++k) {
-      const float j = float(k - k0);
-      front = segment(sample, b, lp, mp, ray, p[0] + dp[0] * j, p[1] + dp[1] * j, p[2] + dp[2] * j, front, 1.0, acc);
+    const bool use_skip = skip && b.empty;
+    bool vectorised = false;
+#if STRATA_RENDER_AVX2
+    if constexpr (std::is_same_v<Sampler, GridSampler> && Preint) {
+      if (simd_block && k < k1 && acc.a <= mp.termination) {
+        k = march8<Shade>(sample, b, lp, mp, ray, p, dp, k0, k, k1, use_skip, front, last, acc, taken);
+        vectorised = true;
+      }
     }
-    st.samples += std::uint64_t(k - k0);
+#endif
+    if (vectorised) {
+    } else if (!use_skip) {
+      const std::int64_t k_loop = k;
+      for (; k < k1 && acc.a <= mp.termination; ++k) {
+        const float j = float(k - k0);
+        front = segment(sample, b, lp, mp, ray, p[0] + dp[0] * j, p[1] + dp[1] * j, p[2] + dp[2] * j, front, 1.0, acc);
+      }
+      taken += std::uint64_t(k - k_loop);
+      if (k > k_loop) last = k - 1;
+    } else {
+      for (; k < k1 && acc.a <= mp.termination; ++k) {
+        const float j = float(k - k0);
+        const float x = p[0] + dp[0] * j, y = p[1] + dp[1] * j, z = p[2] + dp[2] * j;
+        if (b.empty_at(x, y, z)) continue;
+        if (last != k - 1) {  // resuming after skipped segments: the front sample afresh
+          front = (sample(x - dp[0], y - dp[1], z - dp[2]) - mp.value_lo) * mp.value_scale;
+          ++taken;
+        }
+        front = segment(sample, b, lp, mp, ray, x, y, z, front, 1.0, acc);
+        ++taken;
+        last = k;
+      }
+    }
+    if (use_skip) {
+      if (k == k1 && acc.a <= mp.termination && last < k1 - 1 && k1 - 1 >= k0) {
+        // The ray goes on past the block: the closing segment (k1 - 1, k1] is due only when it
+        // can be visible, and then it needs the value at k1 - 1.
+        const float j = float(k1 - k0);
+        if (b.empty_at(p[0] + dp[0] * j, p[1] + dp[1] * j, p[2] + dp[2] * j)) {
+          closing = false;
+        } else {
+          const float jl = j - 1.0f;
+          front = (sample(p[0] + dp[0] * jl, p[1] + dp[1] * jl, p[2] + dp[2] * jl) - mp.value_lo) * mp.value_scale;
+          ++taken;
+          last = k1 - 1;
+        }
+      }
+    }
+    st.samples += taken;
     st.acc = acc;
-    if (k > k0) {
+    if (last >= k0) {
       st.has_prev = true;
-      st.prev_k = k - 1;
+      st.prev_k = last;
       st.prev_level = b.level;
-      st.prev_t = double(k - 1) * h;
+      st.prev_t = double(last) * h;
       st.prev_x = front;
     }
+    if (!closing) {
+      // Everything up to lattice point k1 is transparent: the next segment starts from
+      // k1 - 1 (sampled by whatever comes next), never from a sample before the skipped run.
+      st.has_prev = false;
+      st.prev_t = double(k1 - 1) * h;
+    }
+    return closing;
   }
 
   // The partial segment from the last sample to the volume exit at t_end.
@@ -292,7 +682,7 @@ struct Marcher {
 };
 
 struct MarchFns {
-  void (*lattice)(const Block&, std::int64_t, std::int64_t, const RayContext&, const MarchParams&, RayState&);
+  bool (*lattice)(const Block&, std::int64_t, std::int64_t, const RayContext&, const MarchParams&, RayState&, bool);
   void (*tail)(const Block&, double, const RayContext&, const MarchParams&, RayState&);
 };
 
@@ -356,9 +746,10 @@ struct Traversal {
     const Block& b = *st.last;
     // The block's next lattice point after the previous sample (which may belong to an
     // earlier block of another level when this one was too thin to hold a lattice point).
-    const std::int64_t k = st.prev_level == b.level ? st.prev_k + 1
-                                                    : std::int64_t(std::floor(st.prev_t / mp.levels[b.level].h)) + 1;
-    march[std::size_t(&b - index.blocks.data())].lattice(b, k, k + 1, ray, mp, st);
+    const std::int64_t k = st.has_prev && st.prev_level == b.level
+                               ? st.prev_k + 1
+                               : std::int64_t(std::floor(st.prev_t / mp.levels[b.level].h)) + 1;
+    march[std::size_t(&b - index.blocks.data())].lattice(b, k, k + 1, ray, mp, st, false);
   }
 
   void block_interval(const Block& b, double t_in, double t_out, const RayContext& ray, RayState& st) const {
@@ -370,12 +761,13 @@ struct Traversal {
       if (st.prev_level == b.level) k0 = std::max(k0, st.prev_k + 1);
       else k0 = std::max(k0, std::int64_t(std::floor(st.prev_t / h)) + 1);
     }
+    bool closing = true;
     if (k0 < k1) {
       const std::size_t id = std::size_t(&b - index.blocks.data());
-      march[id].lattice(b, k0, k1, ray, mp, st);
+      closing = march[id].lattice(b, k0, k1, ray, mp, st, true);
       st.touched[id] = 1;
     }
-    st.open = true;
+    st.open = closing;
     st.last = &b;
   }
 
@@ -465,15 +857,17 @@ Image run(const RenderJob& job, RenderStats& stats) {
   march.reserve(index.blocks.size());
   for (const Block& b : index.blocks) march.push_back(march_function(b, job.options.preintegrated, job.options.shading));
   const Transparency transparency(job.tf);
-  const MarchParams mp{job.levels.data(), transparency.next_visible.data(), job.value_lo, job.value_scale, job.options.light, job.options.termination_alpha};
+  const MarchParams mp{job.options.simd && have_avx2(),
+                       job.levels.data(), transparency.next_visible.data(), job.value_lo, job.value_scale, job.options.light, job.options.termination_alpha};
   double extent = 0;
   for (double v : index.volume_hi) extent = std::max(extent, v);
   const Traversal trav{index, march, mp, 1e-9 * std::max(extent, 1.0)};
 
   const Camera& cam = job.camera;
-  Image image(cam.width(), cam.height());
+  const int width = cam.width(), height = cam.height();
+  Image image(width, height);
   const int tile = job.options.tile;
-  const int tiles_x = (cam.width() + tile - 1) / tile, tiles_y = (cam.height() + tile - 1) / tile;
+  const int tiles_x = (width + tile - 1) / tile, tiles_y = (height + tile - 1) / tile;
   const int threads = job.options.threads > 0 ? job.options.threads : thread_count();
   std::uint64_t rays = 0, samples = 0;
   std::vector<std::uint8_t> sampled(index.blocks.size(), 0);
@@ -483,8 +877,8 @@ Image run(const RenderJob& job, RenderStats& stats) {
 #pragma omp for schedule(dynamic, 1)
     for (int t = 0; t < tiles_x * tiles_y; ++t) {
       const int x0 = (t % tiles_x) * tile, y0 = (t / tiles_x) * tile;
-      for (int py = y0; py < std::min(y0 + tile, cam.height()); ++py)
-        for (int px = x0; px < std::min(x0 + tile, cam.width()); ++px) {
+      for (int py = y0; py < std::min(y0 + tile, height); ++py)
+        for (int px = x0; px < std::min(x0 + tile, width); ++px) {
           const Ray r = cam.ray(px, py);
           RayContext ray{{r.origin.x, r.origin.y, r.origin.z},
                          {r.direction.x, r.direction.y, r.direction.z},
@@ -512,14 +906,81 @@ Image run(const RenderJob& job, RenderStats& stats) {
   return image;
 }
 
+// Macro-cell dilation for a step (in local voxels): a segment is at most one step long per axis.
+int skip_dilation(const RenderOptions& o) {
+  if (!o.skip_cells) return 0;
+  const int d = int(std::ceil(o.step - 1e-9));
+  return d <= 2 ? std::max(d, 1) : 0;  // longer steps: cells too coarse to be worth it
+}
+
+// One flag per macro-cell of a block's samples: set where the (dilated) value range is
+// transparent under the TF, i.e. where every segment ending in the cell is transparent.
+std::shared_ptr<const CellFlags> cell_flags(const Block& b, int dilation, const Transparency& tr, float value_lo,
+                                            float value_scale) {
+  const CellRanges r = detail::compute_cell_ranges(b.data, b.n, dilation);
+  auto f = std::make_shared<CellFlags>();
+  f->cells = r.cells;
+  f->empty.resize(r.lo.size() + 3);  // padded for 32-bit gathers (march8)
+  for (std::size_t c = 0; c < r.lo.size(); ++c) {
+    // Normalised exactly as samples are, widened by a few float roundings of the trilinear
+    // interpolation so a sample can never leave the range the flag was decided on.
+    const float nlo = (r.lo[c] - value_lo) * value_scale, nhi = (r.hi[c] - value_lo) * value_scale;
+    const float margin = 1e-5f + 4e-6f * std::max(std::abs(r.lo[c]), std::abs(r.hi[c])) * value_scale;
+    const bool e = tr.next_visible[std::size_t(Transparency::bin(nlo - margin))] > Transparency::bin(nhi + margin);
+    f->empty[c] = e ? 1 : 0;
+    f->empty_count += e ? 1 : 0;
+  }
+  return f;
+}
+
+void attach_flags(Block& b, const std::shared_ptr<const CellFlags>& f, RenderStats& stats) {
+  if (!f) return;
+  stats.cells_total += std::uint64_t(f->cells[0]) * std::uint64_t(f->cells[1]) * std::uint64_t(f->cells[2]);
+  stats.cells_empty += f->empty_count;
+  b.cells = f->cells;
+  b.empty = f->empty_count > 0 ? f->empty.data() : nullptr;
+}
+
 }  // namespace
 
 Image RayCaster::render(const Camera& camera, const FrameInput& frame, RenderStats* stats) {
   const auto t0 = Clock::now();
-  const FrameIndex index = detail::build_frame_index(frame, tf_);
+  FrameIndex index = detail::build_frame_index(frame, tf_);
   RenderStats local;
   local.bricks_in_frame = index.blocks.size();
   for (const Block& b : index.blocks) local.bricks_culled += b.culled ? 1 : 0;
+  const ValueMapping mapping = tf_.mapping(frame.value_min, frame.value_max);
+  std::vector<std::shared_ptr<const CellFlags>> flags;  // kept alive for the frame
+  if (const int dilation = skip_dilation(options_)) {
+    // Macro-cell flags of the visible bricks: memoised per brick, computed in parallel when new.
+    if (!cell_flags_) cell_flags_ = std::make_unique<detail::CellFlagCache>();
+    detail::CellFlagCache& cache = *cell_flags_;
+    cache.sweep();
+    const std::array<double, 3> key{double(float(mapping.lo)), double(float(mapping.scale())), double(dilation)};
+    if (cache.key != key) {
+      cache.clear();
+      cache.key = key;
+    }
+    const auto& bricks = frame.bricks->bricks;
+    flags.resize(bricks.size());
+    std::vector<std::size_t> missing;
+    for (std::size_t i = 0; i < bricks.size(); ++i) {
+      if (index.blocks[i].culled || bricks[i].is_constant()) continue;
+      flags[i] = cache.find(bricks[i].samples);
+      if (!flags[i]) missing.push_back(i);
+    }
+    const Transparency tr(tf_);
+    const std::int64_t n_missing = std::int64_t(missing.size());
+    const int threads = options_.threads > 0 ? options_.threads : thread_count();
+#pragma omp parallel for schedule(dynamic, 4) num_threads(threads)
+    for (std::int64_t m = 0; m < n_missing; ++m) {
+      const std::size_t i = missing[std::size_t(m)];
+      flags[i] = cell_flags(index.blocks[i], dilation, tr, float(mapping.lo), float(mapping.scale()));
+    }
+    for (std::size_t i : missing) cache.insert(bricks[i].samples, flags[i]);
+    local.cell_ranges_built = missing.size();
+    for (std::size_t i = 0; i < bricks.size(); ++i) attach_flags(index.blocks[i], flags[i], local);
+  }
   Image image;
   {
     std::vector<LevelParams> levels(std::size_t(index.max_level) + 1);
@@ -539,7 +1000,7 @@ Image RayCaster::render(const Camera& camera, const FrameInput& frame, RenderSta
                                                          float(t.preintegrated.size - 1)}
                                             : Classifier{t.lookup.entries.data(), t.lookup.size, float(t.lookup.size - 1)};
     }
-    const ValueMapping m = tf_.mapping(frame.value_min, frame.value_max);
+    const ValueMapping& m = mapping;
     local.setup_ms = ms_since(t0);
     const auto t1 = Clock::now();
     image = run({tf_, camera, index, options_, levels, float(m.lo), float(m.scale())}, local);
@@ -554,7 +1015,15 @@ Image RayCaster::render(const Camera& camera, const Volume& volume, double value
                         RenderStats* stats) {
   // The same traversal over a one-cell index: an empty brick list, the volume as block 0.
   const auto t0 = Clock::now();
-  const FrameIndex index = detail::build_volume_index(volume, tf_, value_min, value_max);
+  FrameIndex index = detail::build_volume_index(volume, tf_, value_min, value_max);
+  const ValueMapping m = tf_.mapping(value_min, value_max);
+  RenderStats local;
+  std::shared_ptr<const CellFlags> flags;
+  if (const int dilation = skip_dilation(options_); dilation && !index.blocks[0].culled) {
+    flags = cell_flags(index.blocks[0], dilation, Transparency(tf_), float(m.lo), float(m.scale()));
+    local.cell_ranges_built = 1;
+    attach_flags(index.blocks[0], flags, local);
+  }
   if (tables_.empty()) tables_.resize(1);
   if (!tables_[0]) {
     auto t = std::make_unique<Tables>();
@@ -568,8 +1037,6 @@ Image RayCaster::render(const Camera& camera, const Volume& volume, double value
   levels[0].classify = options_.preintegrated
                            ? Classifier{t.preintegrated.entries.data(), t.preintegrated.size, float(t.preintegrated.size - 1)}
                            : Classifier{t.lookup.entries.data(), t.lookup.size, float(t.lookup.size - 1)};
-  const ValueMapping m = tf_.mapping(value_min, value_max);
-  RenderStats local;
   local.bricks_in_frame = 1;
   local.bricks_culled = index.blocks[0].culled ? 1 : 0;
   local.setup_ms = ms_since(t0);
@@ -588,6 +1055,9 @@ nlohmann::json stats_json(const RenderStats& s, const lod::LoadStats* load) {
                  {"bricks_in_frame", s.bricks_in_frame},
                  {"bricks_culled", s.bricks_culled},
                  {"bricks_sampled", s.bricks_sampled},
+                 {"cells_empty", s.cells_empty},
+                 {"cells_total", s.cells_total},
+                 {"cell_ranges_built", s.cell_ranges_built},
                  {"setup_ms", s.setup_ms},
                  {"raycast_ms", s.raycast_ms},
                  {"total_ms", s.total_ms}};

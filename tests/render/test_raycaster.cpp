@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <nlohmann/json.hpp>
 
+#include "render/occupancy.hpp"
 #include "strata/core/error.hpp"
 #include "strata/gen/generators.hpp"
 #include "strata/render/raycaster.hpp"
@@ -310,24 +311,97 @@ TEST(RayCaster, ThreadCountDoesNotChangeTheImage) {
 }
 
 // Timing only (run with --gtest_also_run_disabled_tests): 512x512 of a 128^3 volume.
-TEST(RayCaster, DISABLED_Timing) {
-  gen::Params p;
-  p.kind = gen::Kind::prisms;
-  p.dims = {128, 128, 128};
-  const Volume v = gen::generate(p);
-  const BrickedVolume b(v, 32, 2);
-  for (const char* tf : {"ct", "mri"})
-    for (bool shading : {false, true}) {
-      RenderOptions o = options(0.5, true, shading);
-      o.threads = 0;
-      RayCaster rc(TransferFunction::preset(tf), o);
-      CameraSpec s;
-      s.width = s.height = 512;
-      const Camera cam(s, v.dims(), {});
-      RenderStats st;
-      rc.render(cam, b.frame(v, 0, 65535), &st);  // builds the tables
-      rc.render(cam, b.frame(v, 0, 65535), &st);
-      std::printf("%s shading=%d: %.1f ms total, %.1f ms ray cast, %llu samples, %llu rays\n", tf, int(shading),
-                  st.total_ms, st.raycast_ms, (unsigned long long)st.samples, (unsigned long long)st.rays);
-    }
+// ---- Empty-space skipping inside bricks ------------------------------------------------------
+
+
+TEST(RayCaster, CellRangesHoldEveryDilatedFootprint) {
+  // Brute force: cell c's range must hold every voxel within [kCell c - d, kCell (c + 1) + d].
+  const std::array<int, 3> n{13, 7, 9};
+  std::vector<float> v(std::size_t(n[0] * n[1] * n[2]));
+  std::uint32_t h = 12345;
+  for (float& x : v) x = float((h = h * 1664525u + 1013904223u) >> 20);
+  for (int d : {1, 2}) {
+    const detail::CellRanges r = detail::compute_cell_ranges(v.data(), n, d);
+    for (int k = 0; k < 3; ++k)  // positions [0, n - 1] in cells of kCell
+      ASSERT_EQ(r.cells[std::size_t(k)], (n[std::size_t(k)] - 1 + detail::kCell - 1) / detail::kCell);
+    for (int cz = 0; cz < r.cells[2]; ++cz)
+      for (int cy = 0; cy < r.cells[1]; ++cy)
+        for (int cx = 0; cx < r.cells[0]; ++cx) {
+          float lo = 1e30f, hi = -1e30f;
+          const std::array<int, 3> c{cx, cy, cz};
+          std::array<int, 3> a{}, b{};
+          for (int k = 0; k < 3; ++k) {
+            a[k] = std::max(0, detail::kCell * c[k] - d);
+            b[k] = std::min(n[k] - 1, detail::kCell * (c[k] + 1) + d);
+          }
+          for (int z = a[2]; z <= b[2]; ++z)
+            for (int y = a[1]; y <= b[1]; ++y)
+              for (int x = a[0]; x <= b[0]; ++x) {
+                lo = std::min(lo, v[std::size_t((z * n[1] + y) * n[0] + x)]);
+                hi = std::max(hi, v[std::size_t((z * n[1] + y) * n[0] + x)]);
+              }
+          const std::size_t i = std::size_t((cz * r.cells[1] + cy) * r.cells[0] + cx);
+          EXPECT_EQ(r.lo[i], lo);
+          EXPECT_EQ(r.hi[i], hi);
+        }
+  }
 }
+
+TEST(RayCaster, SkippingEmptyCellsDoesNotChangeTheImage) {
+  // Skipped segments are exactly those whose value range the TF maps to zero, and the front
+  // value of a resumed run is re-sampled at the same lattice point, so the image may differ
+  // only by float rounding of that position (one level), while far fewer samples are taken.
+  // Anisotropic spacing: the local step along an axis is step * min spacing / spacing <= step,
+  // which the cells' dilation covers.
+  Volume v = prisms_volume();
+  v.set_spacing({1.0, 1.5, 0.8});
+  const BrickedVolume b(v, 16, 2);
+  for (const char* tf_name : {"ct", "mri"})
+    for (bool shading : {true, false})
+      for (double step : {0.5, 1.0, 1.5}) {
+        RenderOptions on = options(step, true, shading), off = on;
+        off.skip_cells = false;
+        const Camera cam = perspective_camera(v.dims(), 40, 30);
+        RayCaster a(TransferFunction::preset(tf_name), on), c(TransferFunction::preset(tf_name), off);
+        RenderStats sa, sc, va, vc;
+        const Image bricks_on = a.render(cam, b.frame(v, 0, 65535), &sa);
+        const Image bricks_off = c.render(cam, b.frame(v, 0, 65535), &sc);
+        const Image single_on = a.render(cam, v, 0, 65535, &va);
+        const Image single_off = c.render(cam, v, 0, 65535, &vc);
+        SCOPED_TRACE(std::string(tf_name) + (shading ? " shaded" : " unshaded") + " step " + std::to_string(step));
+        const Diff d1 = max_diff(bricks_on, bricks_off), d2 = max_diff(single_on, single_off);
+        EXPECT_LE(d1.max, 1) << d1.x << "," << d1.y;
+        EXPECT_LE(d2.max, 1) << d2.x << "," << d2.y;
+        EXPECT_GT(sa.cells_empty, 0u);
+        EXPECT_LT(sa.samples, sc.samples);
+        EXPECT_LT(va.samples, vc.samples);
+        // The second frame reuses the memoised ranges.
+        RenderStats again;
+        const Image repeat = a.render(cam, b.frame(v, 0, 65535), &again);
+        EXPECT_EQ(again.cell_ranges_built, 0u);
+        EXPECT_EQ(repeat.pixels(), bricks_on.pixels());
+      }
+}
+
+TEST(RayCaster, VectorisedMarchMatchesTheScalarMarch) {
+  // The AVX2 inner loop repeats the scalar arithmetic operation for operation (no FMA); only
+  // the position a resumed run re-samples its front at is rounded differently, so images agree
+  // within one level. On CPUs without AVX2 both renders take the scalar path.
+  const Volume v = prisms_volume();
+  const BrickedVolume b(v, 16, 2);
+  for (const char* tf_name : {"ct", "mri", "grayscale"})
+    for (bool shading : {true, false})
+      for (bool skip : {true, false}) {
+        RenderOptions vec = options(0.5, true, shading), scalar = vec;
+        vec.skip_cells = scalar.skip_cells = skip;
+        scalar.simd = false;
+        const Camera cam = perspective_camera(v.dims(), 57, 12);
+        RayCaster a(TransferFunction::preset(tf_name), vec), c(TransferFunction::preset(tf_name), scalar);
+        SCOPED_TRACE(std::string(tf_name) + (shading ? " shaded" : " unshaded") + (skip ? " skip" : ""));
+        const Diff bricks = max_diff(a.render(cam, b.frame(v, 0, 65535)), c.render(cam, b.frame(v, 0, 65535)));
+        const Diff single = max_diff(a.render(cam, v, 0, 65535), c.render(cam, v, 0, 65535));
+        EXPECT_LE(bricks.max, skip ? 1 : 0) << bricks.x << "," << bricks.y;
+        EXPECT_LE(single.max, skip ? 1 : 0) << single.x << "," << single.y;
+      }
+}
+

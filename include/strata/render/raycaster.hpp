@@ -21,7 +21,20 @@
 // Empty space: cells without a brick are skipped whole, as are bricks whose [min, max] maps to
 // zero opacity (TransferFunction::visible). When the ray leaves a brick into skipped space it
 // still composites the one segment that starts inside the brick (sampled from its overlap), so
-// skipping never changes the image for step <= overlap - 0.5.
+// skipping never changes the image for step <= overlap - 0.5. Inside a visible brick, macro-cells
+// of 2^3 samples whose value range (dilated by the step, render/occupancy.hpp) is transparent
+// are skipped too: a lattice point is sampled only when the segment ending there can be
+// visible, and the sample before it is taken afresh when it was skipped, so the composited
+// segments are exactly those a full march composites with non-zero opacity (the flags are
+// computed once per brick, 1 byte per cell, and memoised while the brick lives: the cache
+// holds a weak_ptr, so it never keeps samples alive, and drops dead entries every frame).
+//
+// Speed. On CPUs with AVX2 (checked at run time; the build stays portable x86-64) the march
+// inside a brick takes 8 lattice points at a time: trilinear taps, transparency bins, table
+// coordinates, the 32-voxel central-difference stencil and Blinn-Phong by gathers and 8-wide
+// arithmetic, then composites the lanes in order. It performs the scalar march's operations in
+// the same order without FMA, so the image does not depend on the path (tests compare them).
+// The shading gradient equals the six trilinear taps f(p +- e_a) but reads each voxel once.
 #include <array>
 #include <cstdint>
 #include <memory>
@@ -45,6 +58,10 @@ class TaVolume;
 
 namespace strata::render {
 
+namespace detail {
+class CellFlagCache;
+}
+
 struct ShadingParams {
   float ambient = 0.3f, diffuse = 0.7f, specular = 0.25f;
   int shininess = 24;  // Blinn-Phong exponent (integer: evaluated by repeated squaring)
@@ -60,6 +77,8 @@ struct RenderOptions {
   float termination_alpha = 0.99f;  // early ray termination
   int threads = 0;              // 0 = strata::thread_count()
   int tile = 16;                // tile edge in pixels (dynamic OpenMP schedule over tiles)
+  bool skip_cells = true;       // empty-space skipping inside bricks (exact; off for comparisons)
+  bool simd = true;             // AVX2 inner loop when the CPU has it (same arithmetic as scalar)
 };
 
 struct RenderStats {
@@ -68,6 +87,9 @@ struct RenderStats {
   std::uint64_t bricks_in_frame = 0; // bricks handed to the renderer
   std::uint64_t bricks_culled = 0;   // transparent under the TF ([min, max] test)
   std::uint64_t bricks_sampled = 0;  // bricks at least one ray sampled
+  std::uint64_t cells_empty = 0;     // macro-cells skipped as transparent (visible bricks only)
+  std::uint64_t cells_total = 0;     // macro-cells of the visible bricks
+  std::uint64_t cell_ranges_built = 0;  // bricks whose cell flags were computed this frame
   double setup_ms = 0;               // frame index and tables
   double raycast_ms = 0;
   double total_ms = 0;
@@ -112,6 +134,7 @@ class RayCaster {
   TransferFunction tf_;
   RenderOptions options_;
   std::vector<std::unique_ptr<Tables>> tables_;  // by level, built on first use
+  std::unique_ptr<detail::CellFlagCache> cell_flags_;  // per brick, while the brick lives
 };
 
 // Every brick of `level` decoded at rank `rank` (clamped to the file's rank), in parallel;
