@@ -147,6 +147,27 @@ void RenderSession::set_rank(int rank) {
   if (scalar_) scalar_->rank = rank > 0 ? rank : scalar_->volume.rank();
 }
 
+namespace {
+
+// The ray casting share of a frame (a loading frame also waits for decoding).
+double ray_cast_ms(const nlohmann::json& stats, double frame_ms) {
+  if (stats.contains("render") && stats["render"].contains("raycast_ms")) return stats["render"]["raycast_ms"].get<double>();
+  if (stats.contains("render") && stats["render"].contains("march_ms")) return stats["render"]["march_ms"].get<double>();
+  return frame_ms;
+}
+
+}  // namespace
+
+// Frame time scales with the ray count, i.e. with 1 / scale^2. The first measurement sets the
+// scale outright; later ones are damped so one slow frame (a burst of misses) does not swing
+// the resolution. Aim 10% under the budget so the mean holds it despite jitter.
+void RenderSession::adapt_image_scale(double used_scale, double frame_ms) {
+  const double budget_ms = 0.9 * 1000.0 / target_fps_;
+  const double wanted = std::clamp(used_scale * std::sqrt(frame_ms / budget_ms), 1.0, 8.0);
+  image_scale_ = calibrated_ ? 0.5 * (image_scale_ + wanted) : wanted;
+  calibrated_ = true;
+}
+
 render::Image RenderSession::frame(const render::CameraSpec& spec, bool exact, nlohmann::json& stats) {
   const bool adaptive = target_fps_ > 0 && !exact;
   render::CameraSpec cast = spec;
@@ -164,13 +185,7 @@ render::Image RenderSession::frame(const render::CameraSpec& spec, bool exact, n
   stats["frame_ms"] = ms;
   stats["cpu_s"] = cpu_seconds() - c0;
   stats["image_scale"] = adaptive ? image_scale_ : 1.0;
-  if (adaptive) {
-    // Frame time scales with the ray count, i.e. with 1 / scale^2; damp the step so one slow
-    // frame (a burst of misses) does not swing the resolution.
-    const double budget_ms = 1000.0 / target_fps_;
-    const double wanted = image_scale_ * std::sqrt(ms / budget_ms);
-    image_scale_ = std::clamp(0.5 * (image_scale_ + wanted), 1.0, 8.0);
-  }
+  if (target_fps_ > 0) adapt_image_scale(adaptive ? image_scale_ : 1.0, adaptive ? ms : ray_cast_ms(stats, ms));
   return image;
 }
 

@@ -55,6 +55,8 @@ class RenderSession {
   std::unique_ptr<Labels> labels_;
   double target_fps_ = 0;
   double image_scale_ = 1;  // image edge divisor of interactive frames, adapted per frame
+  bool calibrated_ = false;
+  void adapt_image_scale(double used_scale, double frame_ms);
 };
 
 // Mean frame time, frames/s, CPU seconds per frame and the decode share of frame time, over
