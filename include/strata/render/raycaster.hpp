@@ -34,6 +34,8 @@
 // coordinates, the 32-voxel central-difference stencil and Blinn-Phong by gathers and 8-wide
 // arithmetic, then composites the lanes in order. It performs the scalar march's operations in
 // the same order without FMA, so the image does not depend on the path (tests compare them).
+// On CPUs with AVX-512 (F/VL/BW/DQ) the same loop runs from a second build of its source
+// (render/march8_body.hpp) for that ISA: 32 vector registers spill less; the image is identical.
 // The shading gradient equals the six trilinear taps f(p +- e_a) but reads each voxel once.
 #include <array>
 #include <cstdint>
@@ -79,6 +81,7 @@ struct RenderOptions {
   int tile = 16;                // tile edge in pixels (dynamic OpenMP schedule over tiles)
   bool skip_cells = true;       // empty-space skipping inside bricks (exact; off for comparisons)
   bool simd = true;             // AVX2 inner loop when the CPU has it (same arithmetic as scalar)
+  bool avx512 = true;           // ... compiled for AVX-512 when the CPU has F/VL/BW/DQ (same arithmetic)
 };
 
 struct RenderStats {

@@ -1,0 +1,232 @@
+// The body of the ray caster's 8-lane inner loop (raycaster.cpp), included twice: once compiled
+// for AVX2 and once for AVX-512 (F/VL/BW/DQ: 32 vector registers, EVEX masks), both without
+// FMA contraction so either performs the scalar march's operations exactly. The includer
+// defines STRATA_MARCH8_NAME and STRATA_MARCH8_ATTRS and provides the helpers it uses.
+// No include guard: meant to be included more than once, inside raycaster.cpp's namespace.
+
+template <bool Shade>
+STRATA_MARCH8_ATTRS std::int64_t STRATA_MARCH8_NAME(const GridSampler& s, const Block& b, const LevelParams& lp,
+                                           const MarchParams& mp, const RayContext& ray, const float p[3],
+                                           const float dp[3], std::int64_t k0, std::int64_t k, std::int64_t k1,
+                                           bool skip, float& front, std::int64_t& last, Rgbaf& acc_io,
+                                           std::uint64_t& taken) {
+  const __m256 lane = _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7);
+  const __m256i lane_i = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+  const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f);
+  const __m256 max_x = _mm256_set1_ps(s.max_x), max_y = _mm256_set1_ps(s.max_y), max_z = _mm256_set1_ps(s.max_z);
+  const __m256i sx = _mm256_set1_epi32(int(s.dx)), sy = _mm256_set1_epi32(int(s.dy)), sz = _mm256_set1_epi32(int(s.dz));
+  const int ox = int(s.dx), oy = int(s.dy), oz = int(s.dz);
+  const __m256 vlo = _mm256_set1_ps(mp.value_lo), vscale = _mm256_set1_ps(mp.value_scale);
+  const Classifier& cl = lp.classify;
+  const __m256 last_f = _mm256_set1_ps(cl.last);
+  const __m256i size2 = _mm256_set1_epi32(cl.size - 2), size_i = _mm256_set1_epi32(cl.size);
+  const __m256 bins_f = _mm256_set1_ps(float(Transparency::kBins));
+  const __m256i bin_max = _mm256_set1_epi32(Transparency::kBins - 1), low16 = _mm256_set1_epi32(0xffff);
+  const int* next_visible = reinterpret_cast<const int*>(mp.next_visible);
+  const float term = mp.termination;
+  const __m256i zero_i = _mm256_setzero_si256(), low8 = _mm256_set1_epi32(0xff);
+  const __m256i cells_x = _mm256_set1_epi32(b.cells[0]), cells_y = _mm256_set1_epi32(b.cells[1]);
+  const __m256i cell_max_x = _mm256_set1_epi32(b.cells[0] - 1), cell_max_y = _mm256_set1_epi32(b.cells[1] - 1),
+                cell_max_z = _mm256_set1_epi32(b.cells[2] - 1);
+  __m128 acc = _mm_setr_ps(acc_io.r, acc_io.g, acc_io.b, acc_io.a);
+  bool have_front = true;
+  alignas(32) float xs[8], ys[8], zs[8], vs[8], wus[8], wvs[8];
+  alignas(32) int idx[8];
+  while (k < k1) {
+    const int n = int(std::min<std::int64_t>(8, k1 - k));
+    const __m256 j = _mm256_add_ps(_mm256_set1_ps(float(k - k0)), lane);
+    __m256 x = _mm256_add_ps(_mm256_set1_ps(p[0]), _mm256_mul_ps(_mm256_set1_ps(dp[0]), j));
+    __m256 y = _mm256_add_ps(_mm256_set1_ps(p[1]), _mm256_mul_ps(_mm256_set1_ps(dp[1]), j));
+    __m256 z = _mm256_add_ps(_mm256_set1_ps(p[2]), _mm256_mul_ps(_mm256_set1_ps(dp[2]), j));
+    _mm256_store_ps(xs, x);
+    _mm256_store_ps(ys, y);
+    _mm256_store_ps(zs, z);
+    if (skip) {  // Block::empty_at for the 8 lanes
+      const __m256 inv = _mm256_set1_ps(1.0f / float(detail::kCell));
+      const __m256i cx = _mm256_min_epi32(_mm256_max_epi32(_mm256_cvttps_epi32(_mm256_mul_ps(x, inv)), zero_i), cell_max_x);
+      const __m256i cy = _mm256_min_epi32(_mm256_max_epi32(_mm256_cvttps_epi32(_mm256_mul_ps(y, inv)), zero_i), cell_max_y);
+      const __m256i cz = _mm256_min_epi32(_mm256_max_epi32(_mm256_cvttps_epi32(_mm256_mul_ps(z, inv)), zero_i), cell_max_z);
+      const __m256i cell = _mm256_add_epi32(_mm256_mullo_epi32(_mm256_add_epi32(_mm256_mullo_epi32(cz, cells_y), cy), cells_x), cx);
+      const __m256i flag = _mm256_and_si256(_mm256_i32gather_epi32(reinterpret_cast<const int*>(b.empty), cell, 1), low8);
+      const __m256i valid = _mm256_cmpgt_epi32(_mm256_set1_epi32(n), lane_i);
+      const bool any = _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_and_si256(_mm256_cmpeq_epi32(flag, zero_i), valid))) != 0;
+      if (!any) {  // every segment of the chunk is transparent
+        have_front = false;
+        k += n;
+        continue;
+      }
+    }
+    if (!have_front) {  // resuming after skipped chunks: the value at k - 1 afresh
+      const float jm = float(k - k0) - 1.0f;
+      front = (s(p[0] + dp[0] * jm, p[1] + dp[1] * jm, p[2] + dp[2] * jm) - mp.value_lo) * mp.value_scale;
+      ++taken;
+      have_front = true;
+    }
+    // Trilinear values (GridSampler::operator()).
+    x = _mm256_min_ps(_mm256_max_ps(x, zero), max_x);
+    y = _mm256_min_ps(_mm256_max_ps(y, zero), max_y);
+    z = _mm256_min_ps(_mm256_max_ps(z, zero), max_z);
+    const __m256i ix = _mm256_cvttps_epi32(x), iy = _mm256_cvttps_epi32(y), iz = _mm256_cvttps_epi32(z);
+    const __m256 fx = _mm256_sub_ps(x, _mm256_cvtepi32_ps(ix)), fy = _mm256_sub_ps(y, _mm256_cvtepi32_ps(iy)),
+                 fz = _mm256_sub_ps(z, _mm256_cvtepi32_ps(iz));
+    const __m256i base = _mm256_add_epi32(_mm256_add_epi32(_mm256_mullo_epi32(ix, sx), _mm256_mullo_epi32(iy, sy)),
+                                          _mm256_mullo_epi32(iz, sz));
+#define STRATA_TAP(off) _mm256_i32gather_ps(s.data, _mm256_add_epi32(base, _mm256_set1_epi32(off)), 4)
+#define STRATA_LERP(a, b, w) _mm256_add_ps((a), _mm256_mul_ps((w), _mm256_sub_ps((b), (a))))
+    __m256 p000, p100, p010, p110, p001, p101, p011, p111;
+    if (ox == 1) {  // x neighbours adjacent: pairs
+      const __m256i all = _mm256_set1_epi32(-1);
+      gather_pairs(s.data, base, all, p000, p100);
+      gather_pairs(s.data, _mm256_add_epi32(base, _mm256_set1_epi32(oy)), all, p010, p110);
+      gather_pairs(s.data, _mm256_add_epi32(base, _mm256_set1_epi32(oz)), all, p001, p101);
+      gather_pairs(s.data, _mm256_add_epi32(base, _mm256_set1_epi32(oy + oz)), all, p011, p111);
+    } else {
+      p000 = STRATA_TAP(0), p100 = STRATA_TAP(ox), p010 = STRATA_TAP(oy), p110 = STRATA_TAP(oy + ox);
+      p001 = STRATA_TAP(oz), p101 = STRATA_TAP(oz + ox), p011 = STRATA_TAP(oz + oy), p111 = STRATA_TAP(oz + oy + ox);
+    }
+    const __m256 c00 = STRATA_LERP(p000, p100, fx), c10 = STRATA_LERP(p010, p110, fx);
+    const __m256 c01 = STRATA_LERP(p001, p101, fx), c11 = STRATA_LERP(p011, p111, fx);
+    const __m256 c0 = STRATA_LERP(c00, c10, fy), c1 = STRATA_LERP(c01, c11, fy);
+    const __m256 v = _mm256_mul_ps(_mm256_sub_ps(STRATA_LERP(c0, c1, fz), vlo), vscale);
+#undef STRATA_TAP
+#undef STRATA_LERP
+    _mm256_store_ps(vs, v);
+    // Fronts: the previous lane's value; lane 0 takes the carried front.
+    const __m256 fr = _mm256_blend_ps(_mm256_permutevar8x32_ps(v, _mm256_setr_epi32(0, 0, 1, 2, 3, 4, 5, 6)),
+                                      _mm256_set1_ps(front), 0x01);
+    // Transparency bins (Transparency::bin, next_visible).
+    const __m256 lo = _mm256_min_ps(fr, v), hi = _mm256_max_ps(fr, v);
+    const __m256i blo = _mm256_min_epi32(_mm256_cvttps_epi32(_mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(lo, zero), one), bins_f)), bin_max);
+    const __m256i bhi = _mm256_min_epi32(_mm256_cvttps_epi32(_mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(hi, zero), one), bins_f)), bin_max);
+    const __m256i valid = _mm256_cmpgt_epi32(_mm256_set1_epi32(n), lane_i);
+    const __m256i nv = _mm256_and_si256(_mm256_i32gather_epi32(next_visible, blo, 2), low16);
+    const __m256i visible = _mm256_xor_si256(_mm256_cmpgt_epi32(nv, bhi), _mm256_set1_epi32(-1));
+    const unsigned keep = unsigned(_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_and_si256(visible, valid))));
+    if (keep == 0) {
+      front = vs[n - 1];
+      last = k + n - 1;
+      taken += std::uint64_t(n);
+      k += n;
+      continue;
+    }
+    // Pre-integrated table coordinates (Classifier::pair).
+    const __m256 u = _mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(fr, zero), one), last_f);
+    const __m256 w = _mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(v, zero), one), last_f);
+    const __m256i ti = _mm256_min_epi32(_mm256_cvttps_epi32(u), size2), tj = _mm256_min_epi32(_mm256_cvttps_epi32(w), size2);
+    _mm256_store_ps(wus, _mm256_sub_ps(u, _mm256_cvtepi32_ps(ti)));
+    _mm256_store_ps(wvs, _mm256_sub_ps(w, _mm256_cvtepi32_ps(tj)));
+    _mm256_store_si256(reinterpret_cast<__m256i*>(idx), _mm256_add_epi32(_mm256_mullo_epi32(ti, size_i), tj));
+    // Classification per lane (the pre-integrated table's 4 channels as one SSE vector).
+    __m128 cs[8];
+    alignas(32) float cas[8];
+    unsigned lit = 0;  // lanes whose colour is shaded
+    for (int l = 0; l < 8; ++l) {
+      cas[l] = 0.0f;
+      if (l >= n || !((keep >> l) & 1u)) continue;
+      const float* r0 = &cl.table[idx[l]].r;
+      const float* r1 = r0 + 4 * std::ptrdiff_t(cl.size);
+      const __m128 wv = _mm_set1_ps(wvs[l]), wu = _mm_set1_ps(wus[l]);
+      const __m128 a0 = _mm_loadu_ps(r0), a1 = _mm_loadu_ps(r0 + 4), b0 = _mm_loadu_ps(r1), b1 = _mm_loadu_ps(r1 + 4);
+      const __m128 l0 = _mm_add_ps(a0, _mm_mul_ps(wv, _mm_sub_ps(a1, a0)));
+      const __m128 l1 = _mm_add_ps(b0, _mm_mul_ps(wv, _mm_sub_ps(b1, b0)));
+      cs[l] = _mm_add_ps(l0, _mm_mul_ps(wu, _mm_sub_ps(l1, l0)));
+      cas[l] = _mm_cvtss_f32(_mm_shuffle_ps(cs[l], cs[l], 0xff));
+    }
+    alignas(32) float diffs[8], specs[8];
+    if constexpr (Shade) {
+      const __m256 ca = _mm256_load_ps(cas);
+      const unsigned want = unsigned(_mm256_movemask_ps(_mm256_cmp_ps(ca, _mm256_set1_ps(kShadeThreshold), _CMP_GT_OQ)));
+      if (want) {
+        // Gradients (GridSampler::gradient): the 32-voxel stencil for lanes inside the grid's
+        // interior, by masked gathers (its centre taps are the value's); other lanes scalar.
+        const __m256 xu = _mm256_load_ps(xs), yu = _mm256_load_ps(ys), zu = _mm256_load_ps(zs);
+        const __m256 in = _mm256_and_ps(
+            _mm256_and_ps(_mm256_and_ps(_mm256_cmp_ps(xu, one, _CMP_GE_OQ), _mm256_cmp_ps(yu, one, _CMP_GE_OQ)),
+                          _mm256_and_ps(_mm256_cmp_ps(zu, one, _CMP_GE_OQ), _mm256_cmp_ps(xu, _mm256_set1_ps(float(s.nx - 2)), _CMP_LT_OQ))),
+            _mm256_and_ps(_mm256_cmp_ps(yu, _mm256_set1_ps(float(s.ny - 2)), _CMP_LT_OQ),
+                          _mm256_cmp_ps(zu, _mm256_set1_ps(float(s.nz - 2)), _CMP_LT_OQ)));
+        // (a few lanes are cheaper one by one than 24 gathers)
+        const unsigned inside = __builtin_popcount(want & unsigned(_mm256_movemask_ps(in))) > 2
+                                    ? unsigned(_mm256_movemask_ps(in))
+                                    : 0u;
+        alignas(32) float gx[8], gy[8], gz[8];
+        if (inside) {
+#define STRATA_G(off) _mm256_mask_i32gather_ps(zero, s.data, _mm256_add_epi32(base, _mm256_set1_epi32(off)), in, 4)
+#define STRATA_LERP(a, b, w) _mm256_add_ps((a), _mm256_mul_ps((w), _mm256_sub_ps((b), (a))))
+#define STRATA_LIN(off) lin_pair(s.data, base, (off), in_i, fx)
+#define STRATA_ROWD(off, b_, c_) row_diff(STRATA_G((off) - 1), (b_), (c_), STRATA_G((off) + 2), fx)
+#define STRATA_DIFF(f, lo_m, l0, l1, hi_p) \
+  STRATA_LERP(_mm256_sub_ps((l1), (lo_m)), _mm256_sub_ps((hi_p), (l0)), (f))
+          const __m256i in_i = _mm256_castps_si256(in);
+          const __m256 d00 = STRATA_ROWD(0, p000, p100), d10 = STRATA_ROWD(oy, p010, p110);
+          const __m256 d01 = STRATA_ROWD(oz, p001, p101), d11 = STRATA_ROWD(oy + oz, p011, p111);
+          const __m256 gx0 = STRATA_LERP(d00, d10, fy), gx1 = STRATA_LERP(d01, d11, fy);
+          _mm256_store_ps(gx, STRATA_LERP(gx0, gx1, fz));
+          const __m256 gy0 = STRATA_DIFF(fy, STRATA_LIN(-oy), c00, c10, STRATA_LIN(2 * oy));
+          const __m256 gy1 = STRATA_DIFF(fy, STRATA_LIN(oz - oy), c01, c11, STRATA_LIN(oz + 2 * oy));
+          _mm256_store_ps(gy, STRATA_LERP(gy0, gy1, fz));
+          const __m256 gz0 = STRATA_DIFF(fz, STRATA_LIN(-oz), c00, c01, STRATA_LIN(2 * oz));
+          const __m256 gz1 = STRATA_DIFF(fz, STRATA_LIN(oy - oz), c10, c11, STRATA_LIN(oy + 2 * oz));
+          _mm256_store_ps(gz, STRATA_LERP(gz0, gz1, fy));
+#undef STRATA_DIFF
+#undef STRATA_ROWD
+#undef STRATA_LIN
+#undef STRATA_LERP
+#undef STRATA_G
+        }
+        for (int l = 0; l < n; ++l)
+          if (((want & ~inside) >> l) & 1u) {
+            float g[3];
+            s.gradient(xs[l], ys[l], zs[l], g);
+            gx[l] = g[0];
+            gy[l] = g[1];
+            gz[l] = g[2];
+          }
+        // Blinn-Phong as in Marcher::segment, 8 lanes at once (same operations and order).
+        const __m256 g0 = _mm256_mul_ps(_mm256_load_ps(gx), _mm256_set1_ps(b.gradient_scale[0]));
+        const __m256 g1 = _mm256_mul_ps(_mm256_load_ps(gy), _mm256_set1_ps(b.gradient_scale[1]));
+        const __m256 g2 = _mm256_mul_ps(_mm256_load_ps(gz), _mm256_set1_ps(b.gradient_scale[2]));
+        const __m256 len2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(g0, g0), _mm256_mul_ps(g1, g1)), _mm256_mul_ps(g2, g2));
+        const __m256 dot = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(g0, _mm256_set1_ps(ray.light[0])),
+                                                       _mm256_mul_ps(g1, _mm256_set1_ps(ray.light[1]))),
+                                         _mm256_mul_ps(g2, _mm256_set1_ps(ray.light[2])));
+        const __m256 ndl = _mm256_div_ps(_mm256_andnot_ps(_mm256_set1_ps(-0.0f), dot), _mm256_sqrt_ps(len2));
+        _mm256_store_ps(diffs, _mm256_add_ps(_mm256_set1_ps(mp.light.ambient), _mm256_mul_ps(_mm256_set1_ps(mp.light.diffuse), ndl)));
+        __m256 pw = one, base_pw = ndl;
+        for (int e = mp.light.shininess; e > 0; e >>= 1) {
+          if (e & 1) pw = _mm256_mul_ps(pw, base_pw);
+          base_pw = _mm256_mul_ps(base_pw, base_pw);
+        }
+        _mm256_store_ps(specs, _mm256_mul_ps(_mm256_mul_ps(_mm256_set1_ps(mp.light.specular), pw), ca));
+        // Lanes not asking for shading hold garbage and stay unshaded.
+        lit = want & unsigned(_mm256_movemask_ps(_mm256_cmp_ps(len2, _mm256_set1_ps(1e-12f), _CMP_GT_OQ)));
+      }
+    }
+    for (int l = 0; l < n; ++l) {
+      if (!(cas[l] > 0.0f)) continue;
+      __m128 c = cs[l];
+      if (Shade && ((lit >> l) & 1u))
+        c = _mm_add_ps(_mm_mul_ps(c, _mm_setr_ps(diffs[l], diffs[l], diffs[l], 1.0f)),
+                       _mm_setr_ps(specs[l], specs[l], specs[l], 0.0f));
+      const float wa = 1.0f - _mm_cvtss_f32(_mm_shuffle_ps(acc, acc, 0xff));
+      acc = _mm_add_ps(acc, _mm_mul_ps(_mm_set1_ps(wa), c));
+      if (_mm_cvtss_f32(_mm_shuffle_ps(acc, acc, 0xff)) > term) {
+        front = vs[l];
+        last = k + l;
+        taken += std::uint64_t(l + 1);
+        alignas(16) float out[4];
+        _mm_store_ps(out, acc);
+        acc_io = {out[0], out[1], out[2], out[3]};
+        return k + l + 1;
+      }
+    }
+    front = vs[n - 1];
+    last = k + n - 1;
+    taken += std::uint64_t(n);
+    k += n;
+  }
+  alignas(16) float out[4];
+  _mm_store_ps(out, acc);
+  acc_io = {out[0], out[1], out[2], out[3]};
+  return k;
+}
