@@ -147,8 +147,9 @@ void run_render(const RenderArgs& a, const GlobalOptions&) {
 
 void register_render(CLI::App& app, const GlobalOptions& global) {
   auto a = std::make_shared<RenderArgs>();
-  CLI::App* cmd = app.add_subcommand("render", "Ray-cast a .strata file (TA volume or label volume) to PNG");
-  cmd->add_option("input", a->input, "Input .strata file")->required()->check(CLI::ExistingFile);
+  CLI::App* cmd = app.add_subcommand(
+      "render", "Ray-cast a .strata file (TA or label volume), or a plain volume file loaded whole, to PNG");
+  cmd->add_option("input", a->input, "Input .strata file, or a raw/NRRD/NIfTI/TIFF volume (loaded whole)")->required()->check(CLI::ExistingFile);
   cmd->add_option("-o,--output", a->output, "Output PNG (with --orbit: a folder of frame_NNNN.png)")->required();
   cmd->add_option("--size", a->size, "Image size WIDTHxHEIGHT")->capture_default_str();
   cmd->add_option("--azimuth", a->azimuth, "Degrees around the volume's z axis")->capture_default_str();

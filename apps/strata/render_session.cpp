@@ -7,6 +7,7 @@
 #include <cmath>
 
 #include "strata/core/error.hpp"
+#include "strata/io/volume_io.hpp"
 #include "strata/lod/brick_provider.hpp"
 #include "strata/lod/selection.hpp"
 #include "strata/mixture/encoded_labels.hpp"
@@ -125,9 +126,35 @@ struct RenderSession::Labels {
   }
 };
 
+// A plain volume file (raw, NRRD, NIfTI, TIFF): loaded whole as floats and ray cast as one
+// block, the uncompressed reference a compressed file's rendering can be compared with.
+struct RenderSession::Plain {
+  Volume volume;
+  double lo = 0, hi = 1;
+  render::RayCaster caster;
+
+  Plain(const std::filesystem::path& input, const RenderSettings& s)
+      : volume(io::read_volume(input).converted(DType::f32)),
+        caster(render::TransferFunction::from_argument(s.tf), render_options(s)) {
+    const auto v = volume.samples<float>();
+    if (!v.empty()) std::tie(lo, hi) = std::pair{*std::min_element(v.begin(), v.end()), *std::max_element(v.begin(), v.end())};
+  }
+
+  render::Image frame(const render::Camera& camera, nlohmann::json& stats) {
+    render::RenderStats rs;
+    render::Image image = caster.render(camera, volume, lo, hi, &rs);
+    stats = render::stats_json(rs);
+    return image;
+  }
+};
+
 RenderSession::RenderSession(const std::filesystem::path& input, const RenderSettings& settings)
     : target_fps_(settings.target_fps) {
   if (!(settings.target_fps >= 0)) throw Error("target frame rate must be >= 0");
+  if (!store::is_strata_file(input)) {
+    plain_ = std::make_unique<Plain>(input, settings);
+    return;
+  }
   const store::ContainerReader probe(input);
   if (probe.metadata().value("codec", std::string()) == mixture::kMixtureCodecName)
     labels_ = std::make_unique<Labels>(input, settings);
@@ -138,8 +165,12 @@ RenderSession::RenderSession(const std::filesystem::path& input, const RenderSet
 RenderSession::~RenderSession() = default;
 
 bool RenderSession::is_labels() const { return labels_ != nullptr; }
-Extent RenderSession::dims() const { return labels_ ? labels_->labels.level_dims(0) : scalar_->volume.source_info().dims; }
+Extent RenderSession::dims() const {
+  if (plain_) return plain_->volume.dims();
+  return labels_ ? labels_->labels.level_dims(0) : scalar_->volume.source_info().dims;
+}
 Spacing RenderSession::spacing() const {
+  if (plain_) return plain_->volume.spacing();
   return labels_ ? labels_->labels.spacing() : scalar_->volume.source_info().spacing;
 }
 
@@ -178,7 +209,9 @@ render::Image RenderSession::frame(const render::CameraSpec& spec, bool exact, n
   const render::Camera camera(cast, dims(), spacing());
   const double c0 = cpu_seconds();
   const auto t0 = Clock::now();
-  render::Image image = labels_ ? labels_->frame(camera, stats) : scalar_->frame(camera, exact, stats);
+  render::Image image = plain_    ? plain_->frame(camera, stats)
+                        : labels_ ? labels_->frame(camera, stats)
+                                  : scalar_->frame(camera, exact, stats);
   if (image.width() != spec.width || image.height() != spec.height)
     image = render::resize_bilinear(image, spec.width, spec.height);
   const double ms = ms_since(t0);

@@ -1,7 +1,8 @@
 #pragma once
-// Rendering a .strata file frame by frame, shared by `strata render` and `strata demo`.
-// TA files go through the LOD cut, the brick provider (cache + loader) and the ray caster
-// (paper 1, §3/§6); label files through the Mixture Graph palette (paper 4, §4).
+// Rendering a file frame by frame, shared by `strata render` and `strata demo`. TA files go
+// through the LOD cut, the brick provider (cache + loader) and the ray caster (paper 1,
+// §3/§6); label files through the Mixture Graph palette (paper 4, §4); plain volume files are
+// loaded whole and ray cast as one block (the uncompressed reference).
 #include <array>
 #include <filesystem>
 #include <memory>
@@ -51,6 +52,8 @@ class RenderSession {
  private:
   struct Scalar;
   struct Labels;
+  struct Plain;
+  std::unique_ptr<Plain> plain_;
   std::unique_ptr<Scalar> scalar_;
   std::unique_ptr<Labels> labels_;
   double target_fps_ = 0;

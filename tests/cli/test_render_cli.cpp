@@ -2,6 +2,8 @@
 // function) and label files (colour maps), the statistics JSON and the errors users see.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -128,6 +130,29 @@ TEST_F(RenderCli, TransparentTransferFunctionDecodesNothing) {
   EXPECT_EQ(f["selection"]["bricks"], 0);
   EXPECT_EQ(f["load"]["bytes_read"], 0);
   EXPECT_EQ(f["load"]["cache_misses"], 0);
+}
+
+// A file stored at full rank (rank = brick width) with f32 factors and cores reconstructs the
+// input up to float rounding, so its image must match the plain file's (rendered as one block)
+// within the 8-bit rounding of two renders plus float noise: 2/255 per channel.
+TEST_F(RenderCli, FullRankFileMatchesThePlainVolume) {
+  const std::string raw = (dir / "sphere.nrrd").string(), exact = (dir / "full.strata").string();
+  std::string out;
+  ASSERT_EQ(run_command(strata_cmd("compress " + raw + " -o " + exact + " --brick 16 --rank 16 --quant f32"), &out), 0)
+      << out;
+  const std::string common = " --size 80x60 --tf ct --lod 0.01";
+  const fs::path a = dir / "plain.png", b = dir / "full.png";
+  ASSERT_EQ(run_command(strata_cmd("render " + raw + " -o " + a.string() + common), &out), 0) << out;
+  ASSERT_EQ(run_command(strata_cmd("render " + exact + " -o " + b.string() + common), &out), 0) << out;
+  const auto pa = strata::render::read_png(a), pb = strata::render::read_png(b);
+  ASSERT_EQ(pa.pixels().size(), pb.pixels().size());
+  int worst = 0;
+  for (std::size_t i = 0; i < pa.pixels().size(); ++i) {
+    const auto p = pa.pixels()[i], q = pb.pixels()[i];
+    worst = std::max({worst, std::abs(p.r - q.r), std::abs(p.g - q.g), std::abs(p.b - q.b)});
+  }
+  EXPECT_LE(worst, 2);
+  EXPECT_GT(lit_pixels(pa), 500u);
 }
 
 TEST_F(RenderCli, BadArgumentsAreReported) {
