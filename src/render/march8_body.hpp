@@ -49,10 +49,16 @@ STRATA_MARCH8_ATTRS std::int64_t STRATA_MARCH8_NAME(const GridSampler& s, const 
       const __m256i cell = _mm256_add_epi32(_mm256_mullo_epi32(_mm256_add_epi32(_mm256_mullo_epi32(cz, cells_y), cy), cells_x), cx);
       const __m256i flag = _mm256_and_si256(_mm256_i32gather_epi32(reinterpret_cast<const int*>(b.empty), cell, 1), low8);
       const __m256i valid = _mm256_cmpgt_epi32(_mm256_set1_epi32(n), lane_i);
-      const bool any = _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_and_si256(_mm256_cmpeq_epi32(flag, zero_i), valid))) != 0;
-      if (!any) {  // every segment of the chunk is transparent
+      const unsigned open = unsigned(_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_and_si256(_mm256_cmpeq_epi32(flag, zero_i), valid))));
+      if (open == 0) {  // every segment of the chunk is transparent
         have_front = false;
         k += n;
+        continue;
+      }
+      const int first = __builtin_ctz(open);
+      if (first >= kRealign) {  // the chunk restarts at its first open lane (busier lanes)
+        have_front = false;
+        k += first;
         continue;
       }
     }
@@ -192,10 +198,17 @@ STRATA_MARCH8_ATTRS std::int64_t STRATA_MARCH8_NAME(const GridSampler& s, const 
                                          _mm256_mul_ps(g2, _mm256_set1_ps(ray.light[2])));
         const __m256 ndl = _mm256_div_ps(_mm256_andnot_ps(_mm256_set1_ps(-0.0f), dot), _mm256_sqrt_ps(len2));
         _mm256_store_ps(diffs, _mm256_add_ps(_mm256_set1_ps(mp.light.ambient), _mm256_mul_ps(_mm256_set1_ps(mp.light.diffuse), ndl)));
-        __m256 pw = one, base_pw = ndl;
-        for (int e = mp.light.shininess; e > 0; e >>= 1) {
-          if (e & 1) pw = _mm256_mul_ps(pw, base_pw);
-          base_pw = _mm256_mul_ps(base_pw, base_pw);
+        __m256 pw = one;
+        if (mp.light.shininess == detail::kFixedShininess) {  // detail::power_fixed<24>: x^8 * x^16
+          static_assert(detail::kFixedShininess == 24);
+          const __m256 x2 = _mm256_mul_ps(ndl, ndl), x4 = _mm256_mul_ps(x2, x2), x8 = _mm256_mul_ps(x4, x4);
+          pw = _mm256_mul_ps(x8, _mm256_mul_ps(x8, x8));
+        } else {  // detail::power
+          __m256 base_pw = ndl;
+          for (int e = mp.light.shininess; e > 0; e >>= 1) {
+            if (e & 1) pw = _mm256_mul_ps(pw, base_pw);
+            base_pw = _mm256_mul_ps(base_pw, base_pw);
+          }
         }
         _mm256_store_ps(specs, _mm256_mul_ps(_mm256_mul_ps(_mm256_set1_ps(mp.light.specular), pw), ca));
         // Lanes not asking for shading hold garbage and stay unshaded.

@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "render/frame_index.hpp"
+#include "render/shading.hpp"
 #include "strata/core/error.hpp"
 #include "strata/core/threads.hpp"
 
@@ -49,6 +50,10 @@ inline std::int64_t iceil(double x) {
 }
 // Samples below this opacity skip the gradient (six extra trilinear taps).
 constexpr float kShadeThreshold = 1.0f / 1024.0f;
+// 8-lane march with empty-space skipping: a chunk whose first kRealign or more points lie in
+// empty cells restarts at its first point that does not (the skipped segments are transparent,
+// its front value is sampled afresh, as after a skipped chunk), so fewer lanes idle.
+constexpr int kRealign = 2;
 
 // ---- Sampling -------------------------------------------------------------------------------
 
@@ -180,16 +185,6 @@ Rgbaf rescale_segment(const Rgbaf& c, double ratio) {
   const float a = correct_opacity(std::min(c.a, 1.0f), ratio);
   const float k = a / c.a;
   return {c.r * k, c.g * k, c.b * k, a};
-}
-
-float power(float x, int n) {  // x^n, n >= 0, by repeated squaring
-  float r = 1.0f;
-  while (n > 0) {
-    if (n & 1) r *= x;
-    x *= x;
-    n >>= 1;
-  }
-  return r;
 }
 
 // ---- Per-ray state --------------------------------------------------------------------------
@@ -346,7 +341,7 @@ struct Marcher {
           // Two-sided Blinn-Phong with a headlight: the half vector equals the light vector.
           const float ndl = std::abs(g[0] * ray.light[0] + g[1] * ray.light[1] + g[2] * ray.light[2]) / std::sqrt(len2);
           const float diffuse = mp.light.ambient + mp.light.diffuse * ndl;
-          const float spec = mp.light.specular * power(ndl, mp.light.shininess) * c.a;
+          const float spec = mp.light.specular * detail::specular_power(ndl, mp.light.shininess) * c.a;
           c.r = c.r * diffuse + spec;
           c.g = c.g * diffuse + spec;
           c.b = c.b * diffuse + spec;

@@ -1,0 +1,36 @@
+#pragma once
+// Blinn-Phong's specular power: x^n for an integer n >= 0 by repeated squaring. The default
+// exponent (24) also has a compile-time form, unrolled with the same products in the same order
+// (the generic loop's first product 1 * x^(2^i) is exact), so both give the same bits; the
+// ray caster's 8-lane march repeats that sequence on vectors.
+namespace strata::render::detail {
+
+inline float power(float x, int n) {  // x^n, n >= 0, by repeated squaring
+  float r = 1.0f;
+  while (n > 0) {
+    if (n & 1) r *= x;
+    x *= x;
+    n >>= 1;
+  }
+  return r;
+}
+
+// power(x, N) unrolled: r is 1 until the lowest set bit (Started == false).
+template <int N, bool Started = false>
+[[gnu::always_inline]] inline float power_fixed(float x, float r = 1.0f) {
+  if constexpr (N == 0) {
+    return r;
+  } else {
+    if constexpr ((N & 1) != 0) r = Started ? r * x : x;
+    if constexpr ((N >> 1) == 0) return r;
+    else return power_fixed<(N >> 1), Started || (N & 1) != 0>(x * x, r);
+  }
+}
+
+inline constexpr int kFixedShininess = 24;  // ShadingParams' default
+
+[[gnu::always_inline]] inline float specular_power(float x, int n) {
+  return n == kFixedShininess ? power_fixed<kFixedShininess>(x) : power(x, n);
+}
+
+}  // namespace strata::render::detail
