@@ -14,6 +14,8 @@
 #include <nlohmann/json.hpp>
 
 #include "render/frame_index.hpp"
+#include "render/ray_sampling.hpp"
+#include "render/ray_traversal.hpp"
 #include "render/shading.hpp"
 #include "strata/core/error.hpp"
 #include "strata/core/threads.hpp"
@@ -23,7 +25,19 @@ namespace strata::render {
 using detail::Block;
 using detail::CellFlags;
 using detail::CellRanges;
+using detail::Classifier;
+using detail::ConstantSampler;
 using detail::FrameIndex;
+using detail::GridSampler;
+using detail::LevelParams;
+using detail::MarchFns;
+using detail::MarchParams;
+using detail::RayContext;
+using detail::RayState;
+using detail::RenderJob;
+using detail::rescale_segment;
+using detail::run;
+using detail::Transparency;
 
 // Classification tables of one level: the step ratio h_l / reference differs per level.
 struct RayCaster::Tables {
@@ -36,18 +50,6 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
-constexpr double kInf = std::numeric_limits<double>::infinity();
-
-// floor / ceil to an integer without a libm call (the portable build has no roundsd); equal to
-// std::int64_t(std::floor(x)) / std::int64_t(std::ceil(x)) wherever those are defined.
-inline std::int64_t ifloor(double x) {
-  const auto i = std::int64_t(x);
-  return i - (double(i) > x ? 1 : 0);
-}
-inline std::int64_t iceil(double x) {
-  const auto i = std::int64_t(x);
-  return i + (double(i) < x ? 1 : 0);
-}
 // Samples below this opacity skip the gradient (six extra trilinear taps).
 constexpr float kShadeThreshold = 1.0f / 1024.0f;
 // 8-lane march with empty-space skipping: a chunk whose first kRealign or more points lie in
@@ -55,192 +57,12 @@ constexpr float kShadeThreshold = 1.0f / 1024.0f;
 // its front value is sampled afresh, as after a skipped chunk), so fewer lanes idle.
 constexpr int kRealign = 2;
 
-// ---- Sampling -------------------------------------------------------------------------------
-
-// Trilinear interpolation in a block's samples; positions are clamped to the sample grid so
-// pre-samples and closing samples just outside a brick's overlap read edge values.
-struct GridSampler {
-  const float* data;
-  std::ptrdiff_t dx, dy, dz;  // neighbour offsets (0 along an axis with one sample)
-  float max_x, max_y, max_z;
-  int nx, ny, nz;
-
-  explicit GridSampler(const Block& b)
-      : data(b.data),
-        dx(b.n[0] > 1 ? 1 : 0),
-        dy(b.n[1] > 1 ? std::ptrdiff_t(b.n[0]) : 0),
-        dz(b.n[2] > 1 ? std::ptrdiff_t(b.n[0]) * b.n[1] : 0),
-        max_x(limit(b.n[0])),
-        max_y(limit(b.n[1])),
-        max_z(limit(b.n[2])),
-        nx(b.n[0]),
-        ny(b.n[1]),
-        nz(b.n[2]) {}
-
-  // Largest coordinate whose +1 neighbour still exists.
-  static float limit(int n) { return n > 1 ? float(n - 1) * (1.0f - 1e-6f) : 0.0f; }
-
-  [[gnu::always_inline]] inline float operator()(float x, float y, float z) const {
-    x = std::clamp(x, 0.0f, max_x);
-    y = std::clamp(y, 0.0f, max_y);
-    z = std::clamp(z, 0.0f, max_z);
-    const int ix = int(x), iy = int(y), iz = int(z);
-    const float fx = x - float(ix), fy = y - float(iy), fz = z - float(iz);
-    const float* p = data + ix * dx + std::ptrdiff_t(iy) * dy + std::ptrdiff_t(iz) * dz;
-    const float c00 = p[0] + fx * (p[dx] - p[0]);
-    const float c10 = p[dy] + fx * (p[dy + dx] - p[dy]);
-    const float c01 = p[dz] + fx * (p[dz + dx] - p[dz]);
-    const float c11 = p[dz + dy] + fx * (p[dz + dy + dx] - p[dz + dy]);
-    const float c0 = c00 + fy * (c10 - c00);
-    const float c1 = c01 + fy * (c11 - c01);
-    return c0 + fz * (c1 - c0);
-  }
-
-  // Central differences one voxel either side, in local voxel units (times 2): f(p + e_a) -
-  // f(p - e_a) of the trilinear interpolant f. Trilinear interpolation is linear in the samples
-  // and the taps are whole voxels apart, so this equals the trilinear interpolation of the
-  // per-voxel differences v[i + 1] - v[i - 1]: one 4x2x2 / 2x4x2 / 2x2x4 stencil of 32 voxels
-  // around the sample instead of six separate trilinear taps (same value up to rounding).
-  void gradient(float x, float y, float z, float g[3]) const {
-    // Near the grid's faces each tap is clamped on its own (as six trilinear taps).
-    if (!(x >= 1.0f && y >= 1.0f && z >= 1.0f && x < float(nx - 2) && y < float(ny - 2) && z < float(nz - 2))) {
-      g[0] = (*this)(x + 1, y, z) - (*this)(x - 1, y, z);
-      g[1] = (*this)(x, y + 1, z) - (*this)(x, y - 1, z);
-      g[2] = (*this)(x, y, z + 1) - (*this)(x, y, z - 1);
-      return;
-    }
-    const int ix = int(x), iy = int(y), iz = int(z);
-    const float fx = x - float(ix), fy = y - float(iy), fz = z - float(iz);
-    const float* p = data + ix + std::ptrdiff_t(iy) * dy + std::ptrdiff_t(iz) * dz;
-    // Rows along x through (y, z): the interpolated value and x difference.
-    auto row = [&](std::ptrdiff_t off, float& l, float& d) {
-      const float* r = p + off;
-      const float a = r[-1], b = r[0], c = r[1], e = r[2];
-      l = b + fx * (c - b);
-      d = (c - a) + fx * ((e - b) - (c - a));
-    };
-    auto lin = [&](std::ptrdiff_t off) {
-      const float* r = p + off;
-      return r[0] + fx * (r[1] - r[0]);
-    };
-    float l00, l10, l01, l11, d00, d10, d01, d11;  // l{y}{z}
-    row(0, l00, d00);
-    row(dy, l10, d10);
-    row(dz, l01, d01);
-    row(dy + dz, l11, d11);
-    const float gx0 = d00 + fy * (d10 - d00), gx1 = d01 + fy * (d11 - d01);
-    g[0] = gx0 + fz * (gx1 - gx0);
-    auto diff = [](float f, float lo_m, float l0, float l1, float hi_p) {  // lerp of (l1 - lo_m) and (hi_p - l0)
-      const float a = l1 - lo_m, b = hi_p - l0;
-      return a + f * (b - a);
-    };
-    const float gy0 = diff(fy, lin(-dy), l00, l10, lin(2 * dy));
-    const float gy1 = diff(fy, lin(dz - dy), l01, l11, lin(dz + 2 * dy));
-    g[1] = gy0 + fz * (gy1 - gy0);
-    const float gz0 = diff(fz, lin(-dz), l00, l01, lin(2 * dz));
-    const float gz1 = diff(fz, lin(dy - dz), l10, l11, lin(dy + 2 * dz));
-    g[2] = gz0 + fy * (gz1 - gz0);
-  }
-};
-
-struct ConstantSampler {
-  float value;
-  explicit ConstantSampler(const Block& b) : value(b.constant) {}
-  float operator()(float, float, float) const { return value; }
-  void gradient(float, float, float, float g[3]) const { g[0] = g[1] = g[2] = 0; }
-};
-
-// ---- Classification -------------------------------------------------------------------------
-
-struct Classifier {
-  const Rgbaf* table = nullptr;
-  int size = 0;
-  float last = 0;  // size - 1
-
-  [[gnu::always_inline]] inline Rgbaf pair(float front, float back) const {  // bilinear in the pre-integrated table
-    const float u = std::clamp(front, 0.0f, 1.0f) * last, v = std::clamp(back, 0.0f, 1.0f) * last;
-    const int i = std::min(int(u), size - 2), j = std::min(int(v), size - 2);
-    const float wu = u - float(i), wv = v - float(j);
-    const Rgbaf* r0 = table + std::ptrdiff_t(i) * size + j;
-    const Rgbaf* r1 = r0 + size;
-    auto lerp = [](const Rgbaf& a, const Rgbaf& b, float w) {
-      return Rgbaf{a.r + w * (b.r - a.r), a.g + w * (b.g - a.g), a.b + w * (b.b - a.b), a.a + w * (b.a - a.a)};
-    };
-    return lerp(lerp(r0[0], r0[1], wv), lerp(r1[0], r1[1], wv), wu);
-  }
-
-  [[gnu::always_inline]] inline Rgbaf single(float x) const {  // linear in the post-classification table
-    const float u = std::clamp(x, 0.0f, 1.0f) * last;
-    const int i = std::min(int(u), size - 2);
-    const float w = u - float(i);
-    const Rgbaf& a = table[i];
-    const Rgbaf& b = table[i + 1];
-    return {a.r + w * (b.r - a.r), a.g + w * (b.g - a.g), a.b + w * (b.b - a.b), a.a + w * (b.a - a.a)};
-  }
-};
-
-// Rescales a premultiplied segment colour from its table length to `ratio` times that length.
-Rgbaf rescale_segment(const Rgbaf& c, double ratio) {
-  if (c.a <= 0.0f) return c;
-  const float a = correct_opacity(std::min(c.a, 1.0f), ratio);
-  const float k = a / c.a;
-  return {c.r * k, c.g * k, c.b * k, a};
-}
-
-// ---- Per-ray state --------------------------------------------------------------------------
-
-struct RayContext {
-  std::array<double, 3> origin, dir;
-  std::array<float, 3> light;  // unit vector towards the light (the eye: a headlight)
-};
-
-struct RayState {
-  Rgbaf acc;                   // premultiplied, front to back
-  bool has_prev = false;       // a sample exists behind the current position
-  bool open = false;           // the last region marched was a block (a closing segment is due)
-  const Block* last = nullptr;
-  int prev_level = 0;
-  std::int64_t prev_k = 0;     // lattice index of the previous sample (at prev_level)
-  double prev_t = 0;           // parameter of the previous sample (before the first: the volume entry)
-  float prev_x = 0;            // normalised value of the previous sample
-  std::uint64_t samples = 0;
-  std::uint8_t* touched = nullptr;  // per-thread flags: blocks this thread sampled
-};
-
-struct LevelParams {
-  double h = 1;                // world step of the level
-  Classifier classify;
-};
-
-// Transparent-segment test without touching the classification tables: a segment whose value
-// range lies in bins where the TF is zero contributes nothing (pre-integrated or not).
-struct Transparency {
-  static constexpr int kBins = 1024;
-  std::vector<std::uint16_t> next_visible;  // first visible bin >= i (kBins = none)
-
-  explicit Transparency(const TransferFunction& tf) : next_visible(kBins + 1, kBins) {
-    for (int i = kBins - 1; i >= 0; --i)
-      next_visible[std::size_t(i)] = tf.visible(double(i) / kBins, double(i + 1) / kBins)
-                                         ? std::uint16_t(i)
-                                         : next_visible[std::size_t(i) + 1];
-  }
-  static int bin(float x) { return std::min(int(std::clamp(x, 0.0f, 1.0f) * float(kBins)), kBins - 1); }
-};
-
-struct MarchParams {
-  bool simd;    // 8-lane path for pre-integrated grid blocks (march8)
-  bool avx512;  // ... in its AVX-512 build
-  const LevelParams* levels;
-  const std::uint16_t* next_visible;
-  float value_lo, value_scale;  // normalisation
-  ShadingParams light;
-  float termination;
-};
-
 // Straight-line local position of ray parameter t in block b.
 inline void local_position(const Block& b, const RayContext& ray, double t, float p[3]) {
   for (int a = 0; a < 3; ++a) p[a] = float((ray.origin[a] + ray.dir[a] * t) * b.scale[a] + b.offset[a]);
 }
+
+}  // namespace
 
 // ---- AVX2 path ---------------------------------------------------------------------------------
 // Eight consecutive lattice points of one block at a time (trilinear taps, transparency bins and
@@ -250,7 +72,7 @@ inline void local_position(const Block& b, const RayContext& ray, double t, floa
 // source (march8_body.hpp) is compiled twice: for AVX2 and for AVX-512 (EVEX, 32 registers),
 // both with fp-contract=off, since GCC would otherwise fuse multiplies and adds into FMA there.
 
-bool have_avx2() {
+bool detail::have_avx2() {
 #if STRATA_RENDER_AVX2
   static const bool yes = __builtin_cpu_supports("avx2");
   return yes;
@@ -259,7 +81,7 @@ bool have_avx2() {
 #endif
 }
 
-bool have_avx512() {
+bool detail::have_avx512() {
 #if STRATA_RENDER_AVX2
   static const bool yes = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("avx512f") &&
                           __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx512bw") &&
@@ -269,6 +91,8 @@ bool have_avx512() {
   return false;
 #endif
 }
+
+namespace {
 
 #if STRATA_RENDER_AVX2
 
@@ -491,11 +315,6 @@ struct Marcher {
   }
 };
 
-struct MarchFns {
-  bool (*lattice)(const Block&, std::int64_t, std::int64_t, const RayContext&, const MarchParams&, RayState&, bool);
-  void (*tail)(const Block&, double, const RayContext&, const MarchParams&, RayState&);
-};
-
 template <class Sampler, bool Preint, bool Shade>
 MarchFns fns() {
   return {&Marcher<Sampler, Preint, Shade>::lattice, &Marcher<Sampler, Preint, Shade>::tail};
@@ -506,131 +325,15 @@ MarchFns pick(bool constant) {
   return constant ? fns<ConstantSampler, Preint, false>() : fns<GridSampler, Preint, Shade>();
 }
 
-MarchFns march_function(const Block& b, bool preint, bool shade) {
+}  // namespace
+
+MarchFns detail::march_function(const Block& b, bool preint, bool shade) {
   const bool constant = b.data == nullptr;
   if (preint) return shade ? pick<true, true>(constant) : pick<true, false>(constant);
   return shade ? pick<false, true>(constant) : pick<false, false>(constant);
 }
 
-// ---- Traversal ------------------------------------------------------------------------------
-
-// Parametric exit of the ray from an axis-aligned box it is inside of.
-double box_exit(const RayContext& r, const std::array<double, 3>& inv, const std::array<double, 3>& lo,
-                const std::array<double, 3>& hi) {
-  double t = kInf;
-  for (int a = 0; a < 3; ++a) {
-    if (r.dir[a] > 0) t = std::min(t, (hi[a] - r.origin[a]) * inv[a]);
-    else if (r.dir[a] < 0) t = std::min(t, (lo[a] - r.origin[a]) * inv[a]);
-  }
-  return t;
-}
-
-// [t_enter, t_exit] of the ray inside [0, hi]; empty when enter >= exit.
-std::pair<double, double> clip_to_box(const RayContext& r, const std::array<double, 3>& inv,
-                                      const std::array<double, 3>& hi) {
-  double t0 = 0, t1 = kInf;
-  for (int a = 0; a < 3; ++a) {
-    if (r.dir[a] == 0) {
-      if (r.origin[a] < 0 || r.origin[a] > hi[a]) return {1, 0};
-      continue;
-    }
-    double ta = (0 - r.origin[a]) * inv[a], tb = (hi[a] - r.origin[a]) * inv[a];
-    if (ta > tb) std::swap(ta, tb);
-    t0 = std::max(t0, ta);
-    t1 = std::min(t1, tb);
-  }
-  return {t0, t1};
-}
-
-struct Traversal {
-  const FrameIndex& index;
-  const std::vector<MarchFns>& march;
-  const MarchParams& mp;
-  double eps;  // parametric nudge past a face, to locate the next cell
-
-  // When the ray leaves a marched block into skipped space, the segment from its last sample
-  // to the next lattice point still belongs to the block: it is sampled from the overlap.
-  void close(const RayContext& ray, RayState& st) const {
-    if (!st.open) return;
-    st.open = false;
-    const Block& b = *st.last;
-    // The block's next lattice point after the previous sample (which may belong to an
-    // earlier block of another level when this one was too thin to hold a lattice point).
-    const std::int64_t k = st.has_prev && st.prev_level == b.level
-                               ? st.prev_k + 1
-                               : ifloor(st.prev_t / mp.levels[b.level].h) + 1;
-    march[std::size_t(&b - index.blocks.data())].lattice(b, k, k + 1, ray, mp, st, false);
-  }
-
-  void block_interval(const Block& b, double t_in, double t_out, const RayContext& ray, RayState& st) const {
-    const double h = mp.levels[b.level].h;
-    std::int64_t k0 = iceil(t_in / h);
-    const std::int64_t k1 = iceil(t_out / h);
-    if (st.has_prev) {
-      // Never revisit a lattice point a closing segment (or the previous block) already took.
-      if (st.prev_level == b.level) k0 = std::max(k0, st.prev_k + 1);
-      else k0 = std::max(k0, ifloor(st.prev_t / h) + 1);
-    }
-    bool closing = true;
-    if (k0 < k1) {
-      const std::size_t id = std::size_t(&b - index.blocks.data());
-      closing = march[id].lattice(b, k0, k1, ray, mp, st, true);
-      st.touched[id] = 1;
-    }
-    st.open = closing;
-    st.last = &b;
-  }
-
-  void trace(const RayContext& ray, double t, double t_end, RayState& st) const {
-    std::array<double, 3> inv{};
-    for (int a = 0; a < 3; ++a) inv[a] = ray.dir[a] != 0 ? 1.0 / ray.dir[a] : 0.0;
-    const auto& c = index.cells;
-    while (t < t_end && st.acc.a <= mp.termination) {
-      const double tp = t + eps;
-      std::array<std::int64_t, 3> cell{};
-      for (int a = 0; a < 3; ++a)
-        cell[a] = std::clamp(ifloor((ray.origin[a] + ray.dir[a] * tp) / index.cell_size[a]),
-                             std::int64_t(0), c[a] - 1);
-      const std::int32_t id = index.block_at(cell[0], cell[1], cell[2]);
-      const Block* b = id >= 0 ? &index.blocks[std::size_t(id)] : nullptr;
-      double t_next;
-      if (b && b->exclusive) {
-        t_next = box_exit(ray, inv, b->lo, b->hi);
-      } else {
-        std::array<double, 3> lo{}, hi{};
-        for (int a = 0; a < 3; ++a) {
-          lo[a] = double(cell[a]) * index.cell_size[a];
-          hi[a] = std::min(lo[a] + index.cell_size[a], index.volume_hi[a]);
-        }
-        t_next = box_exit(ray, inv, lo, hi);
-      }
-      t_next = std::min(std::max(t_next, tp), t_end);
-      if (!b || b->culled) {
-        close(ray, st);
-      } else {
-        // At a level change the previous block also closes its last step, so the next
-        // block's first segment starts at most one of its own steps back.
-        if (st.open && st.last->level != b->level) close(ray, st);
-        block_interval(*b, t, t_next, ray, st);
-      }
-      t = t_next;
-    }
-    // The ray left the volume inside a block: its last partial segment still counts, so the
-    // integrated length equals the chord for every step size.
-    if (st.open && t >= t_end && st.acc.a <= mp.termination)
-      march[std::size_t(st.last - index.blocks.data())].tail(*st.last, t_end, ray, mp, st);
-  }
-};
-
-Rgba8 to_rgba8(const Rgbaf& acc, const std::array<float, 4>& bg) {
-  // Over the background (straight colour, premultiplied here), then back to straight colour.
-  const float w = 1.0f - acc.a;
-  const float a = acc.a + w * bg[3];
-  const float r = acc.r + w * bg[0] * bg[3], g = acc.g + w * bg[1] * bg[3], b = acc.b + w * bg[2] * bg[3];
-  const float inv = a > 0 ? 1.0f / a : 0.0f;
-  auto q = [](float v) { return std::uint8_t(std::lround(std::clamp(v, 0.0f, 1.0f) * 255.0f)); };
-  return {q(r * inv), q(g * inv), q(b * inv), q(a)};
-}
+namespace {
 
 void validate(const RenderOptions& o) {
   if (!(o.step > 0)) throw Error("render: --step must be positive");
@@ -651,71 +354,6 @@ RayCaster::RayCaster(RayCaster&&) noexcept = default;
 RayCaster& RayCaster::operator=(RayCaster&&) noexcept = default;
 
 namespace {
-
-struct RenderJob {
-  const TransferFunction& tf;
-  const Camera& camera;
-  const FrameIndex& index;
-  const RenderOptions& options;
-  const std::vector<LevelParams>& levels;
-  float value_lo, value_scale;
-};
-
-Image run(const RenderJob& job, RenderStats& stats) {
-  const FrameIndex& index = job.index;
-  std::vector<MarchFns> march;
-  march.reserve(index.blocks.size());
-  for (const Block& b : index.blocks) march.push_back(march_function(b, job.options.preintegrated, job.options.shading));
-  const Transparency transparency(job.tf);
-  const bool simd = job.options.simd && have_avx2();
-  const MarchParams mp{simd, simd && job.options.avx512 && have_avx512(),
-                       job.levels.data(), transparency.next_visible.data(), job.value_lo, job.value_scale, job.options.light, job.options.termination_alpha};
-  double extent = 0;
-  for (double v : index.volume_hi) extent = std::max(extent, v);
-  const Traversal trav{index, march, mp, 1e-9 * std::max(extent, 1.0)};
-
-  const Camera& cam = job.camera;
-  const int width = cam.width(), height = cam.height();
-  Image image(width, height);
-  const int tile = job.options.tile;
-  const int tiles_x = (width + tile - 1) / tile, tiles_y = (height + tile - 1) / tile;
-  const int threads = job.options.threads > 0 ? job.options.threads : thread_count();
-  std::uint64_t rays = 0, samples = 0;
-  std::vector<std::uint8_t> sampled(index.blocks.size(), 0);
-#pragma omp parallel num_threads(threads) reduction(+ : rays, samples)
-  {
-    std::vector<std::uint8_t> touched(index.blocks.size(), 0);
-#pragma omp for schedule(dynamic, 1)
-    for (int t = 0; t < tiles_x * tiles_y; ++t) {
-      const int x0 = (t % tiles_x) * tile, y0 = (t / tiles_x) * tile;
-      for (int py = y0; py < std::min(y0 + tile, height); ++py)
-        for (int px = x0; px < std::min(x0 + tile, width); ++px) {
-          const Ray r = cam.ray(px, py);
-          RayContext ray{{r.origin.x, r.origin.y, r.origin.z},
-                         {r.direction.x, r.direction.y, r.direction.z},
-                         {float(-r.direction.x), float(-r.direction.y), float(-r.direction.z)}};
-          std::array<double, 3> inv{};
-          for (int a = 0; a < 3; ++a) inv[a] = ray.dir[a] != 0 ? 1.0 / ray.dir[a] : 0.0;
-          const auto [t0, t1] = clip_to_box(ray, inv, index.volume_hi);
-          RayState st;
-          st.touched = touched.data();
-          st.prev_t = t0;  // the volume entry starts the first segment
-          if (t0 < t1) {
-            ++rays;
-            trav.trace(ray, t0, t1, st);
-            samples += st.samples;
-          }
-          image.at(px, py) = to_rgba8(st.acc, job.options.background);
-        }
-    }
-#pragma omp critical
-    for (std::size_t i = 0; i < touched.size(); ++i) sampled[i] |= touched[i];
-  }
-  stats.rays = rays;
-  stats.samples = samples;
-  stats.bricks_sampled = std::uint64_t(std::count(sampled.begin(), sampled.end(), std::uint8_t(1)));
-  return image;
-}
 
 // Macro-cell dilation for a step (in local voxels): a segment is at most one step long per axis.
 int skip_dilation(const RenderOptions& o) {

@@ -1,0 +1,205 @@
+#include "render/ray_traversal.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <utility>
+
+#include "strata/core/threads.hpp"
+
+namespace strata::render::detail {
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// floor / ceil to an integer without a libm call (the portable build has no roundsd); equal to
+// std::int64_t(std::floor(x)) / std::int64_t(std::ceil(x)) wherever those are defined.
+inline std::int64_t ifloor(double x) {
+  const auto i = std::int64_t(x);
+  return i - (double(i) > x ? 1 : 0);
+}
+inline std::int64_t iceil(double x) {
+  const auto i = std::int64_t(x);
+  return i + (double(i) < x ? 1 : 0);
+}
+
+// ---- Traversal ------------------------------------------------------------------------------
+
+// Parametric exit of the ray from an axis-aligned box it is inside of.
+double box_exit(const RayContext& r, const std::array<double, 3>& inv, const std::array<double, 3>& lo,
+                const std::array<double, 3>& hi) {
+  double t = kInf;
+  for (int a = 0; a < 3; ++a) {
+    if (r.dir[a] > 0) t = std::min(t, (hi[a] - r.origin[a]) * inv[a]);
+    else if (r.dir[a] < 0) t = std::min(t, (lo[a] - r.origin[a]) * inv[a]);
+  }
+  return t;
+}
+
+// [t_enter, t_exit] of the ray inside [0, hi]; empty when enter >= exit.
+std::pair<double, double> clip_to_box(const RayContext& r, const std::array<double, 3>& inv,
+                                      const std::array<double, 3>& hi) {
+  double t0 = 0, t1 = kInf;
+  for (int a = 0; a < 3; ++a) {
+    if (r.dir[a] == 0) {
+      if (r.origin[a] < 0 || r.origin[a] > hi[a]) return {1, 0};
+      continue;
+    }
+    double ta = (0 - r.origin[a]) * inv[a], tb = (hi[a] - r.origin[a]) * inv[a];
+    if (ta > tb) std::swap(ta, tb);
+    t0 = std::max(t0, ta);
+    t1 = std::min(t1, tb);
+  }
+  return {t0, t1};
+}
+
+struct Traversal {
+  const FrameIndex& index;
+  const std::vector<MarchFns>& march;
+  const MarchParams& mp;
+  double eps;  // parametric nudge past a face, to locate the next cell
+
+  // When the ray leaves a marched block into skipped space, the segment from its last sample
+  // to the next lattice point still belongs to the block: it is sampled from the overlap.
+  void close(const RayContext& ray, RayState& st) const {
+    if (!st.open) return;
+    st.open = false;
+    const Block& b = *st.last;
+    // The block's next lattice point after the previous sample (which may belong to an
+    // earlier block of another level when this one was too thin to hold a lattice point).
+    const std::int64_t k = st.has_prev && st.prev_level == b.level
+                               ? st.prev_k + 1
+                               : ifloor(st.prev_t / mp.levels[b.level].h) + 1;
+    march[std::size_t(&b - index.blocks.data())].lattice(b, k, k + 1, ray, mp, st, false);
+  }
+
+  void block_interval(const Block& b, double t_in, double t_out, const RayContext& ray, RayState& st) const {
+    const double h = mp.levels[b.level].h;
+    std::int64_t k0 = iceil(t_in / h);
+    const std::int64_t k1 = iceil(t_out / h);
+    if (st.has_prev) {
+      // Never revisit a lattice point a closing segment (or the previous block) already took.
+      if (st.prev_level == b.level) k0 = std::max(k0, st.prev_k + 1);
+      else k0 = std::max(k0, ifloor(st.prev_t / h) + 1);
+    }
+    bool closing = true;
+    if (k0 < k1) {
+      const std::size_t id = std::size_t(&b - index.blocks.data());
+      closing = march[id].lattice(b, k0, k1, ray, mp, st, true);
+      st.touched[id] = 1;
+    }
+    st.open = closing;
+    st.last = &b;
+  }
+
+  void trace(const RayContext& ray, double t, double t_end, RayState& st) const {
+    std::array<double, 3> inv{};
+    for (int a = 0; a < 3; ++a) inv[a] = ray.dir[a] != 0 ? 1.0 / ray.dir[a] : 0.0;
+    const auto& c = index.cells;
+    while (t < t_end && st.acc.a <= mp.termination) {
+      const double tp = t + eps;
+      std::array<std::int64_t, 3> cell{};
+      for (int a = 0; a < 3; ++a)
+        cell[a] = std::clamp(ifloor((ray.origin[a] + ray.dir[a] * tp) / index.cell_size[a]),
+                             std::int64_t(0), c[a] - 1);
+      const std::int32_t id = index.block_at(cell[0], cell[1], cell[2]);
+      const Block* b = id >= 0 ? &index.blocks[std::size_t(id)] : nullptr;
+      double t_next;
+      if (b && b->exclusive) {
+        t_next = box_exit(ray, inv, b->lo, b->hi);
+      } else {
+        std::array<double, 3> lo{}, hi{};
+        for (int a = 0; a < 3; ++a) {
+          lo[a] = double(cell[a]) * index.cell_size[a];
+          hi[a] = std::min(lo[a] + index.cell_size[a], index.volume_hi[a]);
+        }
+        t_next = box_exit(ray, inv, lo, hi);
+      }
+      t_next = std::min(std::max(t_next, tp), t_end);
+      if (!b || b->culled) {
+        close(ray, st);
+      } else {
+        // At a level change the previous block also closes its last step, so the next
+        // block's first segment starts at most one of its own steps back.
+        if (st.open && st.last->level != b->level) close(ray, st);
+        block_interval(*b, t, t_next, ray, st);
+      }
+      t = t_next;
+    }
+    // The ray left the volume inside a block: its last partial segment still counts, so the
+    // integrated length equals the chord for every step size.
+    if (st.open && t >= t_end && st.acc.a <= mp.termination)
+      march[std::size_t(st.last - index.blocks.data())].tail(*st.last, t_end, ray, mp, st);
+  }
+};
+
+Rgba8 to_rgba8(const Rgbaf& acc, const std::array<float, 4>& bg) {
+  // Over the background (straight colour, premultiplied here), then back to straight colour.
+  const float w = 1.0f - acc.a;
+  const float a = acc.a + w * bg[3];
+  const float r = acc.r + w * bg[0] * bg[3], g = acc.g + w * bg[1] * bg[3], b = acc.b + w * bg[2] * bg[3];
+  const float inv = a > 0 ? 1.0f / a : 0.0f;
+  auto q = [](float v) { return std::uint8_t(std::lround(std::clamp(v, 0.0f, 1.0f) * 255.0f)); };
+  return {q(r * inv), q(g * inv), q(b * inv), q(a)};
+}
+
+}  // namespace
+
+Image run(const RenderJob& job, RenderStats& stats) {
+  const FrameIndex& index = job.index;
+  std::vector<MarchFns> march;
+  march.reserve(index.blocks.size());
+  for (const Block& b : index.blocks) march.push_back(march_function(b, job.options.preintegrated, job.options.shading));
+  const Transparency transparency(job.tf);
+  const bool simd = job.options.simd && have_avx2();
+  const MarchParams mp{simd, simd && job.options.avx512 && have_avx512(),
+                       job.levels.data(), transparency.next_visible.data(), job.value_lo, job.value_scale, job.options.light, job.options.termination_alpha};
+  double extent = 0;
+  for (double v : index.volume_hi) extent = std::max(extent, v);
+  const Traversal trav{index, march, mp, 1e-9 * std::max(extent, 1.0)};
+
+  const Camera& cam = job.camera;
+  const int width = cam.width(), height = cam.height();
+  Image image(width, height);
+  const int tile = job.options.tile;
+  const int tiles_x = (width + tile - 1) / tile, tiles_y = (height + tile - 1) / tile;
+  const int threads = job.options.threads > 0 ? job.options.threads : thread_count();
+  std::uint64_t rays = 0, samples = 0;
+  std::vector<std::uint8_t> sampled(index.blocks.size(), 0);
+#pragma omp parallel num_threads(threads) reduction(+ : rays, samples)
+  {
+    std::vector<std::uint8_t> touched(index.blocks.size(), 0);
+#pragma omp for schedule(dynamic, 1)
+    for (int t = 0; t < tiles_x * tiles_y; ++t) {
+      const int x0 = (t % tiles_x) * tile, y0 = (t / tiles_x) * tile;
+      for (int py = y0; py < std::min(y0 + tile, height); ++py)
+        for (int px = x0; px < std::min(x0 + tile, width); ++px) {
+          const Ray r = cam.ray(px, py);
+          RayContext ray{{r.origin.x, r.origin.y, r.origin.z},
+                         {r.direction.x, r.direction.y, r.direction.z},
+                         {float(-r.direction.x), float(-r.direction.y), float(-r.direction.z)}};
+          std::array<double, 3> inv{};
+          for (int a = 0; a < 3; ++a) inv[a] = ray.dir[a] != 0 ? 1.0 / ray.dir[a] : 0.0;
+          const auto [t0, t1] = clip_to_box(ray, inv, index.volume_hi);
+          RayState st;
+          st.touched = touched.data();
+          st.prev_t = t0;  // the volume entry starts the first segment
+          if (t0 < t1) {
+            ++rays;
+            trav.trace(ray, t0, t1, st);
+            samples += st.samples;
+          }
+          image.at(px, py) = to_rgba8(st.acc, job.options.background);
+        }
+    }
+#pragma omp critical
+    for (std::size_t i = 0; i < touched.size(); ++i) sampled[i] |= touched[i];
+  }
+  stats.rays = rays;
+  stats.samples = samples;
+  stats.bricks_sampled = std::uint64_t(std::count(sampled.begin(), sampled.end(), std::uint8_t(1)));
+  return image;
+}
+
+}  // namespace strata::render::detail
