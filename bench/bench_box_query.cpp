@@ -12,6 +12,7 @@
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
+#include <cmath>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -204,6 +205,30 @@ void NearlyWholeVolume(benchmark::State& state) {
   state.counters["fetches"] = double(fetched);
 }
 BENCHMARK(NearlyWholeVolume)->Unit(benchmark::kMicrosecond);
+
+// The same box by the coarse method (at most range(0) cells of one level): bounded cost, with the
+// partly covered cells' placement uncertainty in sigma. Reports the worst |count - exact| / sigma.
+void NearlyWholeVolumeCoarse(benchmark::State& state) {
+  Fixture& fx = fixture();
+  const Box b{{1, 1, 1}, fx.dims};
+  BoxHistogram r;
+  for (auto _ : state) {
+    r = fx.query->coarse(b, std::uint64_t(state.range(0)));
+    benchmark::DoNotOptimize(r.counts.data());
+  }
+  const BoxHistogram exact = fx.query->naive(b);
+  double worst_l1 = 0, worst_z = 0;
+  for (const BoxCount& e : exact.counts) {
+    const BoxCount* c = r.find(e.source);
+    const double err = std::abs((c ? c->count : 0.0) - e.count);
+    worst_l1 += err;
+    if (c && c->sigma > 0) worst_z = std::max(worst_z, err / c->sigma);
+  }
+  state.counters["fetches"] = double(r.fetches);
+  state.counters["l1_error"] = worst_l1;
+  state.counters["max_err_over_sigma"] = worst_z;
+}
+BENCHMARK(NearlyWholeVolumeCoarse)->Arg(64)->Arg(512)->Arg(4096)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 

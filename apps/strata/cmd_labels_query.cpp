@@ -23,6 +23,7 @@ struct LabelsQueryArgs {
   std::string input, box, method = "hybrid";
   bool naive = false, json = false;
   std::size_t top = 0;
+  std::uint64_t max_samples = 4096;
 };
 
 void run_labels_query(const LabelsQueryArgs& args, const GlobalOptions&) {
@@ -35,6 +36,7 @@ void run_labels_query(const LabelsQueryArgs& args, const GlobalOptions&) {
                 std::to_string(dims.x) + "," + std::to_string(dims.y) + "," + std::to_string(dims.z) + ")");
   mixture::QueryOptions options;
   options.method = args.naive ? mixture::QueryMethod::naive : mixture::parse_query_method(args.method);
+  options.max_samples = args.max_samples;
 
   const auto t0 = clock::now();
   const mixture::MixtureLookup& lookup = labels.lookup();
@@ -97,8 +99,12 @@ void register_labels_query(CLI::App& labels, const GlobalOptions& global) {
   cmd->add_option("input", args->input, "Encoded label volume (.strata, from `strata labels encode`)")->required();
   cmd->add_option("--box", args->box, "Box x0,y0,z0:x1,y1,z1 (half-open, level-0 voxels; default: whole volume)");
   cmd->add_option("--method", args->method,
-                  "hybrid (level-0 shell + sampled interior), footprint (one sample per cube) or naive (exact scan)")
-      ->check(CLI::IsMember({"hybrid", "footprint", "naive"}));
+                  "hybrid (level-0 shell + sampled interior), footprint (one sample per cube), naive (exact scan) "
+                  "or coarse (at most --max-samples cells of one level; partly covered cells widen sigma)")
+      ->check(CLI::IsMember({"hybrid", "footprint", "naive", "coarse"}));
+  cmd->add_option("--max-samples", args->max_samples, "coarse: cells sampled at most")
+      ->capture_default_str()
+      ->check(CLI::Range(std::uint64_t(1), std::uint64_t(1) << 40));
   cmd->add_flag("--naive", args->naive, "Exact count by scanning level 0 (same as --method naive; uses --threads)");
   cmd->add_option("--top", args->top, "Only the N labels with the largest counts (default: all, by label value)");
   cmd->add_flag("--json", args->json, "Print JSON");

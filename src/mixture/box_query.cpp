@@ -74,6 +74,21 @@ struct SourceSink {
     });
     return expanded;
   }
+  // A partly covered cell of the coarse method: `n` of its `total` voxels lie in the box. Label
+  // s has about c = total mu_s voxels in the cell, so the box holds between max(0, n - (total
+  // - c)) and min(n, c) of them wherever they sit; the spread of a uniform law over that range
+  // is added to the variance (labels are spatially coherent, so no random-placement model).
+  void add_placement(std::uint32_t node, double n, double total, const MixtureLookup& lookup, std::uint32_t ns) {
+    if (node < ns) return;  // one label fills the cell: no uncertainty however it is cut
+    const auto ix = lookup.index(node);
+    const auto mu = lookup.mean_weights(node);
+    for (std::size_t k = 0; k < ix.size(); ++k) {
+      const double c = total * mu[k];
+      const double range = std::min(n, c) - std::max(0.0, n - (total - c));
+      touch(ix[k]);
+      var[ix[k]] += range * range / 12.0;
+    }
+  }
   // Zeroes the touched entries (after an exception; drain() leaves nothing behind).
   void clear() {
     for (std::uint32_t s : touched) count[s] = var[s] = 0.0, mark[s] = 0;
@@ -154,6 +169,7 @@ std::string_view query_method_name(QueryMethod m) {
     case QueryMethod::hybrid: return "hybrid";
     case QueryMethod::footprint: return "footprint";
     case QueryMethod::naive: return "naive";
+    case QueryMethod::coarse: return "coarse";
   }
   return "?";
 }
@@ -162,7 +178,8 @@ QueryMethod parse_query_method(std::string_view name) {
   if (name == "hybrid") return QueryMethod::hybrid;
   if (name == "footprint") return QueryMethod::footprint;
   if (name == "naive") return QueryMethod::naive;
-  throw Error("query method: expected hybrid, footprint or naive, got '" + std::string(name) + "'");
+  if (name == "coarse") return QueryMethod::coarse;
+  throw Error("query method: expected hybrid, footprint, naive or coarse, got '" + std::string(name) + "'");
 }
 
 double BoxHistogram::total() const {
@@ -286,6 +303,7 @@ std::vector<FootprintBox> BoxQuery::plan(const Box& box, const QueryOptions& opt
 
 BoxHistogram BoxQuery::run(const Box& box, const QueryOptions& options) const {
   if (options.method == QueryMethod::naive) return naive(box, options.threads);
+  if (options.method == QueryMethod::coarse) return coarse(box, options.max_samples);
   const auto plan_boxes = plan(box, options);
   BoxHistogram result;
   result.box = box;
@@ -360,6 +378,73 @@ BoxHistogram BoxQuery::run(const Box& box, const QueryOptions& options) const {
       }
   }
   result.distinct_nodes = sink.expand(nodes, lookup_, ns);
+  sink.drain(result.counts);
+  return result;
+}
+
+int BoxQuery::coarse_level(const Box& box, std::uint64_t max_samples) const {
+  check(box);
+  if (max_samples == 0) throw Error("box query: max_samples must be at least 1");
+  auto span = [](std::int64_t lo, std::int64_t hi, int l) { return ((hi - 1) >> l) - (lo >> l) + 1; };
+  const int lmax = int(dims_.size()) - 1;
+  for (int l = 0; l < lmax; ++l) {
+    const double n = double(span(box.lo.x, box.hi.x, l)) * double(span(box.lo.y, box.hi.y, l)) *
+                     double(span(box.lo.z, box.hi.z, l));
+    if (n <= double(max_samples)) return l;
+  }
+  return lmax;
+}
+
+BoxHistogram BoxQuery::coarse(const Box& box, std::uint64_t max_samples) const {
+  const int level = coarse_level(box, max_samples);
+  if (level == 0) return naive(box, 1);  // every voxel fits the budget: exact
+  const Box cells{{box.lo.x >> level, box.lo.y >> level, box.lo.z >> level},
+                  {((box.hi.x - 1) >> level) + 1, ((box.hi.y - 1) >> level) + 1, ((box.hi.z - 1) >> level) + 1}};
+  // Per axis and cell: voxels shared with the box (n) and the cell's support in the volume (N).
+  struct Overlap {
+    std::vector<double> n, support;
+  };
+  auto axis = [&](std::int64_t c0, std::int64_t c1, std::int64_t lo, std::int64_t hi, std::int64_t dim) {
+    Overlap o;
+    for (std::int64_t c = c0; c < c1; ++c) {
+      const std::int64_t a = c << level, e = std::min((c + 1) << level, dim);
+      o.n.push_back(double(std::min(hi, e) - std::max(lo, a)));
+      o.support.push_back(double(e - a));
+    }
+    return o;
+  };
+  const Extent d0 = dims_[0];
+  const Overlap ox = axis(cells.lo.x, cells.hi.x, box.lo.x, box.hi.x, d0.x);
+  const Overlap oy = axis(cells.lo.y, cells.hi.y, box.lo.y, box.hi.y, d0.y);
+  const Overlap oz = axis(cells.lo.z, cells.hi.z, box.lo.z, box.hi.z, d0.z);
+
+  const std::uint64_t count = std::uint64_t(cells.voxel_count());
+  auto& ids = local_buffer(count);
+  grid_.decode_box(level, cells, {ids.data(), count});
+  BoxHistogram result;
+  result.box = box;
+  result.pieces = 1;
+  result.fetches = result.samples = count;
+  NodeMap nodes(kNoNode, std::min<std::uint64_t>(count / 4 + 16, 4096));
+  SourceSink& sink = local_sink(num_sources_);
+  const SinkGuard guard{sink};
+  struct Partial {
+    std::uint32_t node;
+    double n, total;
+  };
+  std::vector<Partial> partial;  // cells on the box's faces only
+  const std::uint32_t* id = ids.data();
+  for (std::size_t z = 0; z < oz.n.size(); ++z)
+    for (std::size_t y = 0; y < oy.n.size(); ++y)
+      for (std::size_t x = 0; x < ox.n.size(); ++x, ++id) {
+        const double n = ox.n[x] * oy.n[y] * oz.n[z], total = ox.support[x] * oy.support[y] * oz.support[z];
+        NodeAcc* a = nodes.insert(*id, {}).first;
+        a->w += n;
+        a->w2 += n * n;
+        if (n < total) partial.push_back({*id, n, total});
+      }
+  result.distinct_nodes = sink.expand(nodes, lookup_, num_sources_);
+  for (const Partial& p : partial) sink.add_placement(p.node, p.n, p.total, lookup_, num_sources_);
   sink.drain(result.counts);
   return result;
 }

@@ -144,4 +144,13 @@ TEST(LabelsCli, QueryAgreesWithTheExactScan) {
   EXPECT_LT(fast["fetches"].get<double>(), exact["fetches"].get<double>());
   EXPECT_EQ(run_command(strata_cmd("labels query " + enc + " --box 0,0,0:99,10,10"), &out), 1) << out;
   EXPECT_NE(out.find("box"), std::string::npos) << out;
+
+  // The coarse method: a bounded number of samples, counts still summing to the box volume.
+  ASSERT_EQ(run_command(strata_cmd("labels query " + enc + box + " --method coarse --max-samples 8"), &out), 0) << out;
+  const auto coarse = nlohmann::json::parse(out);
+  EXPECT_EQ(coarse["method"], "coarse");
+  EXPECT_LE(coarse["fetches"].get<double>(), 8.0);
+  double coarse_total = 0;
+  for (const auto& l : coarse["labels"]) coarse_total += l["count"].get<double>();
+  EXPECT_NEAR(coarse_total, volume, 1e-6 * volume);
 }

@@ -19,6 +19,15 @@
 //   hybrid     (default) the same boxes, but each box picks the level (0..m) with the least
 //              estimated cost: thin boxes next to the query's faces (the level-0 boundary shell
 //              that dominates small queries) are scanned at level 0, the interior is sampled.
+//   coarse     bounded cost for any box: every cell of one level m (the finest whose cells
+//              meeting the box number at most QueryOptions::max_samples) is sampled once,
+//              weighted by the voxels it shares with the box. A cell the box covers only in
+//              part (n of its N voxels) holds c = N mu_s voxels of label s somewhere: the box
+//              gets between max(0, n - (N - c)) and min(n, c) of them, and the variance of a
+//              uniform law over that range is added (no random-placement assumption: labels
+//              are spatially coherent). Counts still sum to the box volume. Near-whole boxes
+//              whose faces miss coarse cell boundaries cost O(surface) voxels exactly; this
+//              answers them from a few thousand samples.
 // Accumulation: samples go into a flat hash per node id (weight sum W and sum of squared
 // weights W2); every distinct node is expanded through the MixtureLookup once:
 //   count_s += W mu_s / sum(mu),  var_s += W2 sigma_s^2
@@ -35,8 +44,8 @@
 
 namespace strata::mixture {
 
-enum class QueryMethod : std::uint8_t { hybrid, footprint, naive };
-std::string_view query_method_name(QueryMethod m);  // "hybrid", "footprint", "naive"
+enum class QueryMethod : std::uint8_t { hybrid, footprint, naive, coarse };
+std::string_view query_method_name(QueryMethod m);  // "hybrid", "footprint", "naive", "coarse"
 QueryMethod parse_query_method(std::string_view name);  // throws Error
 
 struct BoxCount {
@@ -69,6 +78,7 @@ struct QueryOptions {
   double box_cost = 40.0;  // per box of the plan (one decode call)
   // A box whose plan costs more than scanning it whole at level 0 is scanned whole.
   int threads = 0;  // naive only; 0 = strata::thread_count()
+  std::uint64_t max_samples = 4096;  // coarse only: cells sampled at most (>= 1)
 };
 
 // One box of the footprint: level-`level` voxels [lo, hi) of that level (coordinates of the
@@ -94,6 +104,9 @@ class BoxQuery {
   BoxHistogram naive(const Box& box, int threads = 0) const;
   BoxHistogram footprint(const Box& box) const { return run(box, {QueryMethod::footprint}); }
   BoxHistogram hybrid(const Box& box) const { return run(box, {QueryMethod::hybrid}); }
+  BoxHistogram coarse(const Box& box, std::uint64_t max_samples = 4096) const;
+  // The level the coarse method samples for `box` (0 when even level-0 voxels fit the budget).
+  int coarse_level(const Box& box, std::uint64_t max_samples) const;
 
   // The plan of a footprint/hybrid query (for tests and the --explain output).
   std::vector<FootprintBox> plan(const Box& box, const QueryOptions& options = {}) const;
