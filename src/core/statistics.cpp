@@ -50,16 +50,19 @@ void StatisticsAccumulator::add_typed(const T* v, std::int64_t n) {
     if (small_counts_.empty()) small_counts_.assign(65536, 0);
     for (std::int64_t i = 0; i < n; ++i) ++small_counts_[std::size_t(std::int64_t(v[i]) + small_offset_)];
   } else {
-    // Label volumes come in long runs of one id: count runs, not voxels, in the hash map.
+    // Label volumes come in long runs of one id: count runs, not voxels, in the hash map. Once
+    // the map holds more distinct values than the cap, it is frozen (its counts stay exact for
+    // the voxels before) and the rest of the stream is sampled for the histogram.
     std::int64_t i = 0;
     while (i < n && !distinct_overflow_) {
       std::int64_t j = i + 1;
       while (j < n && v[j] == v[i]) ++j;
       counts_[std::int64_t(v[i])] += std::uint64_t(j - i);
+      counted_ += std::uint64_t(j - i);
       if (counts_.size() > kDistinctCap) distinct_overflow_ = true;
       i = j;
     }
-    for (std::int64_t k = 0; k < n; ++k) add_sample(double(v[k]));
+    for (std::int64_t k = i; k < n; ++k) add_sample(double(v[k]));
   }
 }
 
@@ -96,11 +99,15 @@ VolumeStatistics StatisticsAccumulator::result() const {
     for (const auto& [value, count] : counts_) s.histogram[bin_of(double(value))] += count;
     s.distinct_values = counts_.size();
   } else {
-    // Histogram from the evenly thinned sample, scaled to the voxel count.
+    // Exact counts of the integers seen before an overflow, plus the evenly thinned sample of
+    // the rest (all of a float stream) scaled to the voxels it stands for.
+    if (!seen_float_)
+      for (const auto& [value, count] : counts_) s.histogram[bin_of(double(value))] += count;
     std::array<std::uint64_t, 16> sampled{};
     for (double v : samples_) ++sampled[bin_of(v)];
-    const double scale = samples_.empty() ? 0 : double(n_) / double(samples_.size());
-    for (std::size_t b = 0; b < sampled.size(); ++b) s.histogram[b] = std::uint64_t(std::llround(sampled[b] * scale));
+    const std::uint64_t sampled_voxels = seen_float_ ? n_ : n_ - counted_;
+    const double scale = samples_.empty() ? 0 : double(sampled_voxels) / double(samples_.size());
+    for (std::size_t b = 0; b < sampled.size(); ++b) s.histogram[b] += std::uint64_t(std::llround(sampled[b] * scale));
   }
   return s;
 }

@@ -41,7 +41,8 @@ class StatisticsAccumulator {
   std::vector<std::uint64_t> small_counts_;  // 8/16-bit: value + small_offset_ -> count
   std::int64_t small_offset_ = 0;
   std::unordered_map<std::int64_t, std::uint64_t> counts_;    // 32-bit integers
-  std::vector<double> samples_;                               // floats / overflowed integers
+  std::vector<double> samples_;                               // floats / integers after the overflow
+  std::uint64_t counted_ = 0;  // integer voxels counted exactly in the map (before any overflow)
   std::uint64_t sample_stride_ = 1, sample_phase_ = 0;
 };
 
