@@ -27,14 +27,7 @@ Volume make_labels(gen::Kind kind, Extent dims, std::int64_t count) {
   return gen::generate(p);
 }
 
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
-}
+using strata::test::error_of;
 
 // Every level's decoded mixture (through the stored graph) against the exact histogram.
 double max_level_error(const EncodedLabels& e, const HistogramMipmap& h, int level) {

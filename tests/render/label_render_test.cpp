@@ -94,14 +94,7 @@ std::array<double, 3> mean_color(const Image& image) {
   return m;
 }
 
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
-}
+using strata::test::error_of;
 
 // Early termination at 0.99 leaves 1% of the background behind an opaque object.
 constexpr int kOpaqueTolerance = 4;

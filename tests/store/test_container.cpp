@@ -21,14 +21,7 @@ std::vector<std::byte> random_bytes(std::size_t n, unsigned seed) {
 }
 
 
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
-}
+using strata::test::error_of;
 
 }  // namespace
 

@@ -1,5 +1,7 @@
 #include "support/test_support.hpp"
 
+#include "strata/core/error.hpp"
+
 #include <array>
 #include <cstdio>
 #include <fstream>
@@ -58,6 +60,15 @@ int run_command(const std::string& command, std::string* output) {
   int status = pclose(pipe);
   if (output) *output = text;
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+std::string error_of(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
 }
 
 }  // namespace strata::test

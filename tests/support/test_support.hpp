@@ -2,6 +2,7 @@
 // Helpers shared by all test programs: temporary directories and locating sample data.
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <optional>
 #include <string>
 
@@ -25,6 +26,9 @@ std::optional<std::filesystem::path> mricron_data(const std::string& name);
 
 // XORs one byte of a file in place (corruption tests).
 void flip_byte(const std::filesystem::path& path, std::uint64_t offset);
+
+// The message of the strata::Error that `f` throws; "" when it throws none.
+std::string error_of(const std::function<void()>& f);
 
 // Runs a shell command, capturing stdout+stderr; returns the exit code.
 int run_command(const std::string& command, std::string* output = nullptr);

@@ -18,6 +18,7 @@
 #include "strata/quant/scheme.hpp"
 #include "strata/ta/compress.hpp"
 #include "strata/ta/ta_volume.hpp"
+#include "support/test_support.hpp"
 
 namespace strata::ta::testing {
 
@@ -121,15 +122,7 @@ inline std::vector<char> file_bytes(const std::filesystem::path& p) {
   return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
 }
 
-// The message of the strata::Error `f` throws ("" when it throws nothing).
-inline std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
-}
+using strata::test::error_of;
 
 inline bool contains(const std::string& haystack, const std::string& needle) {
   return haystack.find(needle) != std::string::npos;
