@@ -21,7 +21,6 @@ struct LabelsEncodeArgs {
 
 void run_labels_encode(const LabelsEncodeArgs& args, const GlobalOptions& global) {
   mixture::EncodeOptions o;
-  if (args.bits < 1 || args.bits > 16) throw Error("--bits: must be 1..16, got " + std::to_string(args.bits));
   o.bits = args.bits;
   o.strategy = mixture::parse_strategy(args.strategy);
   o.tau = args.tau;

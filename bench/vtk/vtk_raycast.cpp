@@ -125,9 +125,7 @@ void set_transfer_function(vtkVolumeProperty* p, const render::TransferFunction&
 int main(int argc, char** argv) try {
   const Args args = parse(argc, argv);
   const Volume volume = io::read_volume(args.input);
-  StatisticsAccumulator accumulator;
-  accumulator.add(volume);
-  const VolumeStatistics stats = accumulator.result();
+  const VolumeStatistics stats = compute_statistics(volume);
   const double lo = stats.min, hi = stats.max;  // the value range strata stores with a file
   const render::TransferFunction tf = render::TransferFunction::from_argument(args.tf);
 

@@ -95,19 +95,19 @@ VolumeStatistics StatisticsAccumulator::result() const {
       s.histogram[bin_of(double(std::int64_t(i) - small_offset_))] += small_counts_[i];
     }
     s.distinct_values = distinct;
-  } else if (!seen_float_ && !distinct_overflow_) {
-    for (const auto& [value, count] : counts_) s.histogram[bin_of(double(value))] += count;
-    s.distinct_values = counts_.size();
   } else {
-    // Exact counts of the integers seen before an overflow, plus the evenly thinned sample of
-    // the rest (all of a float stream) scaled to the voxels it stands for.
-    if (!seen_float_)
-      for (const auto& [value, count] : counts_) s.histogram[bin_of(double(value))] += count;
-    std::array<std::uint64_t, 16> sampled{};
-    for (double v : samples_) ++sampled[bin_of(v)];
-    const std::uint64_t sampled_voxels = seen_float_ ? n_ : n_ - counted_;
-    const double scale = samples_.empty() ? 0 : double(sampled_voxels) / double(samples_.size());
-    for (std::size_t b = 0; b < sampled.size(); ++b) s.histogram[b] += std::uint64_t(std::llround(sampled[b] * scale));
+    // Exact counts of the integers (all of them, or those seen before an overflow), plus the
+    // evenly thinned sample of the rest (all of a float stream) scaled to the voxels it stands for.
+    for (const auto& [value, count] : counts_) s.histogram[bin_of(double(value))] += count;
+    if (!seen_float_ && !distinct_overflow_) {
+      s.distinct_values = counts_.size();
+    } else {
+      std::array<std::uint64_t, 16> sampled{};
+      for (double v : samples_) ++sampled[bin_of(v)];
+      const std::uint64_t sampled_voxels = n_ - counted_;
+      const double scale = samples_.empty() ? 0 : double(sampled_voxels) / double(samples_.size());
+      for (std::size_t b = 0; b < sampled.size(); ++b) s.histogram[b] += std::uint64_t(std::llround(sampled[b] * scale));
+    }
   }
   return s;
 }

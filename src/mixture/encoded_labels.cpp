@@ -276,14 +276,18 @@ EncodeReport encode_labels(const Volume& labels, const std::filesystem::path& ou
     throw Error("ids zstd level: must be 0..22, got " + std::to_string(options.ids_zstd));
   if (options.bits < 1 || options.bits > 16) throw Error("bits: must be 1..16, got " + std::to_string(options.bits));
   LabelMap map;
-  const HistogramMipmap h = HistogramMipmap::from_labels(labels, &map, progress);
+  HistogramMipmap h = HistogramMipmap::from_labels(labels, &map, progress);
   const MipmapStats ms = h.stats();
+  const int mip_levels = h.level_count();
+  const double background = background_fraction(h.level(0), map);
   FactorOptions fo;
   fo.score = options.strategy;
   fo.bits = options.bits;
   fo.bins = options.bins;
   fo.tau = options.tau;
-  Factorization f = factorize(h, fo, progress);
+  // Consumes the mipmap's id arrays (the largest buffers) instead of copying them; only its
+  // table is needed afterwards.
+  Factorization f = factorize(std::move(h), fo, progress);
 
   EncodeReport rep;
   rep.nodes = f.stats.nodes;
@@ -292,11 +296,11 @@ EncodeReport encode_labels(const Volume& labels, const std::filesystem::path& ou
   rep.depth = f.stats.depth;
   rep.distinct_mixtures = ms.distinct_mixtures;
   rep.input_pairs = ms.input_pairs;
-  rep.mip_levels = h.level_count();
+  rep.mip_levels = mip_levels;
   rep.mip_voxels = ms.voxels;
   rep.nnz_per_voxel = ms.nnz_per_voxel;
   rep.raw_histogram_bytes = std::uint64_t(std::llround(ms.nnz_per_voxel * double(ms.voxels))) * 8;
-  rep.background_fraction = background_fraction(h.level(0), map);
+  rep.background_fraction = background;
   rep.factor_seconds = f.stats.seconds;
   rep.level0_voxels = std::uint64_t(labels.dims().voxel_count());
 
@@ -526,12 +530,7 @@ void EncodedLabels::decode_box(int level, const Box& box, std::span<std::uint32_
 std::vector<std::uint32_t> EncodedLabels::level_ids(int level) const {
   const Extent d = level_dims(level);
   std::vector<std::uint32_t> ids(std::size_t(d.voxel_count()));
-  decode_box(level, Box::whole(d), ids);
-  const std::uint64_t n = graph_.node_count();
-  for (std::uint32_t id : ids)
-    if (id >= n)
-      throw FormatError(path_.string(), "section " + level_section(level),
-                        "node id " + std::to_string(id) + " is not below the node count " + std::to_string(n));
+  decode_box(level, Box::whole(d), ids);  // ids were range-checked when the file was opened
   return ids;
 }
 
@@ -550,11 +549,7 @@ const MixtureLookup& EncodedLabels::lookup() const {
 }
 
 Volume EncodedLabels::decode_level0() const {
-  const std::vector<std::uint32_t> ids = level_ids(0);
-  for (std::uint32_t id : ids)
-    if (id >= graph_.num_sources)
-      throw FormatError(path_.string(), "section ids_L0", "node id " + std::to_string(id) + " at level 0 is not a source");
-  return label_map_.decode(ids, level_dims_[0], spacing_);
+  return label_map_.decode(level_ids(0), level_dims_[0], spacing_);
 }
 
 Volume EncodedLabels::dominant_labels(int level) const {

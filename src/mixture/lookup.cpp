@@ -57,21 +57,6 @@ std::size_t union_size(const std::uint32_t* ia, std::size_t na, const std::uint3
 
 }  // namespace
 
-void propagate_interpolation(std::span<const std::uint32_t> ia, std::span<const double> a, std::span<const double> da,
-                             std::span<const std::uint32_t> ib, std::span<const double> b, std::span<const double> db,
-                             double w, double dw, ErrorModel model, std::vector<std::uint32_t>& out_index,
-                             std::vector<double>& out_mean, std::vector<double>& out_sigma) {
-  out_index.clear();
-  out_mean.clear();
-  out_sigma.clear();
-  merge_lerp(ia.data(), a.data(), da.data(), ia.size(), ib.data(), b.data(), db.data(), ib.size(), w, dw, model,
-             [&](std::size_t, std::uint32_t k, double mu, double s) {
-               out_index.push_back(k);
-               out_mean.push_back(mu);
-               out_sigma.push_back(s);
-             });
-}
-
 MixtureLookup MixtureLookup::build(const MixtureGraph& g, const Schedule& schedule, ErrorModel model) {
   if (schedule.order.size() != g.nodes.size()) throw Error("mixture lookup: schedule does not match the graph");
   MixtureLookup L;

@@ -65,12 +65,6 @@ void SparseMixture::normalize() {
   for (auto& e : entries_) e.weight /= t;
 }
 
-SparseMixture SparseMixture::normalized() const {
-  SparseMixture m = *this;
-  m.normalize();
-  return m;
-}
-
 void SparseMixture::add_scaled(const SparseMixture& o, double s) {
   std::vector<SparseEntry> out;
   out.reserve(entries_.size() + o.entries_.size());

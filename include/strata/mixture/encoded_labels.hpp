@@ -111,7 +111,6 @@ class EncodedLabels final : public NodeGrid {
 
   const std::filesystem::path& path() const { return path_; }
   const MixtureGraph& graph() const { return graph_; }
-  const GraphHeader& graph_header() const { return header_; }
   const LabelMap& label_map() const { return label_map_; }
   const Schedule& schedule() const { return schedule_; }
   const MixtureLookup& lookup() const;  // built on first use (thread-safe)

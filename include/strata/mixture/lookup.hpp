@@ -43,13 +43,6 @@ class MixtureLookup {
   std::vector<double> mean_, sigma_;
 };
 
-// Error propagation through one interpolation (exposed for tests and queries).
-// Inputs are aligned sparse vectors (index, value, sigma); the result is written to out_*.
-void propagate_interpolation(std::span<const std::uint32_t> ia, std::span<const double> a, std::span<const double> da,
-                             std::span<const std::uint32_t> ib, std::span<const double> b, std::span<const double> db,
-                             double w, double dw, ErrorModel model, std::vector<std::uint32_t>& out_index,
-                             std::vector<double>& out_mean, std::vector<double>& out_sigma);
-
 // The reconstructed mixture of one voxel at any level.
 SparseMixture reconstruct(const Factorization& f, const MixtureLookup& lookup, int level, std::int64_t x, std::int64_t y,
                           std::int64_t z);

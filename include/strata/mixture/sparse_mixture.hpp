@@ -39,7 +39,6 @@ class SparseMixture {
 
   // l1 normalisation: weights divided by total(); no-op on an empty mixture.
   void normalize();
-  SparseMixture normalized() const;
 
   // this += s * o (sorted merge, O(nnz + o.nnz)).
   void add_scaled(const SparseMixture& o, double s);
