@@ -5,7 +5,7 @@
 
 namespace strata::lod {
 
-BrickCache::BrickCache(std::uint64_t budget_bytes) : budget_(budget_bytes), lru_(budget_bytes) {}
+BrickCache::BrickCache(std::uint64_t budget_bytes) : lru_(budget_bytes) {}
 
 BrickSamples BrickCache::find(const store::BrickKey& key, int rank) {
   std::lock_guard lock(mutex_);
@@ -36,7 +36,6 @@ bool BrickCache::insert(const store::BrickKey& key, int rank, BrickSamples sampl
   std::vector<RankedKey> evicted;
   const bool stored = lru_.insert({key, rank}, std::move(samples), bytes, &evicted);
   for (const RankedKey& e : evicted) forget_rank(e);
-  counters_.evictions += evicted.size();
   if (stored && !replaced) ranks_[key].push_back(rank);
   if (!stored && replaced) forget_rank({key, rank});
   return stored;
@@ -67,7 +66,9 @@ std::size_t BrickCache::size() const {
 
 CacheCounters BrickCache::counters() const {
   std::lock_guard lock(mutex_);
-  return counters_;
+  CacheCounters c = counters_;
+  c.evictions = lru_.evictions();
+  return c;
 }
 
 }  // namespace strata::lod

@@ -37,7 +37,7 @@ ResidentBrick BrickProvider::constant_brick(const store::BrickEntry& entry, int 
 BrickSamples BrickProvider::decode(const RankedKey& key, BrickReconstructor& reconstructor, ta::DecodeScratch& scratch) {
   const auto start = std::chrono::steady_clock::now();
   const store::BrickEntry* entry = volume_.container().find(key.brick);
-  if (!entry) throw FormatError(volume_.container().path().string(), "index", brick_context(volume_, key.brick) + " is missing");
+  if (!entry) throw Error(brick_context(volume_, key.brick) + ": missing from the index");
   BrickModel model = models_.find(key.brick);
   if (!model) {
     std::uint64_t read = 0;

@@ -8,7 +8,7 @@ std::uint64_t model_bytes(const quant::DequantizedModel& model) {
   return floats * sizeof(float);
 }
 
-ModelCache::ModelCache(std::uint64_t budget_bytes) : budget_(budget_bytes), lru_(budget_bytes) {}
+ModelCache::ModelCache(std::uint64_t budget_bytes) : lru_(budget_bytes) {}
 
 BrickModel ModelCache::find(const store::BrickKey& key) {
   std::lock_guard lock(mutex_);

@@ -57,12 +57,6 @@ void LabelScene::set_color_map(LabelColorMap colors) {
   palette_stale_ = true;
 }
 
-bool LabelScene::is_prepared(int level) const {
-  if (level < 0 || level >= level_count() || palette_stale_) return false;
-  const Level& l = levels_[std::size_t(level)];
-  return l.decoded && (level < kFinestSkipLevel || l.skip_generation == palette_generation_);
-}
-
 bool LabelScene::anything_visible() const {
   // The coarsest level is one voxel whose node mixes every label of the volume.
   const Level& top = levels_.back();
@@ -126,7 +120,6 @@ void LabelScene::decode_level(Level& level, int index) {
                         "node id " + std::to_string(id) + " is not below the node count " + std::to_string(nodes));
   level.decoded = true;
   id_voxels_decoded_ += level.ids.size();
-  ++level_decodes_;
 }
 
 void LabelScene::build_skip_grid(Level& level) const {

@@ -17,7 +17,6 @@ std::pair<int, int> window(int c, int n, int dilation) {
 
 CellRanges compute_cell_ranges(const float* data, const std::array<int, 3>& n, int dilation) {
   CellRanges r;
-  r.dilation = dilation;
   const int nx = n[0], ny = n[1], nz = n[2];
   const int cx = cell_count(nx), cy = cell_count(ny), cz = cell_count(nz);
   r.cells = {cx, cy, cz};

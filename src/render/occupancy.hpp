@@ -23,7 +23,6 @@ constexpr int kCell = 2;  // macro-cell edge in sample positions
 
 struct CellRanges {
   std::array<int, 3> cells{};  // macro-cells per axis
-  int dilation = 1;
   std::vector<float> lo, hi;   // per cell, x fastest
 };
 
@@ -47,7 +46,6 @@ class CellFlagCache {
   void insert(const std::shared_ptr<const std::vector<float>>& samples, std::shared_ptr<const CellFlags> flags);
   void sweep();  // drops entries whose brick died
   void clear() { entries_.clear(); }
-  std::size_t size() const { return entries_.size(); }
   std::array<double, 3> key{0, 0, -1};  // value_lo, value_scale, dilation of the entries
 
  private:

@@ -9,6 +9,7 @@
 
 #include "strata/core/error.hpp"
 #include "strata/core/threads.hpp"
+#include "strata/lod/histogram_bins.hpp"
 
 namespace strata::render {
 
@@ -215,11 +216,12 @@ bool TransferFunction::visible(double x_lo, double x_hi) const {
 std::uint64_t TransferFunction::visible_bins(double value_lo, double value_hi) const {
   const ValueMapping m = mapping(value_lo, value_hi);
   if (!(value_hi > value_lo)) return visible(m.normalise(value_lo), m.normalise(value_lo)) ? ~std::uint64_t(0) : 0;
-  const double width = (value_hi - value_lo) / 64.0;
+  const int bins = lod::kHistogramBins;
+  const double width = (value_hi - value_lo) / bins;
   std::uint64_t mask = 0;
-  for (int i = 0; i < 64; ++i) {
+  for (int i = 0; i < bins; ++i) {
     const double lo = i == 0 ? -kInf : m.normalise(value_lo + i * width);
-    const double hi = i == 63 ? kInf : m.normalise(value_lo + (i + 1) * width);
+    const double hi = i == bins - 1 ? kInf : m.normalise(value_lo + (i + 1) * width);
     if (visible(lo, hi)) mask |= std::uint64_t(1) << i;
   }
   return mask;

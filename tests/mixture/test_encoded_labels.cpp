@@ -79,7 +79,9 @@ void round_trip(const Volume& labels, IdsMode mode, const std::string& name, int
   for (int l = 0; l < e.level_count(); ++l) {
     const double err = max_level_error(e, h, l);
     EXPECT_LE(err, *r.max_l1 + 1e-9) << name << " level " << l;
-    if (l == 0) EXPECT_EQ(err, 0.0);
+    if (l == 0) {
+      EXPECT_EQ(err, 0.0);
+    }
   }
   EXPECT_LT(*r.max_l1, 0.01);
 

@@ -240,7 +240,7 @@ void check_graph(const MixtureGraph& g) {
 // One interpolation with |w - code| < 2^-b moves at most 2 * 2^-b of l1 mass; a mixture
 // factored greedily uses nnz - 1 of them (each scaled by the fraction it carries <= 1).
 TEST(Factorize, ReconstructionWithinQuantizationBound) {
-  const Volume v = gen::generate(gen::Params{gen::Kind::voronoi, {37, 29, 21}, 5, 40});
+  const Volume v = gen::generate(gen::Params{gen::Kind::voronoi, {37, 29, 21}, 5, 40, std::nullopt});
   const HistogramMipmap h = HistogramMipmap::from_labels(v);
   for (PairScore s : kScores)
     for (int bits : {4, 9, 12})
@@ -280,7 +280,7 @@ TEST(Factorize, ReconstructionWithinQuantizationBound) {
 // Dense mixtures are built from their children's nodes: the error adds at most the
 // interpolations of <= 8 children on top of the worst child.
 TEST(Factorize, DenseMixturesViaChildren) {
-  const Volume v = gen::generate(gen::Params{gen::Kind::fibres, {40, 36, 30}, 3, 60});
+  const Volume v = gen::generate(gen::Params{gen::Kind::fibres, {40, 36, 30}, 3, 60, std::nullopt});
   const HistogramMipmap h = HistogramMipmap::from_labels(v);
   FactorOptions o;
   o.dense_threshold = 6;
@@ -318,7 +318,7 @@ TEST(Factorize, DenseMixturesViaChildren) {
 }
 
 TEST(Factorize, DeterministicAndMoveEquivalent) {
-  const Volume v = gen::generate(gen::Params{gen::Kind::voronoi, {30, 30, 30}, 9, 25});
+  const Volume v = gen::generate(gen::Params{gen::Kind::voronoi, {30, 30, 30}, 9, 25, std::nullopt});
   HistogramMipmap h = HistogramMipmap::from_labels(v);
   const Factorization a = factorize(h, {});
   const Factorization b = factorize(h, {});

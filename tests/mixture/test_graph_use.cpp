@@ -63,7 +63,7 @@ void check_schedule(const MixtureGraph& g, const Schedule& s) {
 }
 
 TEST(Schedule, BalancedPhasesRespectDependencies) {
-  const Volume v = gen::generate(gen::Params{gen::Kind::voronoi, {40, 40, 40}, 2, 50});
+  const Volume v = gen::generate(gen::Params{gen::Kind::voronoi, {40, 40, 40}, 2, 50, std::nullopt});
   const HistogramMipmap h = HistogramMipmap::from_labels(v);
   const Factorization f = factorize(h, {});
   const Schedule b = make_schedule(f.graph, true);
@@ -81,7 +81,7 @@ TEST(Schedule, BalancedPhasesRespectDependencies) {
 }
 
 TEST(Palette, EqualsBruteForceMixing) {
-  const Volume v = gen::generate(gen::Params{gen::Kind::fibres, {48, 40, 32}, 4, 80});
+  const Volume v = gen::generate(gen::Params{gen::Kind::fibres, {48, 40, 32}, 4, 80, std::nullopt});
   const HistogramMipmap h = HistogramMipmap::from_labels(v);
   const Factorization f = factorize(h, {});
   const Schedule s = make_schedule(f.graph);
@@ -165,7 +165,7 @@ TEST(Lookup, ErrorPropagationOnAHandExample) {
 }
 
 TEST(Lookup, ReconstructAnyVoxel) {
-  const Volume v = gen::generate(gen::Params{gen::Kind::voronoi, {20, 18, 14}, 6, 12});
+  const Volume v = gen::generate(gen::Params{gen::Kind::voronoi, {20, 18, 14}, 6, 12, std::nullopt});
   const HistogramMipmap h = HistogramMipmap::from_labels(v);
   const Factorization f = factorize(h, {});
   const MixtureLookup lut = MixtureLookup::build(f.graph, make_schedule(f.graph));

@@ -48,13 +48,12 @@ class BrickCache {
   void clear();
 
   std::uint64_t bytes() const;
-  std::uint64_t budget() const { return budget_; }
+  std::uint64_t budget() const { return lru_.budget(); }
   std::size_t size() const;
   CacheCounters counters() const;
 
  private:
   void forget_rank(const RankedKey& key);
-  std::uint64_t budget_;
   mutable std::mutex mutex_;
   LruCache<RankedKey, BrickSamples, RankedKeyHash> lru_;
   // Ranks cached per brick, so stand-in lookups need not probe every rank.

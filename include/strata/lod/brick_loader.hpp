@@ -51,7 +51,6 @@ class BrickLoader {
 
   std::size_t queued() const;
   std::size_t running() const;
-  int threads() const { return int(workers_.size()); }
 
  private:
   void work(std::stop_token stop);

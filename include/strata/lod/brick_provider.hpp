@@ -48,7 +48,6 @@ class BrickProvider {
   int clamp_rank(int k) const;
   const BrickCache& cache() const { return cache_; }
   const ModelCache& models() const { return models_; }
-  const BrickLoader& loader() const { return loader_; }
 
  private:
   BrickSamples decode(const RankedKey& key, BrickReconstructor& reconstructor, ta::DecodeScratch& scratch);

@@ -27,11 +27,10 @@ class ModelCache {
   void clear();
 
   std::uint64_t bytes() const;
-  std::uint64_t budget() const { return budget_; }
+  std::uint64_t budget() const { return lru_.budget(); }
   std::size_t size() const;
 
  private:
-  std::uint64_t budget_;
   mutable std::mutex mutex_;
   LruCache<store::BrickKey, BrickModel, store::BrickKeyHash> lru_;
 };

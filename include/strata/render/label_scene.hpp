@@ -63,7 +63,6 @@ class LabelScene {
   // the ids of levels not yet cached, rebuilds the palette if the colour map changed, and the
   // skip grids that are missing or stale.
   LabelPrepareReport prepare(int finest_level);
-  bool is_prepared(int level) const;
 
   // Valid after prepare(): premultiplied RGBA per node (4 floats per node id).
   std::span<const float> palette() const { return palette_; }
@@ -77,7 +76,6 @@ class LabelScene {
 
   // Totals since construction (tests assert that colour changes decode no ids).
   std::uint64_t id_voxels_decoded() const { return id_voxels_decoded_; }
-  std::uint64_t level_decodes() const { return level_decodes_; }
   std::uint64_t palette_builds() const { return palette_builds_; }
 
  private:
@@ -100,7 +98,7 @@ class LabelScene {
   std::vector<std::uint8_t> visible_;  // per node: some label in its footprint has opacity > 0
   std::uint64_t palette_generation_ = 0;  // 0 = never built
   bool palette_stale_ = true;
-  std::uint64_t id_voxels_decoded_ = 0, level_decodes_ = 0, palette_builds_ = 0;
+  std::uint64_t id_voxels_decoded_ = 0, palette_builds_ = 0;
 };
 
 }  // namespace strata::render
