@@ -6,6 +6,7 @@
 
 #include "strata/core/error.hpp"
 #include "strata/core/threads.hpp"
+#include "strata/lod/brick_bounds.hpp"
 #include "strata/store/container.hpp"
 
 namespace strata::render::detail {
@@ -90,12 +91,12 @@ void fill_cells(const FrameInput& frame, FrameIndex& index) {
   for (std::size_t i = 0; i < bricks.size(); ++i) index.blocks[i].exclusive = owned[i] == covered[i];
 }
 
-Block brick_block(const lod::ResidentBrick& b, const ta::OctreeGeometry& g, const Spacing& sp,
-                  const std::array<double, 3>& volume_hi) {
+Block brick_block(const lod::ResidentBrick& b, const ta::OctreeGeometry& g, const Spacing& sp) {
   const ta::BrickLayout& layout = g.layout();
   const double s = std::ldexp(1.0, b.key.level);
   const std::array<double, 3> spacing{sp.x, sp.y, sp.z};
   const std::array<std::int64_t, 3> key{b.key.x, b.key.y, b.key.z};
+  const lod::WorldBox box = lod::brick_world_box(g, sp, b.key);  // core voxels, clipped to the volume
   Block blk;
   blk.data = b.is_constant() ? nullptr : b.samples->data();
   blk.constant = b.constant_value;
@@ -104,8 +105,8 @@ Block brick_block(const lod::ResidentBrick& b, const ta::OctreeGeometry& g, cons
   for (int a = 0; a < 3; ++a) {
     const double core_lo = double(key[std::size_t(a)] * layout.core());  // level-l voxels
     const double voxel = s * spacing[std::size_t(a)];                      // world size of a level-l voxel
-    blk.lo[std::size_t(a)] = std::min(core_lo * voxel, volume_hi[std::size_t(a)]);
-    blk.hi[std::size_t(a)] = std::min((core_lo + layout.core()) * voxel, volume_hi[std::size_t(a)]);
+    blk.lo[std::size_t(a)] = box.lo[a];
+    blk.hi[std::size_t(a)] = box.hi[a];
     // Level-l position q = world / voxel; local index = q - 0.5 - core_lo + overlap.
     blk.scale[std::size_t(a)] = 1.0 / voxel;
     blk.offset[std::size_t(a)] = -0.5 - core_lo + layout.overlap;
@@ -138,7 +139,7 @@ FrameIndex build_frame_index(const FrameInput& frame, const TransferFunction& tf
   index.blocks.reserve(frame.bricks->bricks.size());
   for (const lod::ResidentBrick& b : frame.bricks->bricks) {
     check_brick(b, g);
-    index.blocks.push_back(brick_block(b, g, frame.spacing, index.volume_hi));
+    index.blocks.push_back(brick_block(b, g, frame.spacing));
     index.max_level = std::max(index.max_level, int(b.key.level));
   }
   fill_ranges(frame, index);
