@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <string>
 
+#include "strata/core/stopwatch.hpp"
 #include "strata/core/threads.hpp"
 #include "strata/gen/generators.hpp"
 #include "strata/io/volume_io.hpp"
@@ -26,8 +27,6 @@ namespace {
 using namespace strata;
 using namespace strata::mixture;
 using Clock = std::chrono::steady_clock;
-
-double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
 std::filesystem::path data_dir() {
   if (const char* d = std::getenv("STRATA_SHARED_DATA")) return d;

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 
+#include "strata/core/stopwatch.hpp"
 #include "strata/core/error.hpp"
 #include "strata/io/volume_io.hpp"
 #include "strata/lod/brick_provider.hpp"
@@ -30,8 +31,6 @@ double cpu_seconds() {
   getrusage(RUSAGE_SELF, &u);
   return double(u.ru_utime.tv_sec + u.ru_stime.tv_sec) + 1e-6 * double(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
 }
-
-double ms_since(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
 
 render::RenderOptions render_options(const RenderSettings& s) {
   render::RenderOptions o;

@@ -1,3 +1,4 @@
+#include "strata/core/stopwatch.hpp"
 #include "strata/render/label_raycaster.hpp"
 
 #include <algorithm>
@@ -45,10 +46,6 @@ struct RayCounters {
 struct Premultiplied {
   float r = 0, g = 0, b = 0, a = 0;
 };
-
-double ms_since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-}
 
 void validate(const LabelRenderOptions& o, int level_count) {
   if (!(o.step > 0)) throw Error("label render: step must be > 0, got " + std::to_string(o.step));

@@ -1,3 +1,4 @@
+#include "strata/core/stopwatch.hpp"
 #include "strata/render/label_scene.hpp"
 
 #include <algorithm>
@@ -14,10 +15,6 @@ namespace {
 
 // Below this many voxels a parallel region costs more than it saves.
 constexpr std::int64_t kParallelVoxels = 1 << 16;
-
-double ms_since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-}
 
 // One pass of a 3-wide max filter along an axis with stride `stride` and length `n` (the
 // axis extent); separable, so three passes give the 3x3x3 dilation.

@@ -1,3 +1,4 @@
+#include "strata/core/stopwatch.hpp"
 #include "strata/render/raycaster.hpp"
 
 #include <algorithm>
@@ -48,8 +49,6 @@ struct RayCaster::Tables {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
-
 // Samples below this opacity skip the gradient (six extra trilinear taps).
 constexpr float kShadeThreshold = 1.0f / 1024.0f;
 // 8-lane march with empty-space skipping: a chunk whose first kRealign or more points lie in

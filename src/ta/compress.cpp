@@ -1,3 +1,4 @@
+#include "strata/core/stopwatch.hpp"
 #include "strata/ta/compress.hpp"
 
 #include <chrono>
@@ -16,8 +17,6 @@ namespace strata::ta {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
-
 HistogramRange value_range(io::VolumeSource& source, ProgressSink& progress, std::uint64_t slab_bytes) {
   double lo = std::numeric_limits<double>::infinity(), hi = -lo;
   io::for_each_slab(source, [&](const Volume& slab, std::int64_t) {
