@@ -151,7 +151,7 @@ Image run(const RenderJob& job, RenderStats& stats) {
   std::vector<MarchFns> march;
   march.reserve(index.blocks.size());
   for (const Block& b : index.blocks) march.push_back(march_function(b, job.options.preintegrated, job.options.shading));
-  const Transparency transparency(job.tf);
+  const Transparency& transparency = job.transparency;
   const bool simd = job.options.simd && have_avx2();
   const MarchParams mp{simd, simd && job.options.avx512 && have_avx512(),
                        job.levels.data(), transparency.next_visible.data(), job.value_lo, job.value_scale, job.options.light, job.options.termination_alpha};

@@ -65,7 +65,7 @@ bool have_avx2();
 bool have_avx512();
 
 struct RenderJob {
-  const TransferFunction& tf;
+  const Transparency& transparency;  // of the frame's transfer function
   const Camera& camera;
   const FrameIndex& index;
   const RenderOptions& options;

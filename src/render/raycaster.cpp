@@ -345,7 +345,8 @@ void validate(const RenderOptions& o) {
 
 }  // namespace
 
-RayCaster::RayCaster(TransferFunction tf, RenderOptions options) : tf_(std::move(tf)), options_(options) {
+RayCaster::RayCaster(TransferFunction tf, RenderOptions options)
+    : tf_(std::move(tf)), options_(options), transparency_(std::make_unique<const Transparency>(tf_)) {
   validate(options_);
 }
 RayCaster::~RayCaster() = default;
@@ -417,13 +418,12 @@ Image RayCaster::render(const Camera& camera, const FrameInput& frame, RenderSta
       flags[i] = cache.find(bricks[i].samples);
       if (!flags[i]) missing.push_back(i);
     }
-    const Transparency tr(tf_);
     const std::int64_t n_missing = std::int64_t(missing.size());
     const int threads = options_.threads > 0 ? options_.threads : thread_count();
 #pragma omp parallel for schedule(dynamic, 4) num_threads(threads)
     for (std::int64_t m = 0; m < n_missing; ++m) {
       const std::size_t i = missing[std::size_t(m)];
-      flags[i] = cell_flags(index.blocks[i], dilation, tr, float(mapping.lo), float(mapping.scale()));
+      flags[i] = cell_flags(index.blocks[i], dilation, *transparency_, float(mapping.lo), float(mapping.scale()));
     }
     for (std::size_t i : missing) cache.insert(bricks[i].samples, flags[i]);
     local.cell_ranges_built = missing.size();
@@ -451,7 +451,7 @@ Image RayCaster::render(const Camera& camera, const FrameInput& frame, RenderSta
     const ValueMapping& m = mapping;
     local.setup_ms = ms_since(t0);
     const auto t1 = Clock::now();
-    image = run({tf_, camera, index, options_, levels, float(m.lo), float(m.scale())}, local);
+    image = run({*transparency_, camera, index, options_, levels, float(m.lo), float(m.scale())}, local);
     local.raycast_ms = ms_since(t1);
   }
   local.total_ms = ms_since(t0);
@@ -468,7 +468,7 @@ Image RayCaster::render(const Camera& camera, const Volume& volume, double value
   RenderStats local;
   std::shared_ptr<const CellFlags> flags;
   if (const int dilation = skip_dilation(options_); dilation && !index.blocks[0].culled) {
-    flags = cell_flags(index.blocks[0], dilation, Transparency(tf_), float(m.lo), float(m.scale()));
+    flags = cell_flags(index.blocks[0], dilation, *transparency_, float(m.lo), float(m.scale()));
     local.cell_ranges_built = 1;
     attach_flags(index.blocks[0], flags, local);
   }
@@ -489,7 +489,7 @@ Image RayCaster::render(const Camera& camera, const Volume& volume, double value
   local.bricks_culled = index.blocks[0].culled ? 1 : 0;
   local.setup_ms = ms_since(t0);
   const auto t1 = Clock::now();
-  Image image = run({tf_, camera, index, options_, levels, float(m.lo), float(m.scale())}, local);
+  Image image = run({*transparency_, camera, index, options_, levels, float(m.lo), float(m.scale())}, local);
   local.raycast_ms = ms_since(t1);
   local.total_ms = ms_since(t0);
   if (stats) *stats = local;

@@ -62,6 +62,7 @@ namespace strata::render {
 
 namespace detail {
 class CellFlagCache;
+struct Transparency;
 }
 
 struct ShadingParams {
@@ -138,6 +139,7 @@ class RayCaster {
   RenderOptions options_;
   std::vector<std::unique_ptr<Tables>> tables_;  // by level, built on first use
   std::unique_ptr<detail::CellFlagCache> cell_flags_;  // per brick, while the brick lives
+  std::unique_ptr<const detail::Transparency> transparency_;  // of tf_, which never changes
 };
 
 // Every brick of `level` decoded at rank `rank` (clamped to the file's rank), in parallel;
