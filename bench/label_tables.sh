@@ -37,16 +37,12 @@ table2_row() {
   encode_checked "$input" | python3 -c '
 import json, sys
 r = json.load(sys.stdin)
-r.update(name=sys.argv[1], dims=sys.argv[2].replace(",", "x"), bg=100 * r["background_fraction"],
+r.update(name=sys.argv[1], dims="x".join(str(d) for d in r["dims"]), bg=100 * r["background_fraction"],
          raw=r["raw_histogram_bytes"] / 2**20, mib=r["file_bytes"] / 2**20, bins=2 ** r["bits"])
 print("| {name} | {dims} | {mip_voxels:,} | {mip_levels} | {sources:,} | {bg:.1f} | {nnz_per_voxel:.3f} | "
       "{raw:.1f} MiB | {input_pairs:,} | {nodes:,} | {mib:.2f} MiB | {bits_per_voxel:.3f} | {bins} | "
       "{max_l1_error:.5f} | {depth} | {seconds:.2f} s |".format(**r))
-' "$name" "$(dims_of "$input")"
-}
-
-dims_of() {
-  strata info "$1" --json | python3 -c 'import json,sys; print(",".join(str(d) for d in json.load(sys.stdin)["dims"]))'
+' "$name"
 }
 
 table2() {

@@ -31,6 +31,7 @@ void run_labels_encode(const LabelsEncodeArgs& args, const GlobalOptions& global
   io::ReadOptions read = args.raw.to_read_options();
   read.progress = progress.get();
   auto source = io::open_volume(args.input, read);
+  const Extent dims = source->info().dims;
   const mixture::EncodeReport r = mixture::encode_labels(*source, args.output, o, *progress);
   if (args.json) {
     nlohmann::json j{{"file", args.output},        {"nodes", r.nodes},
@@ -40,6 +41,7 @@ void run_labels_encode(const LabelsEncodeArgs& args, const GlobalOptions& global
                      {"mip_levels", r.mip_levels}, {"mip_voxels", r.mip_voxels},
                      {"nnz_per_voxel", r.nnz_per_voxel}, {"raw_histogram_bytes", r.raw_histogram_bytes},
                      {"background_fraction", r.background_fraction}, {"level0_voxels", r.level0_voxels},
+                     {"dims", {dims.x, dims.y, dims.z}},
                      {"bits", o.bits}, {"strategy", args.strategy}, {"tau", o.tau}, {"ids", args.ids},
                      {"graph_bytes", r.graph_bytes}, {"ids_bytes", r.ids_bytes},
                      {"bits_per_voxel", r.bits_per_voxel}, {"seconds", r.seconds},
