@@ -19,7 +19,7 @@ STRATA_MARCH8_ATTRS std::int64_t STRATA_MARCH8_NAME(const GridSampler& s, const 
   const __m256 vlo = _mm256_set1_ps(mp.value_lo), vscale = _mm256_set1_ps(mp.value_scale);
   const Classifier& cl = lp.classify;
   const __m256 last_f = _mm256_set1_ps(cl.last);
-  const __m256i size2 = _mm256_set1_epi32(cl.size - 2), size_i = _mm256_set1_epi32(cl.size);
+  const __m256i size2 = _mm256_set1_epi32(cl.size - 2), cells_i = _mm256_set1_epi32(cl.size - 1);
   const __m256 bins_f = _mm256_set1_ps(float(Transparency::kBins));
   const __m256i bin_max = _mm256_set1_epi32(Transparency::kBins - 1), low16 = _mm256_set1_epi32(0xffff);
   const int* next_visible = reinterpret_cast<const int*>(mp.next_visible);
@@ -121,26 +121,32 @@ STRATA_MARCH8_ATTRS std::int64_t STRATA_MARCH8_NAME(const GridSampler& s, const 
     const __m256i ti = _mm256_min_epi32(_mm256_cvttps_epi32(u), size2), tj = _mm256_min_epi32(_mm256_cvttps_epi32(w), size2);
     _mm256_store_ps(wus, _mm256_sub_ps(u, _mm256_cvtepi32_ps(ti)));
     _mm256_store_ps(wvs, _mm256_sub_ps(w, _mm256_cvtepi32_ps(tj)));
-    _mm256_store_si256(reinterpret_cast<__m256i*>(idx), _mm256_add_epi32(_mm256_mullo_epi32(ti, size_i), tj));
-    // Classification per lane (the pre-integrated table's 4 channels as one SSE vector).
-    __m128 cs[8];
-    alignas(32) float cas[8];
-    unsigned lit = 0;  // lanes whose colour is shaded
-    for (int l = 0; l < 8; ++l) {
-      cas[l] = 0.0f;
-      if (l >= n || !((keep >> l) & 1u)) continue;
-      const float* r0 = &cl.table[idx[l]].r;
-      const float* r1 = r0 + 4 * std::ptrdiff_t(cl.size);
-      const __m128 wv = _mm_set1_ps(wvs[l]), wu = _mm_set1_ps(wus[l]);
-      const __m128 a0 = _mm_loadu_ps(r0), a1 = _mm_loadu_ps(r0 + 4), b0 = _mm_loadu_ps(r1), b1 = _mm_loadu_ps(r1 + 4);
-      const __m128 l0 = _mm_add_ps(a0, _mm_mul_ps(wv, _mm_sub_ps(a1, a0)));
-      const __m128 l1 = _mm_add_ps(b0, _mm_mul_ps(wv, _mm_sub_ps(b1, b0)));
-      cs[l] = _mm_add_ps(l0, _mm_mul_ps(wu, _mm_sub_ps(l1, l0)));
-      cas[l] = _mm_cvtss_f32(_mm_shuffle_ps(cs[l], cs[l], 0xff));
+    _mm256_store_si256(reinterpret_cast<__m256i*>(idx), _mm256_add_epi32(_mm256_mullo_epi32(ti, cells_i), tj));
+    // Classification of all 8 lanes without branches (the indices are clamped into the table,
+    // so lanes outside `keep` read valid entries and are zeroed afterwards), then transposed to
+    // one vector per channel.
+    __m256 cr, cg, cb, ca;
+    {
+      __m128 cs[8];
+      for (int l = 0; l < 8; ++l) {
+        // Cell (ti, tj): [entry (i, j), entry (i + 1, j)] and [(i, j + 1), (i + 1, j + 1)]; one
+        // lerp along j gives both rows' values (Classifier::pair's l0 and l1).
+        const float* c = cl.cells + std::ptrdiff_t(idx[l]) * 16;
+        const __m256 x0 = _mm256_loadu_ps(c), x1 = _mm256_loadu_ps(c + 8);
+        const __m256 rows = _mm256_add_ps(x0, _mm256_mul_ps(_mm256_set1_ps(wvs[l]), _mm256_sub_ps(x1, x0)));
+        const __m128 l0 = _mm256_castps256_ps128(rows), l1 = _mm256_extractf128_ps(rows, 1);
+        cs[l] = _mm_add_ps(l0, _mm_mul_ps(_mm_set1_ps(wus[l]), _mm_sub_ps(l1, l0)));
+      }
+      transpose_rgba(cs, cr, cg, cb, ca);
+      // Lanes past the block's end, transparent segments and zero opacity contribute nothing.
+      const __m256 live = _mm256_and_ps(_mm256_castsi256_ps(_mm256_and_si256(visible, valid)),
+                                        _mm256_cmp_ps(ca, zero, _CMP_GT_OQ));
+      cr = _mm256_and_ps(cr, live);
+      cg = _mm256_and_ps(cg, live);
+      cb = _mm256_and_ps(cb, live);
+      ca = _mm256_and_ps(ca, live);
     }
-    alignas(32) float diffs[8], specs[8];
     if constexpr (Shade) {
-      const __m256 ca = _mm256_load_ps(cas);
       const unsigned want = unsigned(_mm256_movemask_ps(_mm256_cmp_ps(ca, _mm256_set1_ps(kShadeThreshold), _CMP_GT_OQ)));
       if (want) {
         // Gradients (GridSampler::gradient): the 32-voxel stencil for lanes inside the grid's
@@ -155,7 +161,7 @@ STRATA_MARCH8_ATTRS std::int64_t STRATA_MARCH8_NAME(const GridSampler& s, const 
         const unsigned inside = __builtin_popcount(want & unsigned(_mm256_movemask_ps(in))) > 2
                                     ? unsigned(_mm256_movemask_ps(in))
                                     : 0u;
-        alignas(32) float gx[8], gy[8], gz[8];
+        __m256 gx = zero, gy = zero, gz = zero;
         if (inside) {
 #define STRATA_G(off) _mm256_mask_i32gather_ps(zero, s.data, _mm256_add_epi32(base, _mm256_set1_epi32(off)), in, 4)
 #define STRATA_LERP(a, b, w) _mm256_add_ps((a), _mm256_mul_ps((w), _mm256_sub_ps((b), (a))))
@@ -167,37 +173,46 @@ STRATA_MARCH8_ATTRS std::int64_t STRATA_MARCH8_NAME(const GridSampler& s, const 
           const __m256 d00 = STRATA_ROWD(0, p000, p100), d10 = STRATA_ROWD(oy, p010, p110);
           const __m256 d01 = STRATA_ROWD(oz, p001, p101), d11 = STRATA_ROWD(oy + oz, p011, p111);
           const __m256 gx0 = STRATA_LERP(d00, d10, fy), gx1 = STRATA_LERP(d01, d11, fy);
-          _mm256_store_ps(gx, STRATA_LERP(gx0, gx1, fz));
+          gx = STRATA_LERP(gx0, gx1, fz);
           const __m256 gy0 = STRATA_DIFF(fy, STRATA_LIN(-oy), c00, c10, STRATA_LIN(2 * oy));
           const __m256 gy1 = STRATA_DIFF(fy, STRATA_LIN(oz - oy), c01, c11, STRATA_LIN(oz + 2 * oy));
-          _mm256_store_ps(gy, STRATA_LERP(gy0, gy1, fz));
+          gy = STRATA_LERP(gy0, gy1, fz);
           const __m256 gz0 = STRATA_DIFF(fz, STRATA_LIN(-oz), c00, c01, STRATA_LIN(2 * oz));
           const __m256 gz1 = STRATA_DIFF(fz, STRATA_LIN(oy - oz), c10, c11, STRATA_LIN(oy + 2 * oz));
-          _mm256_store_ps(gz, STRATA_LERP(gz0, gz1, fy));
+          gz = STRATA_LERP(gz0, gz1, fy);
 #undef STRATA_DIFF
 #undef STRATA_ROWD
 #undef STRATA_LIN
 #undef STRATA_LERP
 #undef STRATA_G
         }
-        for (int l = 0; l < n; ++l)
-          if (((want & ~inside) >> l) & 1u) {
-            float g[3];
-            s.gradient(xs[l], ys[l], zs[l], g);
-            gx[l] = g[0];
-            gy[l] = g[1];
-            gz[l] = g[2];
-          }
+        if (const unsigned rest = want & ~inside) {  // lanes near the grid's faces, one by one
+          alignas(32) float gxs[8], gys[8], gzs[8];
+          _mm256_store_ps(gxs, gx);
+          _mm256_store_ps(gys, gy);
+          _mm256_store_ps(gzs, gz);
+          for (int l = 0; l < n; ++l)
+            if ((rest >> l) & 1u) {
+              float g[3];
+              s.gradient(xs[l], ys[l], zs[l], g);
+              gxs[l] = g[0];
+              gys[l] = g[1];
+              gzs[l] = g[2];
+            }
+          gx = _mm256_load_ps(gxs);
+          gy = _mm256_load_ps(gys);
+          gz = _mm256_load_ps(gzs);
+        }
         // Blinn-Phong as in Marcher::segment, 8 lanes at once (same operations and order).
-        const __m256 g0 = _mm256_mul_ps(_mm256_load_ps(gx), _mm256_set1_ps(b.gradient_scale[0]));
-        const __m256 g1 = _mm256_mul_ps(_mm256_load_ps(gy), _mm256_set1_ps(b.gradient_scale[1]));
-        const __m256 g2 = _mm256_mul_ps(_mm256_load_ps(gz), _mm256_set1_ps(b.gradient_scale[2]));
+        const __m256 g0 = _mm256_mul_ps(gx, _mm256_set1_ps(b.gradient_scale[0]));
+        const __m256 g1 = _mm256_mul_ps(gy, _mm256_set1_ps(b.gradient_scale[1]));
+        const __m256 g2 = _mm256_mul_ps(gz, _mm256_set1_ps(b.gradient_scale[2]));
         const __m256 len2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(g0, g0), _mm256_mul_ps(g1, g1)), _mm256_mul_ps(g2, g2));
         const __m256 dot = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(g0, _mm256_set1_ps(ray.light[0])),
                                                        _mm256_mul_ps(g1, _mm256_set1_ps(ray.light[1]))),
                                          _mm256_mul_ps(g2, _mm256_set1_ps(ray.light[2])));
         const __m256 ndl = _mm256_div_ps(_mm256_andnot_ps(_mm256_set1_ps(-0.0f), dot), _mm256_sqrt_ps(len2));
-        _mm256_store_ps(diffs, _mm256_add_ps(_mm256_set1_ps(mp.light.ambient), _mm256_mul_ps(_mm256_set1_ps(mp.light.diffuse), ndl)));
+        const __m256 diff = _mm256_add_ps(_mm256_set1_ps(mp.light.ambient), _mm256_mul_ps(_mm256_set1_ps(mp.light.diffuse), ndl));
         __m256 pw = one;
         if (mp.light.shininess == detail::kFixedShininess) {  // detail::power_fixed<24>: x^8 * x^16
           static_assert(detail::kFixedShininess == 24);
@@ -210,29 +225,41 @@ STRATA_MARCH8_ATTRS std::int64_t STRATA_MARCH8_NAME(const GridSampler& s, const 
             base_pw = _mm256_mul_ps(base_pw, base_pw);
           }
         }
-        _mm256_store_ps(specs, _mm256_mul_ps(_mm256_mul_ps(_mm256_set1_ps(mp.light.specular), pw), ca));
-        // Lanes not asking for shading hold garbage and stay unshaded.
-        lit = want & unsigned(_mm256_movemask_ps(_mm256_cmp_ps(len2, _mm256_set1_ps(1e-12f), _CMP_GT_OQ)));
+        const __m256 spec = _mm256_mul_ps(_mm256_mul_ps(_mm256_set1_ps(mp.light.specular), pw), ca);
+        // Only lanes asking for shading with a non-zero gradient are shaded (the others may hold
+        // garbage here).
+        const __m256 lit = _mm256_and_ps(_mm256_cmp_ps(ca, _mm256_set1_ps(kShadeThreshold), _CMP_GT_OQ),
+                                         _mm256_cmp_ps(len2, _mm256_set1_ps(1e-12f), _CMP_GT_OQ));
+        cr = _mm256_blendv_ps(cr, _mm256_add_ps(_mm256_mul_ps(cr, diff), spec), lit);
+        cg = _mm256_blendv_ps(cg, _mm256_add_ps(_mm256_mul_ps(cg, diff), spec), lit);
+        cb = _mm256_blendv_ps(cb, _mm256_add_ps(_mm256_mul_ps(cb, diff), spec), lit);
       }
     }
-    for (int l = 0; l < n; ++l) {
-      if (!(cas[l] > 0.0f)) continue;
-      __m128 c = cs[l];
-      if (Shade && ((lit >> l) & 1u))
-        c = _mm_add_ps(_mm_mul_ps(c, _mm_setr_ps(diffs[l], diffs[l], diffs[l], 1.0f)),
-                       _mm_setr_ps(specs[l], specs[l], specs[l], 0.0f));
-      const float wa = 1.0f - _mm_cvtss_f32(_mm_shuffle_ps(acc, acc, 0xff));
-      acc = _mm_add_ps(acc, _mm_mul_ps(_mm_set1_ps(wa), c));
-      if (_mm_cvtss_f32(_mm_shuffle_ps(acc, acc, 0xff)) > term) {
-        front = vs[l];
-        last = k + l;
-        taken += std::uint64_t(l + 1);
-        alignas(16) float out[4];
-        _mm_store_ps(out, acc);
-        acc_io = {out[0], out[1], out[2], out[3]};
-        return k + l + 1;
-      }
+    // Front-to-back compositing of the 8 segments at once: the transmittance in front of each
+    // lane is an exclusive prefix product of (1 - alpha), so the loop-carried chain is one
+    // update of `acc` per chunk instead of eight.
+    const __m256 through = exclusive_transmittance(_mm256_sub_ps(one, ca));
+    const __m256 after = _mm256_mul_ps(through, _mm256_sub_ps(one, ca));  // inclusive
+    const float acc_a = _mm_cvtss_f32(_mm_shuffle_ps(acc, acc, 0xff));
+    // Opacity after each lane, as compositing lane by lane would give it (up to rounding).
+    const __m256 opacity = _mm256_add_ps(_mm256_set1_ps(acc_a),
+                                         _mm256_mul_ps(_mm256_set1_ps(1.0f - acc_a), _mm256_sub_ps(one, after)));
+    const unsigned done = unsigned(_mm256_movemask_ps(_mm256_cmp_ps(opacity, _mm256_set1_ps(term), _CMP_GT_OQ))) &
+                          ((1u << n) - 1u);
+    if (done) {  // the ray terminates inside this chunk: lanes after the first opaque one drop out
+      const int l = __builtin_ctz(done);
+      const __m256 upto = _mm256_castsi256_ps(_mm256_cmpgt_epi32(_mm256_set1_epi32(l + 1), lane_i));
+      acc = composite_chunk(acc, _mm256_and_ps(cr, upto), _mm256_and_ps(cg, upto), _mm256_and_ps(cb, upto),
+                            _mm256_and_ps(ca, upto), _mm256_and_ps(through, upto));
+      front = vs[l];
+      last = k + l;
+      taken += std::uint64_t(l + 1);
+      alignas(16) float out[4];
+      _mm_store_ps(out, acc);
+      acc_io = {out[0], out[1], out[2], out[3]};
+      return k + l + 1;
     }
+    acc = composite_chunk(acc, cr, cg, cb, ca, through);
     front = vs[n - 1];
     last = k + n - 1;
     taken += std::uint64_t(n);

@@ -114,6 +114,10 @@ struct Classifier {
   const Rgbaf* table = nullptr;
   int size = 0;
   float last = 0;  // size - 1
+  // The pre-integrated table as bilinear cells (render/raycaster.cpp, bilinear_cells): cell
+  // (i, j) holds entries (i, j), (i + 1, j), (i, j + 1), (i + 1, j + 1), 16 floats in a row,
+  // so the 8-lane march fetches a lane's four entries with two 8-float loads.
+  const float* cells = nullptr;
 
   [[gnu::always_inline]] inline Rgbaf pair(float front, float back) const {  // bilinear in the pre-integrated table
     const float u = std::clamp(front, 0.0f, 1.0f) * last, v = std::clamp(back, 0.0f, 1.0f) * last;

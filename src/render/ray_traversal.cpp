@@ -59,6 +59,7 @@ struct Traversal {
   const std::vector<MarchFns>& march;
   const MarchParams& mp;
   double eps;  // parametric nudge past a face, to locate the next cell
+  std::array<double, 3> inv_cell;  // 1 / index.cell_size (the nudge dwarfs the product's rounding)
 
   // When the ray leaves a marched block into skipped space, the segment from its last sample
   // to the next lattice point still belongs to the block: it is sampled from the overlap.
@@ -93,15 +94,14 @@ struct Traversal {
     st.last = &b;
   }
 
-  void trace(const RayContext& ray, double t, double t_end, RayState& st) const {
-    std::array<double, 3> inv{};
-    for (int a = 0; a < 3; ++a) inv[a] = ray.dir[a] != 0 ? 1.0 / ray.dir[a] : 0.0;
+  // `inv`: 1 / ray.dir per axis (0 where the direction is 0).
+  void trace(const RayContext& ray, const std::array<double, 3>& inv, double t, double t_end, RayState& st) const {
     const auto& c = index.cells;
     while (t < t_end && st.acc.a <= mp.termination) {
       const double tp = t + eps;
       std::array<std::int64_t, 3> cell{};
       for (int a = 0; a < 3; ++a)
-        cell[a] = std::clamp(ifloor((ray.origin[a] + ray.dir[a] * tp) / index.cell_size[a]),
+        cell[a] = std::clamp(ifloor((ray.origin[a] + ray.dir[a] * tp) * inv_cell[a]),
                              std::int64_t(0), c[a] - 1);
       const std::int32_t id = index.block_at(cell[0], cell[1], cell[2]);
       const Block* b = id >= 0 ? &index.blocks[std::size_t(id)] : nullptr;
@@ -157,7 +157,8 @@ Image run(const RenderJob& job, RenderStats& stats) {
                        job.levels.data(), transparency.next_visible.data(), job.value_lo, job.value_scale, job.options.light, job.options.termination_alpha};
   double extent = 0;
   for (double v : index.volume_hi) extent = std::max(extent, v);
-  const Traversal trav{index, march, mp, 1e-9 * std::max(extent, 1.0)};
+  const Traversal trav{index, march, mp, 1e-9 * std::max(extent, 1.0),
+                       {1.0 / index.cell_size[0], 1.0 / index.cell_size[1], 1.0 / index.cell_size[2]}};
 
   const Camera& cam = job.camera;
   const int width = cam.width(), height = cam.height();
@@ -187,7 +188,7 @@ Image run(const RenderJob& job, RenderStats& stats) {
           st.prev_t = t0;  // the volume entry starts the first segment
           if (t0 < t1) {
             ++rays;
-            trav.trace(ray, t0, t1, st);
+            trav.trace(ray, inv, t0, t1, st);
             samples += st.samples;
           }
           image.at(px, py) = to_rgba8(st.acc, job.options.background);

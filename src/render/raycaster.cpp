@@ -43,6 +43,7 @@ using detail::Transparency;
 // Classification tables of one level: the step ratio h_l / reference differs per level.
 struct RayCaster::Tables {
   PreintegratedTable preintegrated;
+  std::vector<float> cells;  // the pre-integrated table's bilinear cells (Classifier::cells)
   LookupTable lookup;
 };
 
@@ -121,6 +122,48 @@ namespace {
 [[gnu::target("avx2")]] inline __m256 row_diff(__m256 a, __m256 b, __m256 c, __m256 e, __m256 fx) {
   const __m256 ca = _mm256_sub_ps(c, a);
   return _mm256_add_ps(ca, _mm256_mul_ps(fx, _mm256_sub_ps(_mm256_sub_ps(e, b), ca)));
+}
+
+// Four-channel colours of 8 lanes (one SSE vector each) as one 8-lane vector per channel.
+[[gnu::target("avx2")]] inline void transpose_rgba(const __m128 c[8], __m256& r, __m256& g, __m256& b, __m256& a) {
+  const __m256 t0 = _mm256_insertf128_ps(_mm256_castps128_ps256(c[0]), c[4], 1);
+  const __m256 t1 = _mm256_insertf128_ps(_mm256_castps128_ps256(c[1]), c[5], 1);
+  const __m256 t2 = _mm256_insertf128_ps(_mm256_castps128_ps256(c[2]), c[6], 1);
+  const __m256 t3 = _mm256_insertf128_ps(_mm256_castps128_ps256(c[3]), c[7], 1);
+  const __m256 rg01 = _mm256_unpacklo_ps(t0, t1), ba01 = _mm256_unpackhi_ps(t0, t1);  // r0 r1 g0 g1 | r4 r5 g4 g5
+  const __m256 rg23 = _mm256_unpacklo_ps(t2, t3), ba23 = _mm256_unpackhi_ps(t2, t3);
+  r = _mm256_shuffle_ps(rg01, rg23, 0x44);
+  g = _mm256_shuffle_ps(rg01, rg23, 0xEE);
+  b = _mm256_shuffle_ps(ba01, ba23, 0x44);
+  a = _mm256_shuffle_ps(ba01, ba23, 0xEE);
+}
+
+// x shifted up by `Lanes` lanes, ones shifted in at the bottom.
+template <int Lanes>
+[[gnu::target("avx2")]] inline __m256 shift_up_ones(__m256 x) {
+  static_assert(Lanes == 1 || Lanes == 2 || Lanes == 4);
+  const __m256i from = _mm256_setr_epi32(0 - Lanes, 1 - Lanes, 2 - Lanes, 3 - Lanes, 4 - Lanes, 5 - Lanes, 6 - Lanes, 7 - Lanes);
+  const __m256 moved = _mm256_permutevar8x32_ps(x, _mm256_max_epi32(from, _mm256_setzero_si256()));
+  return _mm256_blend_ps(moved, _mm256_set1_ps(1.0f), (1 << Lanes) - 1);
+}
+
+// Exclusive prefix product of the 8 lanes (lane 0: 1), by three doubling steps.
+[[gnu::target("avx2")]] inline __m256 exclusive_transmittance(__m256 keep) {
+  __m256 p = _mm256_mul_ps(keep, shift_up_ones<1>(keep));
+  p = _mm256_mul_ps(p, shift_up_ones<2>(p));
+  p = _mm256_mul_ps(p, shift_up_ones<4>(p));
+  return shift_up_ones<1>(p);
+}
+
+// acc + (1 - acc.a) * sum over lanes of through * (r, g, b, a): 8 premultiplied segments
+// composited under `acc`, each weighted by the transmittance in front of it.
+[[gnu::target("avx2")]] inline __m128 composite_chunk(__m128 acc, __m256 r, __m256 g, __m256 b, __m256 a, __m256 through) {
+  const __m256 rg = _mm256_hadd_ps(_mm256_mul_ps(through, r), _mm256_mul_ps(through, g));
+  const __m256 ba = _mm256_hadd_ps(_mm256_mul_ps(through, b), _mm256_mul_ps(through, a));
+  const __m256 rgba = _mm256_hadd_ps(rg, ba);  // r0123 g0123 b0123 a0123 | r4567 ...
+  const __m128 sum = _mm_add_ps(_mm256_castps256_ps128(rgba), _mm256_extractf128_ps(rgba, 1));
+  const __m128 w = _mm_sub_ps(_mm_set1_ps(1.0f), _mm_shuffle_ps(acc, acc, 0xff));
+  return _mm_add_ps(acc, _mm_mul_ps(w, sum));
 }
 
 // Marches lattice points k..k1-1 (k0: the block's first lattice point, p / dp its local position
@@ -392,6 +435,58 @@ void attach_flags(Block& b, const std::shared_ptr<const CellFlags>& f, RenderSta
 
 }  // namespace
 
+namespace {
+
+// The pre-integrated table regrouped into bilinear cells (Classifier::cells).
+std::vector<float> bilinear_cells(const PreintegratedTable& t) {
+  const std::size_t n = std::size_t(t.size), m = n - 1;
+  std::vector<float> cells(m * m * 16);
+  for (std::size_t i = 0; i < m; ++i)
+    for (std::size_t j = 0; j < m; ++j) {
+      float* c = cells.data() + (i * m + j) * 16;
+      const Rgbaf* corners[4] = {&t.entries[i * n + j], &t.entries[(i + 1) * n + j], &t.entries[i * n + j + 1],
+                                 &t.entries[(i + 1) * n + j + 1]};
+      for (int q = 0; q < 4; ++q) {
+        c[4 * q + 0] = corners[q]->r;
+        c[4 * q + 1] = corners[q]->g;
+        c[4 * q + 2] = corners[q]->b;
+        c[4 * q + 3] = corners[q]->a;
+      }
+    }
+  return cells;
+}
+
+// Levels 0..max_level: world step and classification tables (built into `tables_` on first
+// use; the step ratio, and so the table, differs per level).
+std::vector<LevelParams> level_params(std::vector<std::unique_ptr<RayCaster::Tables>>& tables_,
+                                      const TransferFunction& tf_, const RenderOptions& options_, int max_level,
+                                      double min_spacing) {
+  std::vector<LevelParams> levels(std::size_t(max_level) + 1);
+  if (tables_.size() < levels.size()) tables_.resize(levels.size());
+  for (std::size_t l = 0; l < levels.size(); ++l) {
+    const double ratio = options_.step * std::ldexp(1.0, int(l));
+    if (!tables_[l]) {
+      auto t = std::make_unique<RayCaster::Tables>();
+      if (options_.preintegrated) {
+        t->preintegrated = tf_.preintegrated_table(options_.table_size, ratio);
+        t->cells = bilinear_cells(t->preintegrated);
+      } else {
+        t->lookup = tf_.lookup_table(16 * options_.table_size, ratio);
+      }
+      tables_[l] = std::move(t);
+    }
+    const RayCaster::Tables& t = *tables_[l];
+    levels[l].h = ratio * min_spacing;
+    levels[l].classify = options_.preintegrated
+                             ? Classifier{t.preintegrated.entries.data(), t.preintegrated.size,
+                                          float(t.preintegrated.size - 1), t.cells.data()}
+                             : Classifier{t.lookup.entries.data(), t.lookup.size, float(t.lookup.size - 1)};
+  }
+  return levels;
+}
+
+}  // namespace
+
 Image RayCaster::render(const Camera& camera, const FrameInput& frame, RenderStats* stats) {
   const auto t0 = Clock::now();
   FrameIndex index = detail::build_frame_index(frame, tf_);
@@ -431,23 +526,7 @@ Image RayCaster::render(const Camera& camera, const FrameInput& frame, RenderSta
   }
   Image image;
   {
-    std::vector<LevelParams> levels(std::size_t(index.max_level) + 1);
-    for (int l = 0; l <= index.max_level; ++l) {
-      if (std::size_t(l) >= tables_.size()) tables_.resize(std::size_t(l) + 1);
-      const double ratio = options_.step * std::ldexp(1.0, l);
-      if (!tables_[std::size_t(l)]) {
-        auto t = std::make_unique<Tables>();
-        if (options_.preintegrated) t->preintegrated = tf_.preintegrated_table(options_.table_size, ratio);
-        else t->lookup = tf_.lookup_table(16 * options_.table_size, ratio);
-        tables_[std::size_t(l)] = std::move(t);
-      }
-      const Tables& t = *tables_[std::size_t(l)];
-      levels[std::size_t(l)].h = ratio * index.min_spacing;
-      levels[std::size_t(l)].classify = options_.preintegrated
-                                            ? Classifier{t.preintegrated.entries.data(), t.preintegrated.size,
-                                                         float(t.preintegrated.size - 1)}
-                                            : Classifier{t.lookup.entries.data(), t.lookup.size, float(t.lookup.size - 1)};
-    }
+    const std::vector<LevelParams> levels = level_params(tables_, tf_, options_, index.max_level, index.min_spacing);
     const ValueMapping& m = mapping;
     local.setup_ms = ms_since(t0);
     const auto t1 = Clock::now();
@@ -472,19 +551,7 @@ Image RayCaster::render(const Camera& camera, const Volume& volume, double value
     local.cell_ranges_built = 1;
     attach_flags(index.blocks[0], flags, local);
   }
-  if (tables_.empty()) tables_.resize(1);
-  if (!tables_[0]) {
-    auto t = std::make_unique<Tables>();
-    if (options_.preintegrated) t->preintegrated = tf_.preintegrated_table(options_.table_size, options_.step);
-    else t->lookup = tf_.lookup_table(16 * options_.table_size, options_.step);
-    tables_[0] = std::move(t);
-  }
-  const Tables& t = *tables_[0];
-  std::vector<LevelParams> levels(1);
-  levels[0].h = options_.step * index.min_spacing;
-  levels[0].classify = options_.preintegrated
-                           ? Classifier{t.preintegrated.entries.data(), t.preintegrated.size, float(t.preintegrated.size - 1)}
-                           : Classifier{t.lookup.entries.data(), t.lookup.size, float(t.lookup.size - 1)};
+  const std::vector<LevelParams> levels = level_params(tables_, tf_, options_, 0, index.min_spacing);
   local.bricks_in_frame = 1;
   local.bricks_culled = index.blocks[0].culled ? 1 : 0;
   local.setup_ms = ms_since(t0);

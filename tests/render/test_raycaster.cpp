@@ -386,10 +386,13 @@ TEST(RayCaster, SkippingEmptyCellsDoesNotChangeTheImage) {
 }
 
 TEST(RayCaster, VectorisedMarchMatchesTheScalarMarch) {
-  // The AVX2 inner loop and its AVX-512 build repeat the scalar arithmetic operation for
-  // operation (no FMA); only the position a resumed run re-samples its front at is rounded
-  // differently, so images agree within one level. The two SIMD builds agree exactly. On CPUs
-  // without AVX-512 the AVX-512 render takes the AVX2 path, without AVX2 the scalar path.
+  // The AVX2 inner loop and its AVX-512 build repeat the scalar per-sample arithmetic operation
+  // for operation (no FMA), but composite each 8-sample chunk at once: the transmittance in
+  // front of each sample is a prefix product taken in another order, and the colours are summed
+  // before they meet the accumulated opacity. That reassociation moves a pixel by a few float
+  // ulps, so images agree within one level (as does a front re-sampled after skipped cells).
+  // The two SIMD builds agree exactly. On CPUs without AVX-512 the AVX-512 render takes the
+  // AVX2 path, without AVX2 the scalar path.
   const Volume v = prisms_volume();
   const BrickedVolume b(v, 16, 2);
   for (const char* tf_name : {"ct", "mri", "grayscale"})
@@ -408,8 +411,8 @@ TEST(RayCaster, VectorisedMarchMatchesTheScalarMarch) {
         const Image bricks_512 = a.render(cam, b.frame(v, 0, 65535)), single_512 = a.render(cam, v, 0, 65535);
         const Diff bricks = max_diff(bricks_512, c.render(cam, b.frame(v, 0, 65535)));
         const Diff single = max_diff(single_512, c.render(cam, v, 0, 65535));
-        EXPECT_LE(bricks.max, skip ? 1 : 0) << bricks.x << "," << bricks.y;
-        EXPECT_LE(single.max, skip ? 1 : 0) << single.x << "," << single.y;
+        EXPECT_LE(bricks.max, 1) << bricks.x << "," << bricks.y;
+        EXPECT_LE(single.max, 1) << single.x << "," << single.y;
         EXPECT_EQ(bricks_512.pixels(), a2.render(cam, b.frame(v, 0, 65535)).pixels());
         EXPECT_EQ(single_512.pixels(), a2.render(cam, v, 0, 65535).pixels());
       }
@@ -435,8 +438,9 @@ TEST(RayCaster, FixedSpecularExponentEqualsTheGenericLoop) {
 }
 
 TEST(RayCaster, VectorisedMarchMatchesTheScalarMarchForAnyExponent) {
-  // The 8-lane march unrolls the default exponent (24) and loops over others; both must equal
-  // the scalar march exactly (no skipping: no re-sampled fronts), and shininess must matter.
+  // The 8-lane march unrolls the default exponent (24) and loops over others; both must agree
+  // with the scalar march (within the one level of chunked compositing, see above), and
+  // shininess must matter.
   const Volume v = prisms_volume();
   const BrickedVolume b(v, 16, 2);
   const Camera cam = perspective_camera(v.dims(), 57, 12);
@@ -450,9 +454,9 @@ TEST(RayCaster, VectorisedMarchMatchesTheScalarMarchForAnyExponent) {
     const Image a = RayCaster(TransferFunction::preset("ct"), vec).render(cam, b.frame(v, 0, 65535));
     const Image c = RayCaster(TransferFunction::preset("ct"), scalar).render(cam, b.frame(v, 0, 65535));
     const Diff d = max_diff(a, c);
-    EXPECT_EQ(d.max, 0) << d.x << "," << d.y;
+    EXPECT_LE(d.max, 1) << d.x << "," << d.y;
     if (shininess == 24) first = a;
-    else EXPECT_NE(a.pixels(), first.pixels());
+    else EXPECT_GT(max_diff(a, first).max, 1) << "shininess " << shininess << " looks like 24";
   }
 }
 
