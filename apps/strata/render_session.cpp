@@ -126,22 +126,29 @@ struct RenderSession::Labels {
 };
 
 // A plain volume file (raw, NRRD, NIfTI, TIFF): loaded whole as floats and ray cast as one
-// block, the uncompressed reference a compressed file's rendering can be compared with.
+// block, the uncompressed reference a compressed file's rendering can be compared with. Its
+// value range and empty-space cells are worked out once, not per frame.
 struct RenderSession::Plain {
   Volume volume;
-  double lo = 0, hi = 1;
   render::RayCaster caster;
+  render::PreparedVolume prepared;
 
   Plain(const std::filesystem::path& input, const RenderSettings& s)
       : volume(io::read_volume(input).converted(DType::f32)),
-        caster(render::TransferFunction::from_argument(s.tf), render_options(s)) {
-    const auto v = volume.samples<float>();
-    if (!v.empty()) std::tie(lo, hi) = std::pair{*std::min_element(v.begin(), v.end()), *std::max_element(v.begin(), v.end())};
+        caster(render::TransferFunction::from_argument(s.tf), render_options(s)),
+        prepared(prepare(volume)) {}
+
+  // The volume over its own value range.
+  static render::PreparedVolume prepare(const Volume& v) {
+    const auto x = v.samples<float>();
+    if (x.empty()) return {v, 0, 1};
+    const auto [lo, hi] = std::minmax_element(x.begin(), x.end());
+    return {v, *lo, *hi};
   }
 
   render::Image frame(const render::Camera& camera, nlohmann::json& stats) {
     render::RenderStats rs;
-    render::Image image = caster.render(camera, volume, lo, hi, &rs);
+    render::Image image = caster.render(camera, prepared, &rs);
     stats = render::stats_json(rs);
     return image;
   }

@@ -60,11 +60,6 @@ void fill_ranges(const FrameInput& frame, FrameIndex& index) {
   }
 }
 
-void cull(FrameIndex& index, const TransferFunction& tf, double value_min, double value_max) {
-  const ValueMapping m = tf.mapping(value_min, value_max);
-  for (Block& b : index.blocks) b.culled = !tf.visible(m.normalise(b.value_lo), m.normalise(b.value_hi));
-}
-
 // Assigns each cell the finest brick covering it; a brick that loses a cell to a finer one is
 // walked cell by cell instead of as one box.
 void fill_cells(const FrameInput& frame, FrameIndex& index) {
@@ -125,6 +120,11 @@ void check_spacing(const Spacing& sp) {
 
 }  // namespace
 
+void cull_blocks(FrameIndex& index, const TransferFunction& tf, double value_min, double value_max) {
+  const ValueMapping m = tf.mapping(value_min, value_max);
+  for (Block& b : index.blocks) b.culled = !tf.visible(m.normalise(b.value_lo), m.normalise(b.value_hi));
+}
+
 FrameIndex build_frame_index(const FrameInput& frame, const TransferFunction& tf) {
   if (!frame.bricks || !frame.geometry) throw Error("render: frame needs bricks and an octree geometry");
   check_spacing(frame.spacing);
@@ -143,12 +143,12 @@ FrameIndex build_frame_index(const FrameInput& frame, const TransferFunction& tf
     index.max_level = std::max(index.max_level, int(b.key.level));
   }
   fill_ranges(frame, index);
-  cull(index, tf, frame.value_min, frame.value_max);
+  cull_blocks(index, tf, frame.value_min, frame.value_max);
   fill_cells(frame, index);
   return index;
 }
 
-FrameIndex build_volume_index(const Volume& volume, const TransferFunction& tf, double value_min, double value_max) {
+FrameIndex build_volume_index(const Volume& volume) {
   check_spacing(volume.spacing());
   if (volume.voxel_count() <= 0) throw Error("render: the volume is empty");
   if (volume.dims().x > 0x7fffffff || volume.dims().y > 0x7fffffff || volume.dims().z > 0x7fffffff)
@@ -178,7 +178,6 @@ FrameIndex build_volume_index(const Volume& volume, const TransferFunction& tf, 
   }
   std::tie(blk.value_lo, blk.value_hi) = sample_range(blk.data, std::size_t(volume.voxel_count()));
   index.blocks.push_back(blk);
-  cull(index, tf, value_min, value_max);
   return index;
 }
 

@@ -53,8 +53,13 @@ struct FrameIndex {
   }
 };
 
-// Culling uses `tf` through `mapping` (normalised value = (v - lo) * scale).
+// The frame's bricks, culled under `tf` (cull_blocks with the frame's value range).
 FrameIndex build_frame_index(const FrameInput& frame, const TransferFunction& tf);
-FrameIndex build_volume_index(const Volume& volume, const TransferFunction& tf, double value_min, double value_max);
+// An in-memory volume as one block (its samples converted to float when they are not), not
+// culled: independent of any transfer function, so it can serve many frames.
+FrameIndex build_volume_index(const Volume& volume);
+// Marks the blocks whose [min, max] is transparent under `tf` (normalised over
+// [value_min, value_max]) as culled, and the others as not.
+void cull_blocks(FrameIndex& index, const TransferFunction& tf, double value_min, double value_max);
 
 }  // namespace strata::render::detail

@@ -2,6 +2,7 @@
 #include "strata/render/raycaster.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #if defined(__x86_64__) && defined(__GNUC__)
@@ -388,8 +389,15 @@ void validate(const RenderOptions& o) {
 
 }  // namespace
 
+namespace {
+std::atomic<std::uint64_t> next_caster_id{0};
+}
+
 RayCaster::RayCaster(TransferFunction tf, RenderOptions options)
-    : tf_(std::move(tf)), options_(options), transparency_(std::make_unique<const Transparency>(tf_)) {
+    : tf_(std::move(tf)),
+      options_(options),
+      transparency_(std::make_unique<const Transparency>(tf_)),
+      id_(next_caster_id.fetch_add(1)) {
   validate(options_);
 }
 RayCaster::~RayCaster() = default;
@@ -538,22 +546,48 @@ Image RayCaster::render(const Camera& camera, const FrameInput& frame, RenderSta
   return image;
 }
 
+PreparedVolume::PreparedVolume(const Volume& volume, double value_min, double value_max)
+    : index_(std::make_unique<FrameIndex>(detail::build_volume_index(volume))),
+      value_min_(value_min),
+      value_max_(value_max) {}
+PreparedVolume::~PreparedVolume() = default;
+PreparedVolume::PreparedVolume(PreparedVolume&&) noexcept = default;
+PreparedVolume& PreparedVolume::operator=(PreparedVolume&&) noexcept = default;
+
 Image RayCaster::render(const Camera& camera, const Volume& volume, double value_min, double value_max,
                         RenderStats* stats) {
+  const auto t0 = Clock::now();
+  PreparedVolume prepared(volume, value_min, value_max);
+  const double prepare_ms = ms_since(t0);
+  Image image = render(camera, prepared, stats);
+  if (stats) {
+    stats->setup_ms += prepare_ms;
+    stats->total_ms += prepare_ms;
+  }
+  return image;
+}
+
+Image RayCaster::render(const Camera& camera, PreparedVolume& volume, RenderStats* stats) {
   // The same traversal over a one-cell index: an empty brick list, the volume as block 0.
   const auto t0 = Clock::now();
-  FrameIndex index = detail::build_volume_index(volume, tf_, value_min, value_max);
-  const ValueMapping m = tf_.mapping(value_min, value_max);
+  FrameIndex& index = *volume.index_;
+  detail::cull_blocks(index, tf_, volume.value_min_, volume.value_max_);
+  const ValueMapping m = tf_.mapping(volume.value_min_, volume.value_max_);
   RenderStats local;
-  std::shared_ptr<const CellFlags> flags;
-  if (const int dilation = skip_dilation(options_); dilation && !index.blocks[0].culled) {
-    flags = cell_flags(index.blocks[0], dilation, *transparency_, float(m.lo), float(m.scale()));
-    local.cell_ranges_built = 1;
-    attach_flags(index.blocks[0], flags, local);
+  Block& block = index.blocks[0];
+  block.empty = nullptr;
+  if (const int dilation = skip_dilation(options_); dilation && !block.culled) {
+    const std::array<double, 4> key{double(id_), double(float(m.lo)), double(float(m.scale())), double(dilation)};
+    if (!volume.flags_ || volume.flags_key_ != key) {
+      volume.flags_ = cell_flags(block, dilation, *transparency_, float(m.lo), float(m.scale()));
+      volume.flags_key_ = key;
+      local.cell_ranges_built = 1;
+    }
+    attach_flags(block, volume.flags_, local);
   }
   const std::vector<LevelParams> levels = level_params(tables_, tf_, options_, 0, index.min_spacing);
   local.bricks_in_frame = 1;
-  local.bricks_culled = index.blocks[0].culled ? 1 : 0;
+  local.bricks_culled = block.culled ? 1 : 0;
   local.setup_ms = ms_since(t0);
   const auto t1 = Clock::now();
   Image image = run({*transparency_, camera, index, options_, levels, float(m.lo), float(m.scale())}, local);

@@ -479,3 +479,31 @@ TEST(RayCaster, RealignedChunksSkipOnlyTransparentSegments) {
       EXPECT_LT(sa.samples, sc.samples);
     }
 }
+
+TEST(RayCaster, PreparedVolumeReusesItsCellsPerRayCaster) {
+  // A prepared volume renders exactly as the one-off path, builds its empty-space cells once
+  // per ray caster, and rebuilds them when another caster (another transfer function) uses it.
+  const Volume v = prisms_volume();
+  const Camera cam = perspective_camera(v.dims(), 40, 20);
+  RayCaster ct(TransferFunction::preset("ct"), options(0.5, true, true));
+  RayCaster mri(TransferFunction::preset("mri"), options(0.5, true, true));
+  PreparedVolume prepared(v, 0, 65535);
+  RenderStats first, second, other, back;
+  const Image a = ct.render(cam, prepared, &first);
+  const Image b = ct.render(cam, prepared, &second);
+  const Image c = mri.render(cam, prepared, &other);
+  const Image d = ct.render(cam, prepared, &back);
+  EXPECT_EQ(first.cell_ranges_built, 1u);
+  EXPECT_EQ(second.cell_ranges_built, 0u);
+  EXPECT_EQ(other.cell_ranges_built, 1u);
+  EXPECT_EQ(back.cell_ranges_built, 1u);
+  EXPECT_GT(second.cells_empty, 0u);
+  EXPECT_EQ(second.cells_empty, first.cells_empty);
+  EXPECT_NE(other.cells_empty, first.cells_empty);  // another TF empties other cells
+  const Image one_off = ct.render(cam, v, 0, 65535);
+  EXPECT_EQ(a.pixels(), one_off.pixels());
+  EXPECT_EQ(b.pixels(), one_off.pixels());
+  EXPECT_EQ(d.pixels(), one_off.pixels());
+  EXPECT_EQ(c.pixels(), mri.render(cam, v, 0, 65535).pixels());
+  EXPECT_GT(max_diff(a, c).max, 10);
+}

@@ -32,9 +32,11 @@
 // Speed. On CPUs with AVX2 (checked at run time; the build stays portable x86-64) the march
 // inside a brick takes 8 lattice points at a time: trilinear taps, transparency bins, table
 // coordinates, the 32-voxel central-difference stencil and Blinn-Phong by gathers and 8-wide
-// arithmetic, then composites the lanes in order. It performs the scalar march's operations in
-// the same order without FMA, so the image does not depend on the path (tests compare them).
-// On CPUs with AVX-512 (F/VL/BW/DQ) the same loop runs from a second build of its source
+// arithmetic, with the scalar march's per-sample operations in the same order and without FMA.
+// The 8 segments are then composited at once: the transmittance in front of each is a prefix
+// product of (1 - alpha), so the ray's loop-carried chain is one update per chunk. That
+// reassociation moves a pixel by at most one level against the scalar march (tests compare
+// them). On CPUs with AVX-512 (F/VL/BW/DQ) the same loop runs from a second build of its source
 // (render/march8_body.hpp) for that ISA: 32 vector registers spill less; the image is identical.
 // The shading gradient equals the six trilinear taps f(p +- e_a) but reads each voxel once.
 #include <array>
@@ -62,6 +64,8 @@ namespace strata::render {
 
 namespace detail {
 class CellFlagCache;
+struct CellFlags;
+struct FrameIndex;
 struct Transparency;
 }
 
@@ -113,6 +117,26 @@ struct FrameInput {
   const store::ContainerReader* index = nullptr;
 };
 
+// An in-memory volume prepared for repeated rendering (an orbit over a plain volume file): its
+// samples as floats and their value range are worked out once, its empty-space cells once per
+// ray caster that renders it. It reads the volume's samples in place when they are float, so
+// the volume must outlive it and stay unchanged while it is in use.
+class PreparedVolume {
+ public:
+  // [value_min, value_max] normalises values for the transfer function.
+  PreparedVolume(const Volume& volume, double value_min, double value_max);
+  ~PreparedVolume();
+  PreparedVolume(PreparedVolume&&) noexcept;
+  PreparedVolume& operator=(PreparedVolume&&) noexcept;
+
+ private:
+  friend class RayCaster;
+  std::unique_ptr<detail::FrameIndex> index_;  // one block: the volume
+  double value_min_ = 0, value_max_ = 1;
+  std::shared_ptr<const detail::CellFlags> flags_;  // of the ray caster and mapping in flags_key_
+  std::array<double, 4> flags_key_{-1, 0, 0, 0};   // ray caster id, mapping lo and scale, dilation
+};
+
 class RayCaster {
  public:
   explicit RayCaster(TransferFunction tf, RenderOptions options = {});
@@ -127,10 +151,11 @@ class RayCaster {
   // or its samples are not B^3 floats. Not reentrant (classification tables are cached per
   // level); use one RayCaster per concurrent render.
   Image render(const Camera& camera, const FrameInput& frame, RenderStats* stats = nullptr);
-  // Renders an in-memory volume as a single block (no bricks, nothing skipped): the reference
-  // image bricked renders are compared with, and a path for plain volume files.
+  // Renders an in-memory volume as a single block (no bricks): the reference image bricked
+  // renders are compared with. A one-off PreparedVolume; keep one to render many frames.
   Image render(const Camera& camera, const Volume& volume, double value_min, double value_max,
                RenderStats* stats = nullptr);
+  Image render(const Camera& camera, PreparedVolume& volume, RenderStats* stats = nullptr);
 
   struct Tables;  // per-level classification tables (raycaster.cpp)
 
@@ -140,6 +165,7 @@ class RayCaster {
   std::vector<std::unique_ptr<Tables>> tables_;  // by level, built on first use
   std::unique_ptr<detail::CellFlagCache> cell_flags_;  // per brick, while the brick lives
   std::unique_ptr<const detail::Transparency> transparency_;  // of tf_, which never changes
+  std::uint64_t id_;  // tells PreparedVolume whose empty-space cells it holds
 };
 
 // Every brick of `level` decoded at rank `rank` (clamped to the file's rank), in parallel;
