@@ -449,6 +449,35 @@ BoxHistogram BoxQuery::coarse(const Box& box, std::uint64_t max_samples) const {
   return result;
 }
 
+namespace {
+
+// Per-thread histograms, each sorted by source, merged into one: counts add, variances add.
+std::vector<BoxCount> merge_by_source(std::vector<std::vector<BoxCount>> parts) {
+  std::vector<BoxCount> merged = std::move(parts[0]), next;
+  for (std::size_t i = 1; i < parts.size(); ++i) {
+    const std::vector<BoxCount>& other = parts[i];
+    next.clear();
+    next.reserve(merged.size() + other.size());
+    auto a = merged.cbegin();
+    auto b = other.cbegin();
+    while (a != merged.cend() || b != other.cend()) {
+      if (b == other.cend() || (a != merged.cend() && a->source < b->source)) {
+        next.push_back(*a++);
+      } else if (a == merged.cend() || b->source < a->source) {
+        next.push_back(*b++);
+      } else {
+        next.push_back({a->source, a->count + b->count, std::sqrt(a->sigma * a->sigma + b->sigma * b->sigma)});
+        ++a;
+        ++b;
+      }
+    }
+    std::swap(merged, next);
+  }
+  return merged;
+}
+
+}  // namespace
+
 BoxHistogram BoxQuery::naive(const Box& box, int threads) const {
   check(box);
   BoxHistogram result;
@@ -507,20 +536,7 @@ BoxHistogram BoxQuery::naive(const Box& box, int threads) const {
     }
   }
   if (error) std::rethrow_exception(error);
-  // k-way merge by source (parts are sorted).
-  detail::FlatMap<std::uint32_t, std::pair<double, double>> merged(kNoNode, parts[0].size() * 2);
-  for (const auto& p : parts)
-    for (const BoxCount& c : p) {
-      auto* m = merged.insert(c.source, {0.0, 0.0}).first;
-      m->first += c.count;
-      m->second += c.sigma * c.sigma;
-    }
-  result.counts.reserve(merged.size());
-  merged.for_each([&](std::uint32_t s, const std::pair<double, double>& v) {
-    result.counts.push_back({s, v.first, std::sqrt(v.second)});
-  });
-  std::sort(result.counts.begin(), result.counts.end(),
-            [](const BoxCount& a, const BoxCount& b) { return a.source < b.source; });
+  result.counts = merge_by_source(std::move(parts));
   for (auto e : expanded) result.distinct_nodes += e;  // per thread (a node may count twice)
   return result;
 }

@@ -516,8 +516,7 @@ void EncodedLabels::decode_box(int level, const Box& box, std::span<std::uint32_
     throw Error(path_.string() + ": box is outside level " + std::to_string(level));
   if (out.size() != std::size_t(box.voxel_count())) throw Error("decode_box: output size does not match the box");
   if (ids_mode_ == IdsMode::blocks) {
-    const std::vector<std::uint32_t> ids = blocks_[std::size_t(level)].decode_box(box);
-    std::copy(ids.begin(), ids.end(), out.begin());
+    blocks_[std::size_t(level)].decode_box(box, out);
     return;
   }
   const FixedRateIds& f = fixed_[std::size_t(level)];

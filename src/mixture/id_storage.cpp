@@ -177,11 +177,12 @@ std::uint32_t BlockPaletteIds::at(std::int64_t x, std::int64_t y, std::int64_t z
   return palettes_[b.palette_offset + index_in_block(b, x, y, z)];
 }
 
-std::vector<std::uint32_t> BlockPaletteIds::decode_box(const Box& box) const {
+void BlockPaletteIds::decode_box(const Box& box, std::span<std::uint32_t> out) const {
   if (box.empty() || !Box::whole(dims_).contains(box))
     throw Error("BlockPaletteIds::decode_box: " + box.to_string() + " is not inside " + dims_.to_string());
   const Extent s = box.size();
-  std::vector<std::uint32_t> out(std::size_t(s.voxel_count()));
+  if (out.size() != std::size_t(s.voxel_count()))
+    throw Error("BlockPaletteIds::decode_box: " + std::to_string(out.size()) + " outputs for " + box.to_string());
   for (std::int64_t z = box.lo.z; z < box.hi.z; ++z)
     for (std::int64_t y = box.lo.y; y < box.hi.y; ++y) {
       std::uint32_t* row = out.data() + ((z - box.lo.z) * s.y + (y - box.lo.y)) * s.x;
@@ -193,7 +194,6 @@ std::vector<std::uint32_t> BlockPaletteIds::decode_box(const Box& box) const {
         for (; x < run_end; ++x) row[x - box.lo.x] = palette[index_in_block(b, x, y, z)];
       }
     }
-  return out;
 }
 
 std::size_t BlockPaletteIds::byte_size() const {

@@ -2,6 +2,8 @@
 // against brute-force level-0 counts on generated label volumes with odd dimensions.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -139,6 +141,10 @@ TEST_P(BoxQueryTest, RandomBoxesMatchBruteForce) {
     for (int threads : {1, 2}) {
       const BoxHistogram n = q.naive(b, threads);
       ASSERT_EQ(n.counts.size(), truth.size());
+      // One entry per source, ascending (the per-thread parts merge in order).
+      EXPECT_EQ(std::adjacent_find(n.counts.begin(), n.counts.end(),
+                                   [](const BoxCount& a, const BoxCount& c) { return a.source >= c.source; }),
+                n.counts.end());
       for (const auto& c : n.counts) {
         EXPECT_EQ(c.count, double(truth.at(c.source)));
         EXPECT_EQ(c.sigma, 0.0);

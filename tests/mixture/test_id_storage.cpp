@@ -5,6 +5,7 @@
 
 #include "strata/core/error.hpp"
 #include "strata/mixture/id_storage.hpp"
+#include "support/test_support.hpp"
 
 using namespace strata;
 using namespace strata::mixture;
@@ -56,11 +57,14 @@ TEST(IdStorage, BlockPaletteRoundTripsOnOddSizes) {
   expect_all_equal(c, ids, d);
   EXPECT_EQ(b.serialize().size(), b.byte_size());
   const Box box{{3, 5, 2}, {19, 16, 9}};
-  auto part = c.decode_box(box);
+  std::vector<std::uint32_t> part(std::size_t(box.voxel_count()));
+  c.decode_box(box, part);
   std::size_t i = 0;
   for (std::int64_t z = box.lo.z; z < box.hi.z; ++z)
     for (std::int64_t y = box.lo.y; y < box.hi.y; ++y)
       for (std::int64_t x = box.lo.x; x < box.hi.x; ++x) ASSERT_EQ(part[i++], ids[std::size_t((z * d.y + y) * d.x + x)]);
+  std::vector<std::uint32_t> short_out(part.size() - 1);
+  EXPECT_NE(test::error_of([&] { c.decode_box(box, short_out); }).find("outputs for"), std::string::npos);
 }
 
 TEST(IdStorage, BlockPaletteIsSmallForCoherentIdsAndSharesPalettes) {

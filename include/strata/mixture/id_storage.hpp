@@ -45,8 +45,9 @@ class BlockPaletteIds {
   BlockPaletteIds(std::span<const std::uint32_t> ids, const Extent& dims);  // x-fastest ids
 
   std::uint32_t at(std::int64_t x, std::int64_t y, std::int64_t z) const;
-  // Every id of `box` (inside dims), x-fastest, decoding each block once.
-  std::vector<std::uint32_t> decode_box(const Box& box) const;
+  // Every id of `box` (inside dims) into `out` (box.voxel_count() entries), x-fastest, one
+  // block header per run of up to 8 voxels. Throws Error when the box or `out` does not fit.
+  void decode_box(const Box& box, std::span<std::uint32_t> out) const;
   const Extent& dims() const { return dims_; }
   std::size_t byte_size() const;  // as serialized
 
