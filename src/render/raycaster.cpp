@@ -464,28 +464,28 @@ std::vector<float> bilinear_cells(const PreintegratedTable& t) {
   return cells;
 }
 
-// Levels 0..max_level: world step and classification tables (built into `tables_` on first
+// Levels 0..max_level: world step and classification tables (built into `tables` on first
 // use; the step ratio, and so the table, differs per level).
-std::vector<LevelParams> level_params(std::vector<std::unique_ptr<RayCaster::Tables>>& tables_,
-                                      const TransferFunction& tf_, const RenderOptions& options_, int max_level,
+std::vector<LevelParams> level_params(std::vector<std::unique_ptr<RayCaster::Tables>>& tables,
+                                      const TransferFunction& tf, const RenderOptions& options, int max_level,
                                       double min_spacing) {
   std::vector<LevelParams> levels(std::size_t(max_level) + 1);
-  if (tables_.size() < levels.size()) tables_.resize(levels.size());
+  if (tables.size() < levels.size()) tables.resize(levels.size());
   for (std::size_t l = 0; l < levels.size(); ++l) {
-    const double ratio = options_.step * std::ldexp(1.0, int(l));
-    if (!tables_[l]) {
+    const double ratio = options.step * std::ldexp(1.0, int(l));
+    if (!tables[l]) {
       auto t = std::make_unique<RayCaster::Tables>();
-      if (options_.preintegrated) {
-        t->preintegrated = tf_.preintegrated_table(options_.table_size, ratio);
+      if (options.preintegrated) {
+        t->preintegrated = tf.preintegrated_table(options.table_size, ratio);
         t->cells = bilinear_cells(t->preintegrated);
       } else {
-        t->lookup = tf_.lookup_table(16 * options_.table_size, ratio);
+        t->lookup = tf.lookup_table(16 * options.table_size, ratio);
       }
-      tables_[l] = std::move(t);
+      tables[l] = std::move(t);
     }
-    const RayCaster::Tables& t = *tables_[l];
+    const RayCaster::Tables& t = *tables[l];
     levels[l].h = ratio * min_spacing;
-    levels[l].classify = options_.preintegrated
+    levels[l].classify = options.preintegrated
                              ? Classifier{t.preintegrated.entries.data(), t.preintegrated.size,
                                           float(t.preintegrated.size - 1), t.cells.data()}
                              : Classifier{t.lookup.entries.data(), t.lookup.size, float(t.lookup.size - 1)};
