@@ -3,11 +3,11 @@
 #include <array>
 #include <chrono>
 #include <cstdio>
-#include <fstream>
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
 #include "strata/core/error.hpp"
+#include "strata/io/files.hpp"
 #include "report.hpp"
 #include "strata/mixture/encoded_labels.hpp"
 #include "strata/mixture/palette.hpp"
@@ -33,14 +33,7 @@ std::array<float, 4> parse_rgba(const nlohmann::json& j, const std::string& file
 void run_labels_palette(const LabelsPaletteArgs& args, const GlobalOptions&) {
   using clock = std::chrono::steady_clock;
   const mixture::EncodedLabels labels(args.input);
-  std::ifstream in(args.colors);
-  if (!in) throw Error(args.colors + ": cannot open");
-  nlohmann::json colors;
-  try {
-    colors = nlohmann::json::parse(in);
-  } catch (const std::exception& e) {
-    throw FormatError(args.colors, "json", e.what());
-  }
+  nlohmann::json colors = io::read_json_file(args.colors, "json");
   if (!colors.is_object()) throw FormatError(args.colors, "json", "expected an object {\"<label>\": [r, g, b, a], ...}");
   std::array<float, 4> fallback{0, 0, 0, 0};
   if (colors.contains("default")) fallback = parse_rgba(colors["default"], args.colors, "default");

@@ -59,12 +59,12 @@ std::array<float, 4> parse_background(const std::string& text) {
   return c;
 }
 
-render::CameraSpec camera_spec(const RenderArgs& a, double azimuth) {
+// The camera of every frame but its azimuth (frame_azimuth). Throws Error on a bad --size.
+render::CameraSpec camera_spec(const RenderArgs& a) {
   render::CameraSpec spec;
   std::tie(spec.width, spec.height) = parse_size(a.size);
   spec.projection = a.ortho ? render::Projection::orthographic : render::Projection::perspective;
   spec.fov_deg = a.fov;
-  spec.orbit.azimuth_deg = azimuth;
   spec.orbit.elevation_deg = a.elevation;
   spec.orbit.distance = a.distance;
   return spec;
@@ -120,18 +120,19 @@ RenderSettings settings_of(const RenderArgs& a) {
 
 void run_render(const RenderArgs& a, const GlobalOptions&) {
   if (a.orbit < 0) throw Error("--orbit: must be >= 0");
-  parse_size(a.size);  // fail before any work
+  render::CameraSpec camera = camera_spec(a);  // fails on a bad --size before any work
   RenderSession session(a.input, settings_of(a));
   if (a.orbit > 0) fs::create_directories(a.output);
   nlohmann::json frames = nlohmann::json::array();
   const int count = std::max(1, a.orbit);
   for (int i = 0; i < count; ++i) {
     nlohmann::json s;
+    camera.orbit.azimuth_deg = frame_azimuth(a, i);
     // A still, and the first frame of an orbit, show the complete cut; later orbit frames
     // draw what is resident and let the loader catch up, unless --exact.
-    const render::Image image = session.frame(camera_spec(a, frame_azimuth(a, i)), a.exact || i == 0, s);
+    const render::Image image = session.frame(camera, a.exact || i == 0, s);
     s["frame"] = i;
-    s["azimuth"] = frame_azimuth(a, i);
+    s["azimuth"] = camera.orbit.azimuth_deg;
     const fs::path path = frame_path(a, i);
     render::write_png(image, path);
     print_frame(path, s);

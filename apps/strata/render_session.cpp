@@ -1,9 +1,6 @@
 #include "render_session.hpp"
 
-#include <sys/resource.h>
-
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 
 #include "strata/core/stopwatch.hpp"
@@ -23,14 +20,6 @@
 namespace strata::cli {
 
 namespace {
-
-using Clock = std::chrono::steady_clock;
-
-double cpu_seconds() {
-  rusage u{};
-  getrusage(RUSAGE_SELF, &u);
-  return double(u.ru_utime.tv_sec + u.ru_stime.tv_sec) + 1e-6 * double(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
-}
 
 render::RenderOptions render_options(const RenderSettings& s) {
   render::RenderOptions o;
@@ -69,7 +58,7 @@ struct RenderSession::Scalar {
   }
 
   render::Image frame(const render::Camera& camera, bool exact, nlohmann::json& stats) {
-    const auto t0 = Clock::now();
+    const auto t0 = SteadyClock::now();
     const lod::Selection cut = lod::select_cut(volume, camera.view(), visible_bins, selection);
     const double select_ms = ms_since(t0);
     const lod::FrameBricks bricks = provider.acquire(cut, rank, exact);
@@ -136,15 +125,7 @@ struct RenderSession::Plain {
   Plain(const std::filesystem::path& input, const RenderSettings& s)
       : volume(io::read_volume(input).converted(DType::f32)),
         caster(render::TransferFunction::from_argument(s.tf), render_options(s)),
-        prepared(prepare(volume)) {}
-
-  // The volume over its own value range.
-  static render::PreparedVolume prepare(const Volume& v) {
-    const auto x = v.samples<float>();
-    if (x.empty()) return {v, 0, 1};
-    const auto [lo, hi] = std::minmax_element(x.begin(), x.end());
-    return {v, *lo, *hi};
-  }
+        prepared(volume) {}  // over the volume's own value range
 
   render::Image frame(const render::Camera& camera, nlohmann::json& stats) {
     render::RenderStats rs;
@@ -170,7 +151,6 @@ RenderSession::RenderSession(const std::filesystem::path& input, const RenderSet
 
 RenderSession::~RenderSession() = default;
 
-bool RenderSession::is_labels() const { return labels_ != nullptr; }
 Extent RenderSession::dims() const {
   if (plain_) return plain_->volume.dims();
   return labels_ ? labels_->labels.level_dims(0) : scalar_->volume.source_info().dims;
@@ -214,7 +194,7 @@ render::Image RenderSession::frame(const render::CameraSpec& spec, bool exact, n
   }
   const render::Camera camera(cast, dims(), spacing());
   const double c0 = cpu_seconds();
-  const auto t0 = Clock::now();
+  const auto t0 = SteadyClock::now();
   render::Image image = plain_    ? plain_->frame(camera, stats)
                         : labels_ ? labels_->frame(camera, stats)
                                   : scalar_->frame(camera, exact, stats);

@@ -38,7 +38,6 @@ class RenderSession {
   RenderSession(const std::filesystem::path& input, const RenderSettings& settings);
   ~RenderSession();
 
-  bool is_labels() const;
   Extent dims() const;
   Spacing spacing() const;
   // One frame; `exact` waits for every brick of the cut (TA files) and always casts one ray

@@ -5,10 +5,7 @@
 //   vtk_raycast VOLUME --size 1024x768 --orbit 24 --tf ct --step 0.5 --shading on --threads 2
 //               [--azimuth 30 --elevation 20] [-o first.png]
 // The camera and transfer function come from strata's own classes, so both programs agree.
-#include <sys/resource.h>
-
 #include <algorithm>
-#include <chrono>
 #include <cstring>
 #include <cstdio>
 #include <cstdlib>
@@ -31,6 +28,7 @@
 #include <vtkWindowToImageFilter.h>
 
 #include "strata/core/statistics.hpp"
+#include "strata/core/stopwatch.hpp"
 #include "strata/io/volume_io.hpp"
 #include "strata/render/camera.hpp"
 #include "strata/render/raycaster.hpp"
@@ -72,12 +70,6 @@ Args parse(int argc, char** argv) {
   }
   if (a.input.empty()) throw std::runtime_error("usage: vtk_raycast VOLUME [options]");
   return a;
-}
-
-double cpu_seconds() {
-  rusage u{};
-  getrusage(RUSAGE_SELF, &u);
-  return double(u.ru_utime.tv_sec + u.ru_stime.tv_sec) + 1e-6 * double(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
 }
 
 // VTK's point layout is x fastest like ours; unsigned 8/16-bit stay native (the fixed-point
@@ -178,9 +170,9 @@ int main(int argc, char** argv) try {
     c->SetViewAngle(spec.fov_deg);
     renderer->ResetCameraClippingRange();
     const double c0 = cpu_seconds();
-    const auto w0 = std::chrono::steady_clock::now();
+    const auto w0 = SteadyClock::now();
     window->Render();
-    const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
+    const double wall = seconds_since(w0);
     const double cpu = cpu_seconds() - c0;
     cpu_total += cpu;
     wall_total += wall;

@@ -58,7 +58,6 @@ void StatisticsAccumulator::add_typed(const T* v, std::int64_t n) {
       std::int64_t j = i + 1;
       while (j < n && v[j] == v[i]) ++j;
       counts_[std::int64_t(v[i])] += std::uint64_t(j - i);
-      counted_ += std::uint64_t(j - i);
       if (counts_.size() > kDistinctCap) distinct_overflow_ = true;
       i = j;
     }
@@ -98,13 +97,17 @@ VolumeStatistics StatisticsAccumulator::result() const {
   } else {
     // Exact counts of the integers (all of them, or those seen before an overflow), plus the
     // evenly thinned sample of the rest (all of a float stream) scaled to the voxels it stands for.
-    for (const auto& [value, count] : counts_) s.histogram[bin_of(double(value))] += count;
+    std::uint64_t counted = 0;  // integer voxels counted exactly in the map (before any overflow)
+    for (const auto& [value, count] : counts_) {
+      s.histogram[bin_of(double(value))] += count;
+      counted += count;
+    }
     if (!seen_float_ && !distinct_overflow_) {
       s.distinct_values = counts_.size();
     } else {
       std::array<std::uint64_t, 16> sampled{};
       for (double v : samples_) ++sampled[bin_of(v)];
-      const std::uint64_t sampled_voxels = n_ - counted_;
+      const std::uint64_t sampled_voxels = n_ - counted;
       const double scale = samples_.empty() ? 0 : double(sampled_voxels) / double(samples_.size());
       for (std::size_t b = 0; b < sampled.size(); ++b) s.histogram[b] += std::uint64_t(std::llround(sampled[b] * scale));
     }

@@ -1,5 +1,5 @@
-// MappedFile, AtomicOutputFile and TempFile (include/strata/io/files.hpp): the POSIX side of
-// reading and writing whole files.
+// MappedFile, AtomicOutputFile, TempFile and read_json_file (include/strata/io/files.hpp): the
+// POSIX side of reading and writing whole files.
 #include "strata/io/files.hpp"
 
 #include <fcntl.h>
@@ -10,9 +10,11 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
+#include <fstream>
 #include <vector>
 
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 
 #include "io/io_detail.hpp"
 #include "strata/core/error.hpp"
@@ -133,6 +135,19 @@ TempFile::TempFile(const std::filesystem::path& dir, const std::string& stem) {
 TempFile::~TempFile() {
   std::error_code ignored;
   std::filesystem::remove(path_, ignored);
+}
+
+// ---------------------------------------------------------------------------------------------
+// read_json_file
+
+nlohmann::json read_json_file(const std::filesystem::path& path, std::string_view field) {
+  std::ifstream in(path);
+  if (!in) throw Error(fmt::format("{}: cannot open", path.string()));
+  try {
+    return nlohmann::json::parse(in);
+  } catch (const nlohmann::json::exception& e) {
+    throw FormatError(path.string(), std::string(field), std::string("invalid JSON: ") + e.what());
+  }
 }
 
 }  // namespace strata::io

@@ -1,6 +1,5 @@
 // Raw volumes: bare x-fastest samples whose dims and dtype come from ReadOptions or from a JSON
 // sidecar (`<file>.json`, or `<stem>.json` beside the file).
-#include <fstream>
 #include <sstream>
 
 #include <fmt/format.h>
@@ -31,16 +30,6 @@ std::optional<std::filesystem::path> find_sidecar(const std::filesystem::path& p
     if (std::filesystem::is_regular_file(candidate, ec)) return candidate;
   }
   return std::nullopt;
-}
-
-nlohmann::json load_json(const std::filesystem::path& sidecar) {
-  std::ifstream in(sidecar);
-  if (!in) throw Error(fmt::format("{}: cannot open", sidecar.string()));
-  try {
-    return nlohmann::json::parse(in);
-  } catch (const nlohmann::json::exception& e) {
-    throw FormatError(sidecar.string(), "json", e.what());
-  }
 }
 
 std::array<double, 3> read_triple(const nlohmann::json& j, const std::filesystem::path& sidecar, const char* field) {
@@ -74,7 +63,7 @@ bool read_endian(const nlohmann::json& j, const std::filesystem::path& sidecar) 
 }
 
 RawDescription parse_sidecar(const std::filesystem::path& sidecar) {
-  const nlohmann::json j = load_json(sidecar);
+  const nlohmann::json j = read_json_file(sidecar, "json");
   if (!j.is_object()) throw FormatError(sidecar.string(), "json", "expected an object {\"dims\": ..., \"dtype\": ...}");
   RawDescription d;
   if (j.contains("dims")) d.dims = read_dims(j["dims"], sidecar);

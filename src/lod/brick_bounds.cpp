@@ -18,19 +18,15 @@ double voxel_edge(const Spacing& spacing, int level) {
   return std::ldexp(std::max({spacing.x, spacing.y, spacing.z}), level);
 }
 
-namespace {
-
-// The near plane's distance from the eye along the view direction (0 when the frustum has no
-// usable near plane).
 double near_distance(const View& view) {
   const Plane& near = view.frustum[4];
   if (dot(near.normal, near.normal) == 0) return 0;
   return std::max(0.0, -near.signed_distance(view.eye) / length(near.normal));
 }
 
-}  // namespace
+double view_depth(const View& view, const WorldBox& box) { return view_depth(view, box, near_distance(view)); }
 
-double view_depth(const View& view, const WorldBox& box) {
+double view_depth(const View& view, const WorldBox& box, double near) {
   // The minimum of a linear function over a box is the sum of per-axis minima.
   double depth = 0;
   for (int a = 0; a < 3; ++a) {
@@ -38,7 +34,7 @@ double view_depth(const View& view, const WorldBox& box) {
     depth += std::min(f * (box.lo[a] - e), f * (box.hi[a] - e));
   }
   // A tiny floor keeps pixel_size_at() positive when the frustum has no near plane.
-  return std::max({depth, near_distance(view), 1e-9});
+  return std::max({depth, near, 1e-9});
 }
 
 bool in_frustum(const View& view, const WorldBox& box) {

@@ -10,7 +10,6 @@ BrickCache::BrickCache(std::uint64_t budget_bytes) : lru_(budget_bytes) {}
 BrickSamples BrickCache::find(const store::BrickKey& key, int rank) {
   std::lock_guard lock(mutex_);
   const BrickSamples* v = lru_.find({key, rank});
-  ++(v ? counters_.hits : counters_.misses);
   return v ? *v : nullptr;
 }
 
@@ -48,12 +47,6 @@ void BrickCache::forget_rank(const RankedKey& key) {
   if (it->second.empty()) ranks_.erase(it);
 }
 
-void BrickCache::clear() {
-  std::lock_guard lock(mutex_);
-  lru_.clear();
-  ranks_.clear();
-}
-
 std::uint64_t BrickCache::bytes() const {
   std::lock_guard lock(mutex_);
   return lru_.bytes();
@@ -66,9 +59,7 @@ std::size_t BrickCache::size() const {
 
 CacheCounters BrickCache::counters() const {
   std::lock_guard lock(mutex_);
-  CacheCounters c = counters_;
-  c.evictions = lru_.evictions();
-  return c;
+  return {lru_.evictions()};
 }
 
 }  // namespace strata::lod

@@ -1,6 +1,7 @@
 #include "strata/lod/brick_decode.hpp"
 
 #include <algorithm>
+#include <limits>
 #include <memory>
 
 #include "strata/core/error.hpp"
@@ -11,17 +12,9 @@ BrickModel dequantize_payload(store::PayloadKind kind, std::span<const std::byte
                               const quant::QuantScheme& scheme, int brick_width, ta::DecodeScratch& scratch,
                               const std::string& context) {
   if (kind == store::PayloadKind::constant) throw Error(context + ": a constant brick has no model to dequantize");
-  try {
-    const quant::BrickView view(ta::plain_payload(kind, payload, scheme, scratch, context), scheme);
-    const Dims3& d = view.dims();
-    if (d[0] != brick_width || d[1] != brick_width || d[2] != brick_width)
-      throw Error("brick extents " + to_string(d) + " differ from the brick width " + std::to_string(brick_width));
-    auto model = std::make_shared<quant::DequantizedModel>();
-    quant::dequantize(view, view.ranks(), *model);
-    return model;
-  } catch (const Error& e) {
-    throw Error(context + ": " + e.what());
-  }
+  auto model = std::make_shared<quant::DequantizedModel>();
+  ta::dequantize_brick(kind, payload, scheme, brick_width, std::numeric_limits<int>::max(), scratch, *model, context);
+  return model;
 }
 
 BrickModel fetch_model(const ta::TaVolume& volume, const store::BrickEntry& entry, ta::DecodeScratch& scratch,
@@ -40,8 +33,7 @@ void reconstruct_at_rank(const quant::DequantizedModel& model, int k, BrickRecon
 }
 
 std::string brick_context(const ta::TaVolume& volume, const store::BrickKey& key) {
-  return volume.container().path().string() + ": brick (level " + std::to_string(key.level) + ", " +
-         std::to_string(key.x) + "," + std::to_string(key.y) + "," + std::to_string(key.z) + ")";
+  return volume.container().path().string() + ": " + store::brick_name(key);
 }
 
 }  // namespace strata::lod

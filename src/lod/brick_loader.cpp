@@ -29,7 +29,6 @@ BrickLoader::~BrickLoader() {
   {
     std::lock_guard lock(mutex_);
     heap_.clear();
-    queued_.clear();
   }
   for (auto& w : workers_) w.request_stop();
   wake_.notify_all();
@@ -38,11 +37,11 @@ BrickLoader::~BrickLoader() {
 
 void BrickLoader::submit(const std::vector<LoadRequest>& requests) {
   {
+    std::unordered_set<RankedKey, RankedKeyHash> seen;  // duplicates keep the first request
     std::lock_guard lock(mutex_);
     heap_.clear();
-    queued_.clear();
     for (const LoadRequest& r : requests) {
-      if (running_.contains(r.key) || !queued_.insert(r.key).second) continue;
+      if (running_.contains(r.key) || !seen.insert(r.key).second) continue;
       heap_.push_back(r);
     }
     std::make_heap(heap_.begin(), heap_.end(), later);
@@ -56,7 +55,6 @@ bool BrickLoader::pop(LoadRequest& out) {
   std::pop_heap(heap_.begin(), heap_.end(), later);
   out = heap_.back();
   heap_.pop_back();
-  queued_.erase(out.key);
   running_.insert(out.key);
   return true;
 }

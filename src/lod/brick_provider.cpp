@@ -53,8 +53,7 @@ BrickSamples BrickProvider::decode(const RankedKey& key, BrickReconstructor& rec
   return samples;
 }
 
-bool BrickProvider::stand_in(const CutBrick& brick, int rank, ResidentBrick& out, std::vector<LoadRequest>& requests,
-                             std::unordered_set<RankedKey, RankedKeyHash>& requested) {
+bool BrickProvider::stand_in(const CutBrick& brick, int rank, ResidentBrick& out, std::vector<LoadRequest>& requests) {
   int found = 0;
   // After a rank change the brick at its old rank is the closest picture of it.
   if (BrickSamples s = cache_.find_any_rank(brick.key, rank, &found)) {
@@ -75,8 +74,7 @@ bool BrickProvider::stand_in(const CutBrick& brick, int rank, ResidentBrick& out
       return true;
     }
     // Coarse bricks load first (queue order), so a cold start shows a coarse picture early.
-    const RankedKey wanted{key, rank};
-    if (requested.insert(wanted).second) requests.push_back({wanted, brick.depth});
+    requests.push_back({{key, rank}, brick.depth});
   }
   return false;
 }
@@ -120,12 +118,10 @@ FrameBricks BrickProvider::acquire(const Selection& cut, int rank, bool exact) {
   if (exact) {
     resolve_exact(cut, missing, k, std::move(requests), frame);
   } else {
-    std::unordered_set<RankedKey, RankedKeyHash> requested;
-    for (const LoadRequest& r : requests) requested.insert(r.key);
     std::unordered_set<store::BrickKey, store::BrickKeyHash> shown;
     for (std::size_t i : missing) {
       ResidentBrick r;
-      if (stand_in(cut.bricks[i], k, r, requests, requested) && shown.insert(r.key).second)
+      if (stand_in(cut.bricks[i], k, r, requests) && shown.insert(r.key).second)
         frame.bricks.push_back(std::move(r));
     }
     loader_.submit(requests);

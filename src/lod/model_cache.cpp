@@ -22,11 +22,6 @@ bool ModelCache::insert(const store::BrickKey& key, BrickModel model) {
   return lru_.insert(key, std::move(model), bytes);
 }
 
-void ModelCache::clear() {
-  std::lock_guard lock(mutex_);
-  lru_.clear();
-}
-
 std::uint64_t ModelCache::bytes() const {
   std::lock_guard lock(mutex_);
   return lru_.bytes();

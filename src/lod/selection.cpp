@@ -44,7 +44,7 @@ struct Refinement {
 class CutBuilder {
  public:
   CutBuilder(const ta::TaVolume& volume, const View& view, std::uint64_t visible_bins, const SelectionOptions& options)
-      : volume_(volume), view_(view), bins_(visible_bins), options_(options),
+      : volume_(volume), view_(view), near_(near_distance(view)), bins_(visible_bins), options_(options),
         width_(volume.geometry().layout().brick) {
     cut_.per_level.assign(std::size_t(volume.geometry().level_count()), 0);
   }
@@ -71,11 +71,7 @@ class CutBuilder {
 
   // Appends the brick to `out` unless it is culled (then counts why in `culled`).
   void examine(const store::BrickKey& key, std::vector<CutBrick>& out, Culled& culled) const {
-    const store::BrickEntry* entry = volume_.container().find(key);
-    if (!entry)
-      throw FormatError(volume_.container().path().string(), "index",
-                        "brick (level " + std::to_string(key.level) + ", " + std::to_string(key.x) + "," +
-                            std::to_string(key.y) + "," + std::to_string(key.z) + ") is missing");
+    const store::BrickEntry* entry = &volume_.entry(key);
     const WorldBox box = brick_world_box(volume_.geometry(), volume_.source_info().spacing, key);
     if (!in_frustum(view_, box)) {
       ++culled.frustum;
@@ -85,7 +81,7 @@ class CutBuilder {
       ++culled.empty;
       return;
     }
-    const double depth = view_depth(view_, box);
+    const double depth = view_depth(view_, box, near_);
     out.push_back({key, entry, depth, voxel_edge(volume_.source_info().spacing, key.level) / view_.pixel_size_at(depth)});
   }
 
@@ -153,6 +149,7 @@ class CutBuilder {
 
   const ta::TaVolume& volume_;
   const View& view_;
+  double near_;  // near_distance(view_)
   std::uint64_t bins_;
   const SelectionOptions& options_;
   int width_;

@@ -50,6 +50,11 @@ struct SourceSink {
     touch(s);
     count[s] += c;
   }
+  // A drained entry back in (merging histograms): counts add, variances add.
+  void add(const BoxCount& c) {
+    add(c.source, c.count);
+    var[c.source] += c.sigma * c.sigma;
+  }
   // Every node of `nodes` through the lookup: returns how many internal nodes were expanded.
   std::uint64_t expand(const NodeMap& nodes, const MixtureLookup& lookup, std::uint32_t ns) {
     std::uint64_t expanded = 0;
@@ -161,6 +166,22 @@ std::vector<Piece> pieces_of(std::int64_t lo, std::int64_t hi, std::int64_t dim,
 }
 
 std::int64_t cells(std::int64_t length, int l) { return (length + (std::int64_t(1) << l) - 1) >> l; }
+
+// The level-l cells meeting `box` (level-l coordinates): [lo >> l, ((hi - 1) >> l) + 1) per axis.
+Box cell_box(const Box& box, int l) {
+  return {{box.lo.x >> l, box.lo.y >> l, box.lo.z >> l},
+          {((box.hi.x - 1) >> l) + 1, ((box.hi.y - 1) >> l) + 1, ((box.hi.z - 1) >> l) + 1}};
+}
+
+// Per-axis overlap of each level-l cell c in [c0, c1) with [lo, hi): w[c - c0] = voxels of
+// [c 2^l, (c + 1) 2^l) inside [lo, hi). With [0, dim) it is the cell's support in the volume.
+void cell_overlaps(std::vector<double>& w, std::int64_t c0, std::int64_t c1, std::int64_t lo, std::int64_t hi, int l) {
+  w.resize(std::size_t(c1 - c0));
+  for (std::int64_t c = c0; c < c1; ++c) {
+    const std::int64_t a = std::max(lo, c << l), e = std::min(hi, (c + 1) << l);
+    w[std::size_t(c - c0)] = double(e - a);
+  }
+}
 
 }  // namespace
 
@@ -340,16 +361,9 @@ BoxHistogram BoxQuery::run(const Box& box, const QueryOptions& options) const {
     }
     result.samples += n;
     // Per-axis support of each cell (only the last one can be clipped at the volume border).
-    auto axis = [&](std::vector<double>& w, std::int64_t c0, std::int64_t c1, std::int64_t lo, std::int64_t hi) {
-      w.resize(std::size_t(c1 - c0));
-      for (std::int64_t c = c0; c < c1; ++c) {
-        const std::int64_t a = std::max(lo, c << b.level), e = std::min(hi, (c + 1) << b.level);
-        w[std::size_t(c - c0)] = double(e - a);
-      }
-    };
-    axis(wx, b.cells.lo.x, b.cells.hi.x, b.covered.lo.x, b.covered.hi.x);
-    axis(wy, b.cells.lo.y, b.cells.hi.y, b.covered.lo.y, b.covered.hi.y);
-    axis(wz, b.cells.lo.z, b.cells.hi.z, b.covered.lo.z, b.covered.hi.z);
+    cell_overlaps(wx, b.cells.lo.x, b.cells.hi.x, b.covered.lo.x, b.covered.hi.x, b.level);
+    cell_overlaps(wy, b.cells.lo.y, b.cells.hi.y, b.covered.lo.y, b.covered.hi.y, b.level);
+    cell_overlaps(wz, b.cells.lo.z, b.cells.hi.z, b.covered.lo.z, b.covered.hi.z, b.level);
     const std::size_t sx = wx.size(), sy = wy.size(), sz = wz.size();
     const std::uint32_t* id = buf.data();
     for (std::size_t z = 0; z < sz; ++z)
@@ -385,11 +399,10 @@ BoxHistogram BoxQuery::run(const Box& box, const QueryOptions& options) const {
 int BoxQuery::coarse_level(const Box& box, std::uint64_t max_samples) const {
   check(box);
   if (max_samples == 0) throw Error("box query: max_samples must be at least 1");
-  auto span = [](std::int64_t lo, std::int64_t hi, int l) { return ((hi - 1) >> l) - (lo >> l) + 1; };
   const int lmax = int(dims_.size()) - 1;
   for (int l = 0; l < lmax; ++l) {
-    const double n = double(span(box.lo.x, box.hi.x, l)) * double(span(box.lo.y, box.hi.y, l)) *
-                     double(span(box.lo.z, box.hi.z, l));
+    const Extent span = cell_box(box, l).size();
+    const double n = double(span.x) * double(span.y) * double(span.z);
     if (n <= double(max_samples)) return l;
   }
   return lmax;
@@ -398,19 +411,17 @@ int BoxQuery::coarse_level(const Box& box, std::uint64_t max_samples) const {
 BoxHistogram BoxQuery::coarse(const Box& box, std::uint64_t max_samples) const {
   const int level = coarse_level(box, max_samples);
   if (level == 0) return naive(box, 1);  // every voxel fits the budget: exact
-  const Box cells{{box.lo.x >> level, box.lo.y >> level, box.lo.z >> level},
-                  {((box.hi.x - 1) >> level) + 1, ((box.hi.y - 1) >> level) + 1, ((box.hi.z - 1) >> level) + 1}};
-  // Per axis and cell: voxels shared with the box (n) and the cell's support in the volume (N).
+  const Box cells = cell_box(box, level);
+  // Per axis and cell: voxels shared with the box (n) and the cell's support in the volume (N,
+  // the overlap with [0, dim)). The box lies inside the volume, so clipping a cell at dim first
+  // does not change its overlap with the box.
   struct Overlap {
     std::vector<double> n, support;
   };
   auto axis = [&](std::int64_t c0, std::int64_t c1, std::int64_t lo, std::int64_t hi, std::int64_t dim) {
     Overlap o;
-    for (std::int64_t c = c0; c < c1; ++c) {
-      const std::int64_t a = c << level, e = std::min((c + 1) << level, dim);
-      o.n.push_back(double(std::min(hi, e) - std::max(lo, a)));
-      o.support.push_back(double(e - a));
-    }
+    cell_overlaps(o.n, c0, c1, lo, hi, level);
+    cell_overlaps(o.support, c0, c1, 0, dim, level);
     return o;
   };
   const Extent d0 = dims_[0];
@@ -448,35 +459,6 @@ BoxHistogram BoxQuery::coarse(const Box& box, std::uint64_t max_samples) const {
   sink.drain(result.counts);
   return result;
 }
-
-namespace {
-
-// Per-thread histograms, each sorted by source, merged into one: counts add, variances add.
-std::vector<BoxCount> merge_by_source(std::vector<std::vector<BoxCount>> parts) {
-  std::vector<BoxCount> merged = std::move(parts[0]), next;
-  for (std::size_t i = 1; i < parts.size(); ++i) {
-    const std::vector<BoxCount>& other = parts[i];
-    next.clear();
-    next.reserve(merged.size() + other.size());
-    auto a = merged.cbegin();
-    auto b = other.cbegin();
-    while (a != merged.cend() || b != other.cend()) {
-      if (b == other.cend() || (a != merged.cend() && a->source < b->source)) {
-        next.push_back(*a++);
-      } else if (a == merged.cend() || b->source < a->source) {
-        next.push_back(*b++);
-      } else {
-        next.push_back({a->source, a->count + b->count, std::sqrt(a->sigma * a->sigma + b->sigma * b->sigma)});
-        ++a;
-        ++b;
-      }
-    }
-    std::swap(merged, next);
-  }
-  return merged;
-}
-
-}  // namespace
 
 BoxHistogram BoxQuery::naive(const Box& box, int threads) const {
   check(box);
@@ -536,7 +518,13 @@ BoxHistogram BoxQuery::naive(const Box& box, int threads) const {
     }
   }
   if (error) std::rethrow_exception(error);
-  result.counts = merge_by_source(std::move(parts));
+  // The parts merge through this thread's sink, in thread order: counts add, variances add
+  // (sigma = sqrt of the summed sigma^2), and drain() sorts the sources.
+  SourceSink& sink = local_sink(ns);
+  const SinkGuard guard{sink};
+  for (const auto& part : parts)
+    for (const BoxCount& c : part) sink.add(c);
+  sink.drain(result.counts);
   for (auto e : expanded) result.distinct_nodes += e;  // per thread (a node may count twice)
   return result;
 }

@@ -299,7 +299,7 @@ EncodeReport encode_labels(const Volume& labels, const std::filesystem::path& ou
   rep.mip_levels = mip_levels;
   rep.mip_voxels = ms.voxels;
   rep.nnz_per_voxel = ms.nnz_per_voxel;
-  rep.raw_histogram_bytes = std::uint64_t(std::llround(ms.nnz_per_voxel * double(ms.voxels))) * 8;
+  rep.raw_histogram_bytes = ms.nnz_total * 8;
   rep.background_fraction = background;
   rep.factor_seconds = f.stats.seconds;
   rep.level0_voxels = std::uint64_t(labels.dims().voxel_count());

@@ -225,19 +225,18 @@ void HistogramMipmap::count_multiplicities() {
 
 MipmapStats HistogramMipmap::stats() const {
   MipmapStats s;
-  std::uint64_t nnz_sum = 0;
   for (std::uint32_t id = 0; id < table_.size(); ++id) {
     const std::uint64_t mult = table_.multiplicity(id);
     if (mult == 0) continue;
     const std::uint64_t k = table_.nnz(id);
     ++s.distinct_mixtures;
     s.voxels += mult;
-    nnz_sum += mult * k;
+    s.nnz_total += mult * k;
     s.input_pairs += k * (k - 1) / 2;
     s.voxel_pairs += mult * (k * (k - 1) / 2);
     s.max_nnz = std::max<std::uint32_t>(s.max_nnz, std::uint32_t(k));
   }
-  s.nnz_per_voxel = s.voxels ? double(nnz_sum) / double(s.voxels) : 0.0;
+  s.nnz_per_voxel = s.voxels ? double(s.nnz_total) / double(s.voxels) : 0.0;
   return s;
 }
 

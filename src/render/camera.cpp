@@ -34,7 +34,8 @@ Camera::Camera(const CameraSpec& spec, const Extent& volume_dims, const Spacing&
   validate(spec_);
   const Vec3 size{double(volume_dims.x) * spacing.x, double(volume_dims.y) * spacing.y,
                   double(volume_dims.z) * spacing.z};
-  scene_radius_ = std::max(0.5 * length(size), 1e-9);
+  // Radius of the volume's bounding sphere (world units): frames the volume and sets the far plane.
+  const double scene_radius = std::max(0.5 * length(size), 1e-9);
   OrbitParams& orbit = spec_.orbit;
   if (!orbit.target_set) {
     orbit.target = size * 0.5;
@@ -47,7 +48,7 @@ Camera::Camera(const CameraSpec& spec, const Extent& volume_dims, const Spacing&
     // The sphere fits a cone of half-angle a when distance = r / sin(a); take the narrower
     // of the two half-angles so neither image axis clips the volume.
     const double half_angle = std::atan(std::min(tan_v, tan_h));
-    orbit.distance = scene_radius_ / std::sin(half_angle);
+    orbit.distance = scene_radius / std::sin(half_angle);
   }
 
   const double az = radians(orbit.azimuth_deg), el = radians(orbit.elevation_deg);
@@ -65,7 +66,7 @@ Camera::Camera(const CameraSpec& spec, const Extent& volume_dims, const Spacing&
   }
   half_width_ = half_height_ * aspect;
   // Everything in the volume lies within distance + radius of the eye.
-  far_ = orbit.distance + 2 * scene_radius_;
+  far_ = orbit.distance + 2 * scene_radius;
 }
 
 Ray Camera::ray(double px, double py) const {

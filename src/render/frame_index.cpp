@@ -13,19 +13,14 @@ namespace strata::render::detail {
 
 namespace {
 
-std::string key_text(const store::BrickKey& k) {
-  return "brick (level " + std::to_string(k.level) + ", " + std::to_string(k.x) + "," + std::to_string(k.y) + "," +
-         std::to_string(k.z) + ")";
-}
-
 void check_brick(const lod::ResidentBrick& b, const ta::OctreeGeometry& g) {
-  if (b.key.level >= g.level_count()) throw Error("render: " + key_text(b.key) + " is beyond the octree's levels");
+  if (b.key.level >= g.level_count()) throw Error("render: " + store::brick_name(b.key) + " is beyond the octree's levels");
   const Extent& grid = g.level(b.key.level).bricks;
   if (b.key.x < 0 || b.key.y < 0 || b.key.z < 0 || b.key.x >= grid.x || b.key.y >= grid.y || b.key.z >= grid.z)
-    throw Error("render: " + key_text(b.key) + " is outside the level's brick grid " + grid.to_string());
+    throw Error("render: " + store::brick_name(b.key) + " is outside the level's brick grid " + grid.to_string());
   const std::size_t width = std::size_t(g.layout().brick);
   if (!b.is_constant() && b.samples->size() != width * width * width)
-    throw Error("render: " + key_text(b.key) + " has " + std::to_string(b.samples->size()) + " samples, expected " +
+    throw Error("render: " + store::brick_name(b.key) + " has " + std::to_string(b.samples->size()) + " samples, expected " +
                 std::to_string(width * width * width));
 }
 
@@ -163,10 +158,8 @@ FrameIndex build_volume_index(const Volume& volume) {
   if (volume.dtype() == DType::f32) {
     blk.data = volume.samples<float>().data();
   } else {
-    const Volume f = volume.converted(DType::f32);
-    const auto s = f.samples<float>();
-    index.owned_samples.assign(s.begin(), s.end());
-    blk.data = index.owned_samples.data();
+    index.owned = volume.converted(DType::f32);
+    blk.data = index.owned.samples<float>().data();
   }
   blk.n = {int(volume.dims().x), int(volume.dims().y), int(volume.dims().z)};
   const std::array<double, 3> spacing{sp.x, sp.y, sp.z};

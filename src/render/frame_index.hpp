@@ -46,7 +46,7 @@ struct FrameIndex {
   std::array<double, 3> volume_hi{};      // world box [0, volume_hi]
   double min_spacing = 1;
   int max_level = 0;
-  std::vector<float> owned_samples;       // converted samples of a non-float in-memory volume
+  Volume owned;  // a non-float in-memory volume converted to float (its buffer moves with the index)
 
   std::int32_t block_at(std::int64_t x, std::int64_t y, std::int64_t z) const {
     return cell_block[std::size_t((z * cells[1] + y) * cells[0] + x)];

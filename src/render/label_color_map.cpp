@@ -2,20 +2,14 @@
 
 #include <charconv>
 #include <cmath>
-#include <fstream>
 
 #include "strata/core/error.hpp"
+#include "strata/io/files.hpp"
+#include "strata/mixture/flat_hash.hpp"
 
 namespace strata::render {
 
 namespace {
-
-std::uint64_t splitmix64(std::uint64_t x) {
-  x += 0x9e3779b97f4a7c15ull;
-  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ull;
-  x = (x ^ (x >> 27)) * 0x94d049bb133111ebull;
-  return x ^ (x >> 31);
-}
 
 float unit(std::uint64_t bits) { return float(bits & 0xffffff) / float(0x1000000); }
 
@@ -65,7 +59,7 @@ std::int64_t parse_label_key(const std::string& key, const std::string& name) {
 }  // namespace
 
 LabelRgba hash_label_color(std::int64_t label, float opacity) {
-  const std::uint64_t h = splitmix64(std::uint64_t(label));
+  const std::uint64_t h = mixture::detail::mix64(std::uint64_t(label));  // splitmix64
   // Full hue circle; saturation and value kept high so neighbours stay distinguishable and
   // no label comes out near-black.
   return hsv(unit(h), 0.55f + 0.4f * unit(h >> 24), 0.75f + 0.25f * unit(h >> 48), opacity);
@@ -81,10 +75,6 @@ LabelColorMap LabelColorMap::uniform(LabelRgba color) {
 
 void LabelColorMap::set(std::int64_t label, LabelRgba color) { explicit_[label] = color; }
 void LabelColorMap::set_default(LabelRgba color) { default_ = color; }
-void LabelColorMap::set_hash_default(float opacity) {
-  default_.reset();
-  hash_opacity_ = opacity;
-}
 
 LabelRgba LabelColorMap::color_of(std::int64_t label) const {
   if (const auto it = explicit_.find(label); it != explicit_.end()) return it->second;
@@ -129,15 +119,7 @@ LabelColorMap LabelColorMap::from_json(const nlohmann::json& j, const std::strin
 }
 
 LabelColorMap LabelColorMap::load(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  if (!in) throw Error(path.string() + ": cannot open the colour map");
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(in);
-  } catch (const nlohmann::json::parse_error& e) {
-    throw FormatError(path.string(), "JSON", e.what());
-  }
-  return from_json(j, path.string());
+  return from_json(io::read_json_file(path, "JSON"), path.string());
 }
 
 }  // namespace strata::render

@@ -10,6 +10,7 @@
 
 #include "strata/core/error.hpp"
 #include "strata/core/threads.hpp"
+#include "strata/render/transfer_function.hpp"  // Rgbaf
 
 namespace strata::render {
 
@@ -43,10 +44,6 @@ struct RayCounters {
   std::uint64_t rays = 0, samples = 0, skipped = 0, terminated = 0;
 };
 
-struct Premultiplied {
-  float r = 0, g = 0, b = 0, a = 0;
-};
-
 void validate(const LabelRenderOptions& o, int level_count) {
   if (!(o.step > 0)) throw Error("label render: step must be > 0, got " + std::to_string(o.step));
   if (!(o.termination > 0 && o.termination <= 1))
@@ -71,7 +68,7 @@ std::int64_t clamp_floor(double v, std::int64_t n) {
 
 // Trilinear interpolation of the palette colours of the 8 voxels of level `k` around the
 // level-0 voxel-space point u (voxel centres at integer + 0.5; clamp to the edge).
-Premultiplied sample_level(const Frame& f, int k, const Vec3& u) {
+Rgbaf sample_level(const Frame& f, int k, const Vec3& u) {
   const LevelView& L = f.levels[std::size_t(k)];
   const double v[3] = {u.x * L.scale - 0.5, u.y * L.scale - 0.5, u.z * L.scale - 0.5};
   const std::int64_t n[3] = {L.nx, L.ny, L.nz};
@@ -84,24 +81,23 @@ Premultiplied sample_level(const Frame& f, int k, const Vec3& u) {
     hi[a] = std::clamp<std::int64_t>(base + 1, 0, n[a] - 1);
   }
   std::uint32_t ids[8];
-  float weights[8];
   for (int c = 0; c < 8; ++c) {
     const std::int64_t x = c & 1 ? hi[0] : lo[0], y = c & 2 ? hi[1] : lo[1], z = c & 4 ? hi[2] : lo[2];
     ids[c] = L.ids[std::size_t((z * L.ny + y) * L.nx + x)];
-    weights[c] = float((c & 1 ? w[0] : 1 - w[0]) * (c & 2 ? w[1] : 1 - w[1]) * (c & 4 ? w[2] : 1 - w[2]));
   }
-  // Inside a uniform region all 8 nodes agree: one palette read instead of eight.
+  // Inside a uniform region all 8 nodes agree: one palette read instead of eight, no weights.
   if (std::all_of(ids + 1, ids + 8, [&](std::uint32_t id) { return id == ids[0]; })) {
     const float* p = f.palette + std::size_t(ids[0]) * 4;
     return {p[0], p[1], p[2], p[3]};
   }
-  Premultiplied s;
+  Rgbaf s;
   for (int c = 0; c < 8; ++c) {
+    const float weight = float((c & 1 ? w[0] : 1 - w[0]) * (c & 2 ? w[1] : 1 - w[1]) * (c & 4 ? w[2] : 1 - w[2]));
     const float* p = f.palette + std::size_t(ids[c]) * 4;
-    s.r += weights[c] * p[0];
-    s.g += weights[c] * p[1];
-    s.b += weights[c] * p[2];
-    s.a += weights[c] * p[3];
+    s.r += weight * p[0];
+    s.g += weight * p[1];
+    s.b += weight * p[2];
+    s.a += weight * p[3];
   }
   return s;
 }
@@ -123,10 +119,10 @@ LevelChoice choose_level(const Frame& f, double lod) {
   return {k, k == f.top ? 0.0f : float(clamped - k)};
 }
 
-Premultiplied sample(const Frame& f, const LevelChoice& c, const Vec3& u) {
-  Premultiplied s = sample_level(f, c.level, u);
+Rgbaf sample(const Frame& f, const LevelChoice& c, const Vec3& u) {
+  Rgbaf s = sample_level(f, c.level, u);
   if (c.next_weight <= 0) return s;
-  const Premultiplied t = sample_level(f, c.level + 1, u);
+  const Rgbaf t = sample_level(f, c.level + 1, u);
   const float w = c.next_weight;
   return {s.r + w * (t.r - s.r), s.g + w * (t.g - s.g), s.b + w * (t.b - s.b), s.a + w * (t.a - s.a)};
 }
@@ -193,6 +189,15 @@ bool clip_to_box(const Vec3& o, const Vec3& d, const Vec3& box, double& t0, doub
   return t0 < t1;
 }
 
+// The level-of-detail value (fractional level, before clamping) for a sample at view depth
+// `depth`: log2(pixel size at depth / level-0 voxel size) + lod_bias.
+double label_lod(const lod::View& view, double depth, double voxel_world, double lod_bias) {
+  const double pixel = view.pixel_size_at(depth);
+  // A zero footprint (depth 0) means "as fine as possible"; keep it finite for the clamps.
+  const double lod = pixel > 0 ? std::log2(pixel / voxel_world) : -double(kMaxLevels);
+  return std::max(lod, -double(kMaxLevels)) + lod_bias;
+}
+
 double lod_at(const Frame& f, double depth) {
   return f.view.perspective ? label_lod(f.view, depth, f.voxel_world, f.options.lod_bias) : f.ortho_lod;
 }
@@ -224,14 +229,14 @@ class LevelTracker {
 };
 
 // Front-to-back compositing along one ray; returns the premultiplied ray colour.
-Premultiplied march(const Frame& f, const Ray& ray, RayCounters& counters) {
+Rgbaf march(const Frame& f, const Ray& ray, RayCounters& counters) {
   const Vec3 o = hadamard(ray.origin, f.inv_spacing), d = hadamard(ray.direction, f.inv_spacing);
   double t = 0, t_end = 0;
   if (!clip_to_box(o, d, f.dims0, t, t_end)) return {};
   ++counters.rays;
   const double depth0 = dot(ray.origin - f.view.eye, f.view.forward), depth_rate = dot(ray.direction, f.view.forward);
   const double nudge = 1e-4 * f.voxel_world;  // crosses a cube face without skipping a voxel
-  Premultiplied acc;
+  Rgbaf acc;
   LevelTracker levels;
   while (t < t_end) {
     const LevelChoice level = levels.at(f, depth0 + t * depth_rate);
@@ -249,7 +254,7 @@ Premultiplied march(const Frame& f, const Ray& ray, RayCounters& counters) {
     // object's total opacity does not depend on where the steps fall.
     const double dt = std::min(f.options.step * f.levels[std::size_t(level.level)].size * f.voxel_world, t_end - t);
     const Vec3 at = o + d * (t + 0.5 * dt);
-    Premultiplied s = sample(f, level, at);
+    Rgbaf s = sample(f, level, at);
     ++counters.samples;
     t += dt;
     if (s.a <= 1e-7f) continue;
@@ -274,7 +279,7 @@ Premultiplied march(const Frame& f, const Ray& ray, RayCounters& counters) {
 
 std::uint8_t to_byte(float v) { return std::uint8_t(std::lround(std::clamp(v, 0.0f, 1.0f) * 255.0f)); }
 
-Rgba8 over_background(const Premultiplied& c, const LabelRgba& bg) {
+Rgba8 over_background(const Rgbaf& c, const LabelRgba& bg) {
   const float rest = 1 - c.a;
   const float a = c.a + rest * bg.a;
   if (a <= 0) return {0, 0, 0, 0};
@@ -345,13 +350,6 @@ void render_tiles(const Frame& f, const Camera& camera, Image& image, LabelRende
 }
 
 }  // namespace
-
-double label_lod(const lod::View& view, double depth, double voxel_world, double lod_bias) {
-  const double pixel = view.pixel_size_at(depth);
-  // A zero footprint (depth 0) means "as fine as possible"; keep it finite for the clamps.
-  const double lod = pixel > 0 ? std::log2(pixel / voxel_world) : -double(kMaxLevels);
-  return std::max(lod, -double(kMaxLevels)) + lod_bias;
-}
 
 Image render_labels(LabelScene& scene, const Camera& camera, const LabelRenderOptions& options,
                     LabelRenderStats* stats) {

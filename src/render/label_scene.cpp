@@ -70,16 +70,14 @@ LabelPrepareReport LabelScene::prepare(int finest_level) {
     const auto start = std::chrono::steady_clock::now();
     rebuild_palette();
     report.palette_ms = ms_since(start);
-    report.palette_rebuilt = true;
   }
   for (int l = finest_level; l < level_count(); ++l) {
     Level& level = levels_[std::size_t(l)];
     if (!level.decoded) {
       const auto start = std::chrono::steady_clock::now();
-      const std::uint64_t before = id_voxels_decoded_;
       decode_level(level, l);
       report.ids_ms += ms_since(start);
-      report.id_voxels_decoded += id_voxels_decoded_ - before;
+      report.id_voxels_decoded += level.ids.size();
     }
     if (l >= kFinestSkipLevel && level.skip_generation != palette_generation_) {
       const auto start = std::chrono::steady_clock::now();
@@ -109,12 +107,9 @@ void LabelScene::rebuild_palette() {
 
 void LabelScene::decode_level(Level& level, int index) {
   level.ids.resize(std::size_t(level.dims.voxel_count()));
+  // EncodedLabels checked every stored id against the node count when it opened the file, so
+  // the ids can index palette_ and visible_ as they are.
   labels_.decode_box(index, Box::whole(level.dims), level.ids);
-  const std::uint64_t nodes = labels_.graph().node_count();
-  for (std::uint32_t id : level.ids)
-    if (id >= nodes)
-      throw FormatError(labels_.path().string(), "section ids_L" + std::to_string(index),
-                        "node id " + std::to_string(id) + " is not below the node count " + std::to_string(nodes));
   level.decoded = true;
   id_voxels_decoded_ += level.ids.size();
 }

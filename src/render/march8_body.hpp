@@ -64,7 +64,7 @@ STRATA_MARCH8_ATTRS std::int64_t STRATA_MARCH8_NAME(const GridSampler& s, const 
     }
     if (!have_front) {  // resuming after skipped chunks: the value at k - 1 afresh
       const float jm = float(k - k0) - 1.0f;
-      front = (s(p[0] + dp[0] * jm, p[1] + dp[1] * jm, p[2] + dp[2] * jm) - mp.value_lo) * mp.value_scale;
+      front = normalised_sample(s, p[0] + dp[0] * jm, p[1] + dp[1] * jm, p[2] + dp[2] * jm, mp.value_lo, mp.value_scale);
       ++taken;
       have_front = true;
     }

@@ -39,14 +39,15 @@ struct CellFlags {
 
 // Flags of the bricks a frame samples, keyed by the samples' address and kept while the brick
 // lives (an expired weak_ptr marks a dead brick whose address may have been reused). Entries
-// are valid for one (transfer function, value mapping, dilation): `key` tells which.
+// are valid for one transfer function and dilation (the owning ray caster's) and one value
+// mapping: `key` tells which.
 class CellFlagCache {
  public:
   std::shared_ptr<const CellFlags> find(const std::shared_ptr<const std::vector<float>>& samples) const;
   void insert(const std::shared_ptr<const std::vector<float>>& samples, std::shared_ptr<const CellFlags> flags);
   void sweep();  // drops entries whose brick died
   void clear() { entries_.clear(); }
-  std::array<double, 3> key{0, 0, -1};  // value_lo, value_scale, dilation of the entries
+  std::array<double, 2> key{0, -1};  // value_lo, value_scale of the entries
 
  private:
   struct Entry {

@@ -108,27 +108,35 @@ struct ConstantSampler {
   void gradient(float, float, float, float g[3]) const { g[0] = g[1] = g[2] = 0; }
 };
 
+// A sample normalised for classification: (value - lo) * scale, the frame's value mapping.
+template <class Sampler>
+[[gnu::always_inline]] inline float normalised_sample(const Sampler& sample, float x, float y, float z, float lo,
+                                                      float scale) {
+  return (sample(x, y, z) - lo) * scale;
+}
+
 // ---- Classification -------------------------------------------------------------------------
 
 struct Classifier {
-  const Rgbaf* table = nullptr;
-  int size = 0;
+  const Rgbaf* table = nullptr;  // the post-classification lookup table (single)
+  int size = 0;                  // entries per axis of the table in use
   float last = 0;  // size - 1
-  // The pre-integrated table as bilinear cells (render/raycaster.cpp, bilinear_cells): cell
-  // (i, j) holds entries (i, j), (i + 1, j), (i, j + 1), (i + 1, j + 1), 16 floats in a row,
-  // so the 8-lane march fetches a lane's four entries with two 8-float loads.
+  // The pre-integrated table (size^2 entries) as bilinear cells (render/raycaster.cpp,
+  // bilinear_cells): cell (i, j) holds entries (i, j), (i + 1, j), (i, j + 1), (i + 1, j + 1),
+  // 16 floats in a row, so the 8-lane march fetches a lane's four entries with two 8-float loads.
   const float* cells = nullptr;
 
   [[gnu::always_inline]] inline Rgbaf pair(float front, float back) const {  // bilinear in the pre-integrated table
     const float u = std::clamp(front, 0.0f, 1.0f) * last, v = std::clamp(back, 0.0f, 1.0f) * last;
     const int i = std::min(int(u), size - 2), j = std::min(int(v), size - 2);
     const float wu = u - float(i), wv = v - float(j);
-    const Rgbaf* r0 = table + std::ptrdiff_t(i) * size + j;
-    const Rgbaf* r1 = r0 + size;
-    auto lerp = [](const Rgbaf& a, const Rgbaf& b, float w) {
-      return Rgbaf{a.r + w * (b.r - a.r), a.g + w * (b.g - a.g), a.b + w * (b.b - a.b), a.a + w * (b.a - a.a)};
+    const float* c = cells + (std::ptrdiff_t(i) * (size - 1) + j) * 16;
+    // Corner q of the cell is the RGBA at c + 4 q: lerp along j in rows i and i + 1, then along i.
+    auto lerp = [](const float* a, const float* b, float w) {
+      return Rgbaf{a[0] + w * (b[0] - a[0]), a[1] + w * (b[1] - a[1]), a[2] + w * (b[2] - a[2]), a[3] + w * (b[3] - a[3])};
     };
-    return lerp(lerp(r0[0], r0[1], wv), lerp(r1[0], r1[1], wv), wu);
+    const Rgbaf r0 = lerp(c, c + 8, wv), r1 = lerp(c + 4, c + 12, wv);
+    return {r0.r + wu * (r1.r - r0.r), r0.g + wu * (r1.g - r0.g), r0.b + wu * (r1.b - r0.b), r0.a + wu * (r1.a - r0.a)};
   }
 
   [[gnu::always_inline]] inline Rgbaf single(float x) const {  // linear in the post-classification table

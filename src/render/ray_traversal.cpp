@@ -61,17 +61,20 @@ struct Traversal {
   double eps;  // parametric nudge past a face, to locate the next cell
   std::array<double, 3> inv_cell;  // 1 / index.cell_size (the nudge dwarfs the product's rounding)
 
+  // Block b's first lattice point after the previous sample (which may belong to an earlier
+  // block of another level, e.g. when b was too thin to hold a lattice point).
+  std::int64_t next_lattice_point(const Block& b, const RayState& st) const {
+    if (st.has_prev && st.prev_level == b.level) return st.prev_k + 1;
+    return ifloor(st.prev_t / mp.levels[b.level].h) + 1;
+  }
+
   // When the ray leaves a marched block into skipped space, the segment from its last sample
   // to the next lattice point still belongs to the block: it is sampled from the overlap.
   void close(const RayContext& ray, RayState& st) const {
     if (!st.open) return;
     st.open = false;
     const Block& b = *st.last;
-    // The block's next lattice point after the previous sample (which may belong to an
-    // earlier block of another level when this one was too thin to hold a lattice point).
-    const std::int64_t k = st.has_prev && st.prev_level == b.level
-                               ? st.prev_k + 1
-                               : ifloor(st.prev_t / mp.levels[b.level].h) + 1;
+    const std::int64_t k = next_lattice_point(b, st);
     march[std::size_t(&b - index.blocks.data())].lattice(b, k, k + 1, ray, mp, st, false);
   }
 
@@ -79,11 +82,8 @@ struct Traversal {
     const double h = mp.levels[b.level].h;
     std::int64_t k0 = iceil(t_in / h);
     const std::int64_t k1 = iceil(t_out / h);
-    if (st.has_prev) {
-      // Never revisit a lattice point a closing segment (or the previous block) already took.
-      if (st.prev_level == b.level) k0 = std::max(k0, st.prev_k + 1);
-      else k0 = std::max(k0, ifloor(st.prev_t / h) + 1);
-    }
+    // Never revisit a lattice point a closing segment (or the previous block) already took.
+    if (st.has_prev) k0 = std::max(k0, next_lattice_point(b, st));
     bool closing = true;
     if (k0 < k1) {
       const std::size_t id = std::size_t(&b - index.blocks.data());

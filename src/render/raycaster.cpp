@@ -3,7 +3,6 @@
 
 #include <algorithm>
 #include <atomic>
-#include <chrono>
 #include <cmath>
 #if defined(__x86_64__) && defined(__GNUC__)
 #include <immintrin.h>
@@ -34,23 +33,21 @@ using detail::GridSampler;
 using detail::LevelParams;
 using detail::MarchFns;
 using detail::MarchParams;
+using detail::normalised_sample;
 using detail::RayContext;
 using detail::RayState;
-using detail::RenderJob;
 using detail::rescale_segment;
 using detail::run;
 using detail::Transparency;
 
 // Classification tables of one level: the step ratio h_l / reference differs per level.
 struct RayCaster::Tables {
-  PreintegratedTable preintegrated;
-  std::vector<float> cells;  // the pre-integrated table's bilinear cells (Classifier::cells)
+  std::vector<float> cells;  // the pre-integrated table as bilinear cells (Classifier::cells)
   LookupTable lookup;
 };
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
 // Samples below this opacity skip the gradient (six extra trilinear taps).
 constexpr float kShadeThreshold = 1.0f / 1024.0f;
 // 8-lane march with empty-space skipping: a chunk whose first kRealign or more points lie in
@@ -190,7 +187,7 @@ struct Marcher {
   // change), shades it and composites it under `acc`. Returns the sample's normalised value.
   [[gnu::always_inline]] static inline float segment(const Sampler& sample, const Block& b, const LevelParams& lp, const MarchParams& mp,
                        const RayContext& ray, float x, float y, float z, float front, double ratio, Rgbaf& acc) {
-    const float v = (sample(x, y, z) - mp.value_lo) * mp.value_scale;
+    const float v = normalised_sample(sample, x, y, z, mp.value_lo, mp.value_scale);
     const float lo = Preint ? std::min(front, v) : v, hi = Preint ? std::max(front, v) : v;
     if (mp.next_visible[Transparency::bin(lo)] > Transparency::bin(hi)) return v;
     Rgbaf c = Preint ? lp.classify.pair(front, v) : lp.classify.single(v);
@@ -250,10 +247,10 @@ struct Marcher {
       } else {
         float e[3];
         local_position(b, ray, st.prev_t, e);
-        front = (sample(e[0], e[1], e[2]) - mp.value_lo) * mp.value_scale;
+        front = normalised_sample(sample, e[0], e[1], e[2], mp.value_lo, mp.value_scale);
       }
     } else {
-      front = (sample(p[0] - dp[0], p[1] - dp[1], p[2] - dp[2]) - mp.value_lo) * mp.value_scale;
+      front = normalised_sample(sample, p[0] - dp[0], p[1] - dp[1], p[2] - dp[2], mp.value_lo, mp.value_scale);
     }
     if (std::abs(first_ratio - 1.0) < 1e-6) first_ratio = 1.0;
     Rgbaf acc = st.acc;
@@ -297,7 +294,7 @@ struct Marcher {
         const float x = p[0] + dp[0] * j, y = p[1] + dp[1] * j, z = p[2] + dp[2] * j;
         if (b.empty_at(x, y, z)) continue;
         if (last != k - 1) {  // resuming after skipped segments: the front sample afresh
-          front = (sample(x - dp[0], y - dp[1], z - dp[2]) - mp.value_lo) * mp.value_scale;
+          front = normalised_sample(sample, x - dp[0], y - dp[1], z - dp[2], mp.value_lo, mp.value_scale);
           ++taken;
         }
         front = segment(sample, b, lp, mp, ray, x, y, z, front, 1.0, acc);
@@ -314,7 +311,8 @@ struct Marcher {
           closing = false;
         } else {
           const float jl = j - 1.0f;
-          front = (sample(p[0] + dp[0] * jl, p[1] + dp[1] * jl, p[2] + dp[2] * jl) - mp.value_lo) * mp.value_scale;
+          front = normalised_sample(sample, p[0] + dp[0] * jl, p[1] + dp[1] * jl, p[2] + dp[2] * jl, mp.value_lo,
+                                    mp.value_scale);
           ++taken;
           last = k1 - 1;
         }
@@ -350,7 +348,7 @@ struct Marcher {
     float front = st.prev_x;
     if (!st.has_prev) {  // a chord shorter than one step: from the entry to the exit
       local_position(b, ray, st.prev_t, p);
-      front = (sample(p[0], p[1], p[2]) - mp.value_lo) * mp.value_scale;
+      front = normalised_sample(sample, p[0], p[1], p[2], mp.value_lo, mp.value_scale);
     }
     local_position(b, ray, t_end, p);
     segment(sample, b, lp, mp, ray, p[0], p[1], p[2], front, ratio, st.acc);
@@ -476,8 +474,7 @@ std::vector<LevelParams> level_params(std::vector<std::unique_ptr<RayCaster::Tab
     if (!tables[l]) {
       auto t = std::make_unique<RayCaster::Tables>();
       if (options.preintegrated) {
-        t->preintegrated = tf.preintegrated_table(options.table_size, ratio);
-        t->cells = bilinear_cells(t->preintegrated);
+        t->cells = bilinear_cells(tf.preintegrated_table(options.table_size, ratio));
       } else {
         t->lookup = tf.lookup_table(16 * options.table_size, ratio);
       }
@@ -485,9 +482,9 @@ std::vector<LevelParams> level_params(std::vector<std::unique_ptr<RayCaster::Tab
     }
     const RayCaster::Tables& t = *tables[l];
     levels[l].h = ratio * min_spacing;
+    // The pre-integrated table is options.table_size^2 entries (read through its cells only).
     levels[l].classify = options.preintegrated
-                             ? Classifier{t.preintegrated.entries.data(), t.preintegrated.size,
-                                          float(t.preintegrated.size - 1), t.cells.data()}
+                             ? Classifier{nullptr, options.table_size, float(options.table_size - 1), t.cells.data()}
                              : Classifier{t.lookup.entries.data(), t.lookup.size, float(t.lookup.size - 1)};
   }
   return levels;
@@ -496,7 +493,7 @@ std::vector<LevelParams> level_params(std::vector<std::unique_ptr<RayCaster::Tab
 }  // namespace
 
 Image RayCaster::render(const Camera& camera, const FrameInput& frame, RenderStats* stats) {
-  const auto t0 = Clock::now();
+  const auto t0 = SteadyClock::now();
   FrameIndex index = detail::build_frame_index(frame, tf_);
   RenderStats local;
   local.bricks_in_frame = index.blocks.size();
@@ -508,7 +505,7 @@ Image RayCaster::render(const Camera& camera, const FrameInput& frame, RenderSta
     if (!cell_flags_) cell_flags_ = std::make_unique<detail::CellFlagCache>();
     detail::CellFlagCache& cache = *cell_flags_;
     cache.sweep();
-    const std::array<double, 3> key{double(float(mapping.lo)), double(float(mapping.scale())), double(dilation)};
+    const std::array<double, 2> key{double(float(mapping.lo)), double(float(mapping.scale()))};
     if (cache.key != key) {
       cache.clear();
       cache.key = key;
@@ -532,15 +529,16 @@ Image RayCaster::render(const Camera& camera, const FrameInput& frame, RenderSta
     local.cell_ranges_built = missing.size();
     for (std::size_t i = 0; i < bricks.size(); ++i) attach_flags(index.blocks[i], flags[i], local);
   }
-  Image image;
-  {
-    const std::vector<LevelParams> levels = level_params(tables_, tf_, options_, index.max_level, index.min_spacing);
-    const ValueMapping& m = mapping;
-    local.setup_ms = ms_since(t0);
-    const auto t1 = Clock::now();
-    image = run({*transparency_, camera, index, options_, levels, float(m.lo), float(m.scale())}, local);
-    local.raycast_ms = ms_since(t1);
-  }
+  return cast(camera, index, mapping, t0, local, stats);
+}
+
+Image RayCaster::cast(const Camera& camera, const FrameIndex& index, const ValueMapping& mapping,
+                      SteadyClock::time_point t0, RenderStats& local, RenderStats* stats) {
+  const std::vector<LevelParams> levels = level_params(tables_, tf_, options_, index.max_level, index.min_spacing);
+  local.setup_ms = ms_since(t0);
+  const auto t1 = SteadyClock::now();
+  Image image = run({*transparency_, camera, index, options_, levels, float(mapping.lo), float(mapping.scale())}, local);
+  local.raycast_ms = ms_since(t1);
   local.total_ms = ms_since(t0);
   if (stats) *stats = local;
   return image;
@@ -550,13 +548,17 @@ PreparedVolume::PreparedVolume(const Volume& volume, double value_min, double va
     : index_(std::make_unique<FrameIndex>(detail::build_volume_index(volume))),
       value_min_(value_min),
       value_max_(value_max) {}
+PreparedVolume::PreparedVolume(const Volume& volume)
+    : index_(std::make_unique<FrameIndex>(detail::build_volume_index(volume))),
+      value_min_(index_->blocks[0].value_lo),
+      value_max_(index_->blocks[0].value_hi) {}
 PreparedVolume::~PreparedVolume() = default;
 PreparedVolume::PreparedVolume(PreparedVolume&&) noexcept = default;
 PreparedVolume& PreparedVolume::operator=(PreparedVolume&&) noexcept = default;
 
 Image RayCaster::render(const Camera& camera, const Volume& volume, double value_min, double value_max,
                         RenderStats* stats) {
-  const auto t0 = Clock::now();
+  const auto t0 = SteadyClock::now();
   PreparedVolume prepared(volume, value_min, value_max);
   const double prepare_ms = ms_since(t0);
   Image image = render(camera, prepared, stats);
@@ -569,7 +571,7 @@ Image RayCaster::render(const Camera& camera, const Volume& volume, double value
 
 Image RayCaster::render(const Camera& camera, PreparedVolume& volume, RenderStats* stats) {
   // The same traversal over a one-cell index: an empty brick list, the volume as block 0.
-  const auto t0 = Clock::now();
+  const auto t0 = SteadyClock::now();
   FrameIndex& index = *volume.index_;
   detail::cull_blocks(index, tf_, volume.value_min_, volume.value_max_);
   const ValueMapping m = tf_.mapping(volume.value_min_, volume.value_max_);
@@ -577,24 +579,16 @@ Image RayCaster::render(const Camera& camera, PreparedVolume& volume, RenderStat
   Block& block = index.blocks[0];
   block.empty = nullptr;
   if (const int dilation = skip_dilation(options_); dilation && !block.culled) {
-    const std::array<double, 4> key{double(id_), double(float(m.lo)), double(float(m.scale())), double(dilation)};
-    if (!volume.flags_ || volume.flags_key_ != key) {
+    if (!volume.flags_ || volume.flags_owner_ != id_) {
       volume.flags_ = cell_flags(block, dilation, *transparency_, float(m.lo), float(m.scale()));
-      volume.flags_key_ = key;
+      volume.flags_owner_ = id_;
       local.cell_ranges_built = 1;
     }
     attach_flags(block, volume.flags_, local);
   }
-  const std::vector<LevelParams> levels = level_params(tables_, tf_, options_, 0, index.min_spacing);
   local.bricks_in_frame = 1;
   local.bricks_culled = block.culled ? 1 : 0;
-  local.setup_ms = ms_since(t0);
-  const auto t1 = Clock::now();
-  Image image = run({*transparency_, camera, index, options_, levels, float(m.lo), float(m.scale())}, local);
-  local.raycast_ms = ms_since(t1);
-  local.total_ms = ms_since(t0);
-  if (stats) *stats = local;
-  return image;
+  return cast(camera, index, m, t0, local, stats);
 }
 
 nlohmann::json stats_json(const RenderStats& s, const lod::LoadStats* load) {

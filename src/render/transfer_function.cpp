@@ -3,12 +3,12 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <fstream>
 #include <limits>
 #include <nlohmann/json.hpp>
 
 #include "strata/core/error.hpp"
 #include "strata/core/threads.hpp"
+#include "strata/io/files.hpp"
 #include "strata/lod/histogram_bins.hpp"
 
 namespace strata::render {
@@ -105,6 +105,13 @@ const std::vector<Preset>& presets() {
 
 constexpr std::array<std::string_view, 5> kPresetNames = {"grayscale", "ct", "bone", "mri", "fire"};
 
+// "grayscale, ct, bone, mri, fire" for error messages.
+std::string joined_preset_names() {
+  std::string names;
+  for (std::string_view n : kPresetNames) names += (names.empty() ? "" : ", ") + std::string(n);
+  return names;
+}
+
 }  // namespace
 
 float correct_opacity(float alpha, double ratio) {
@@ -142,24 +149,14 @@ TransferFunction TransferFunction::from_json(const nlohmann::json& j, const std:
 }
 
 TransferFunction TransferFunction::load(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  if (!in) throw Error(path.string() + ": cannot open transfer function file");
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(in);
-  } catch (const nlohmann::json::parse_error& e) {
-    throw FormatError(path.string(), "(document)", std::string("invalid JSON: ") + e.what());
-  }
-  return from_json(j, path.string());
+  return from_json(io::read_json_file(path, "(document)"), path.string());
 }
 
 TransferFunction TransferFunction::preset(std::string_view name) {
   const std::string_view key = name == "bone" ? std::string_view("ct") : name;
   for (const Preset& p : presets())
     if (p.name == key) return TransferFunction(p.points);
-  std::string names;
-  for (std::string_view n : kPresetNames) names += (names.empty() ? "" : ", ") + std::string(n);
-  throw Error("transfer function preset \"" + std::string(name) + "\" is unknown; presets: " + names);
+  throw Error("transfer function preset \"" + std::string(name) + "\" is unknown; presets: " + joined_preset_names());
 }
 
 std::span<const std::string_view> TransferFunction::preset_names() { return kPresetNames; }
@@ -168,9 +165,8 @@ TransferFunction TransferFunction::from_argument(const std::string& preset_or_pa
   for (std::string_view n : kPresetNames)
     if (n == preset_or_path) return preset(n);
   if (std::filesystem::exists(preset_or_path)) return load(preset_or_path);
-  std::string names;
-  for (std::string_view n : kPresetNames) names += (names.empty() ? "" : ", ") + std::string(n);
-  throw Error("--tf: \"" + preset_or_path + "\" is neither a preset (" + names + ") nor an existing JSON file");
+  throw Error("--tf: \"" + preset_or_path + "\" is neither a preset (" + joined_preset_names() +
+              ") nor an existing JSON file");
 }
 
 nlohmann::json TransferFunction::to_json() const {

@@ -86,9 +86,9 @@ bool known_kind(PayloadKind k) {
   return k == PayloadKind::constant || k == PayloadKind::tucker || k == PayloadKind::tucker_zstd;
 }
 
-std::string key_text(const BrickKey& k) { return fmt::format("brick (level {}, {},{},{})", int(k.level), k.x, k.y, k.z); }
-
 }  // namespace
+
+std::string brick_name(const BrickKey& k) { return fmt::format("brick (level {}, {},{},{})", int(k.level), k.x, k.y, k.z); }
 
 const char* payload_kind_name(PayloadKind k) {
   switch (k) {
@@ -208,10 +208,10 @@ ContainerReader::ContainerReader(const std::filesystem::path& path)
   for (std::uint64_t i = 0; i < count; ++i) {
     BrickEntry e = decode_entry(index.data() + i * kIndexEntrySize);
     if (!known_kind(e.kind))
-      throw FormatError(file, "index", fmt::format("{} has unknown payload kind {}", key_text(e.key), int(e.kind)));
-    checked_range(e.offset, e.size, key_text(e.key));
+      throw FormatError(file, "index", fmt::format("{} has unknown payload kind {}", brick_name(e.key), int(e.kind)));
+    checked_range(e.offset, e.size, brick_name(e.key));
     if (!lookup_.emplace(e.key, entries_.size()).second)
-      throw FormatError(file, "index", key_text(e.key) + " appears twice");
+      throw FormatError(file, "index", brick_name(e.key) + " appears twice");
     entries_.push_back(e);
   }
   if (metadata_.contains("sections"))
@@ -230,9 +230,9 @@ const BrickEntry* ContainerReader::find(const BrickKey& key) const {
 }
 
 std::span<const std::byte> ContainerReader::payload(const BrickEntry& e) const {
-  auto bytes = checked_range(e.offset, e.size, key_text(e.key));
+  auto bytes = checked_range(e.offset, e.size, brick_name(e.key));
   if (crc32c(bytes.data(), bytes.size()) != e.crc32c)
-    throw FormatError(path_.string(), key_text(e.key), "payload checksum mismatch (file corrupted)");
+    throw FormatError(path_.string(), brick_name(e.key), "payload checksum mismatch (file corrupted)");
   return bytes;
 }
 

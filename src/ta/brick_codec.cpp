@@ -13,6 +13,16 @@ namespace strata::ta {
 
 namespace {
 
+// Runs `f`, prefixing the message of an Error it throws with `context`.
+template <class F>
+decltype(auto) in_context(const std::string& context, F&& f) {
+  try {
+    return f();
+  } catch (const Error& e) {
+    throw Error(context + ": " + e.what());
+  }
+}
+
 bool is_constant(const Tensor3& samples) {
   auto v = samples.values();
   return std::all_of(v.begin(), v.end(), [first = v[0]](float x) { return x == first; });
@@ -117,7 +127,7 @@ EncodedBrick encode_brick(const Tensor3& samples, const CodecParams& params) {
 
 PayloadParts payload_parts(std::span<const std::byte> payload, const quant::QuantScheme& scheme,
                            const std::string& context) {
-  try {
+  return in_context(context, [&] {
     const quant::BrickView view(payload, scheme);
     PayloadParts p;
     const Ranks3& r = view.ranks();
@@ -126,9 +136,21 @@ PayloadParts payload_parts(std::span<const std::byte> payload, const quant::Quan
     p.factor_bytes = quant::packed_size(std::size_t(d[0] * r[0] + d[1] * r[1] + d[2] * r[2]), scheme.factor_bits);
     p.header_bytes = payload.size() - p.core_bytes - p.factor_bytes;
     return p;
-  } catch (const Error& e) {
-    throw Error(context + ": " + e.what());
-  }
+  });
+}
+
+void dequantize_brick(store::PayloadKind kind, std::span<const std::byte> payload, const quant::QuantScheme& scheme,
+                      int brick_width, int rank, DecodeScratch& scratch, quant::DequantizedModel& model,
+                      const std::string& context) {
+  in_context(context, [&] {
+    // plain_payload's own errors already name `context`; they get it once more here.
+    const quant::BrickView view(plain_payload(kind, payload, scheme, scratch, context), scheme);
+    const Dims3& d = view.dims();
+    if (d[0] != brick_width || d[1] != brick_width || d[2] != brick_width)
+      throw Error("brick extents " + to_string(d) + " differ from the brick width " + std::to_string(brick_width));
+    const Ranks3& r = view.ranks();
+    quant::dequantize(view, {std::min(rank, r[0]), std::min(rank, r[1]), std::min(rank, r[2])}, model);
+  });
 }
 
 void decode_brick(store::PayloadKind kind, std::span<const std::byte> payload, float constant_value,
@@ -140,18 +162,8 @@ void decode_brick(store::PayloadKind kind, std::span<const std::byte> payload, f
     std::fill(out.begin(), out.end(), constant_value);
     return;
   }
-  try {
-    const quant::BrickView view(plain_payload(kind, payload, scheme, scratch, context), scheme);
-    const Dims3& d = view.dims();
-    if (d[0] != brick_width || d[1] != brick_width || d[2] != brick_width)
-      throw Error("brick extents " + to_string(d) + " differ from the brick width " + std::to_string(brick_width));
-    const Ranks3& r = view.ranks();
-    const Ranks3 k{std::min(rank, r[0]), std::min(rank, r[1]), std::min(rank, r[2])};
-    quant::dequantize(view, k, scratch.model);
-    reconstructor.reconstruct(scratch.model.view(), out);
-  } catch (const Error& e) {
-    throw Error(context + ": " + e.what());
-  }
+  dequantize_brick(kind, payload, scheme, brick_width, rank, scratch, scratch.model, context);
+  in_context(context, [&] { reconstructor.reconstruct(scratch.model.view(), out); });
 }
 
 }  // namespace strata::ta

@@ -54,9 +54,7 @@ void push_slab_to_level0(const Volume& slab, LevelPipeline& level0) {
     const auto samples = slab.samples<T>();
     for (std::int64_t z = 0; z < slab.dims().z; ++z) {
       const T* src = samples.data() + std::size_t(z) * slice;
-      std::vector<float> values(slice);
-      for (std::size_t i = 0; i < slice; ++i) values[i] = float(src[i]);
-      level0.push_slice(std::move(values));
+      level0.push_slice(std::vector<float>(src, src + slice));
     }
   });
 }

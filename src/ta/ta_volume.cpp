@@ -75,14 +75,16 @@ TaVolume::TaVolume(const std::filesystem::path& path)
                       "expected " + std::to_string(geometry_->level_count()) + " levels for these dims and brick size");
 }
 
+const store::BrickEntry& TaVolume::entry(const store::BrickKey& key) const {
+  const store::BrickEntry* e = container_->find(key);
+  if (!e) throw FormatError(container_->path().string(), "index", store::brick_name(key) + " is missing");
+  return *e;
+}
+
 void TaVolume::decode_brick(const store::BrickKey& key, int k, std::span<float> out, BrickReconstructor& reconstructor,
                             DecodeScratch& scratch) const {
-  const store::BrickEntry* entry = container_->find(key);
-  if (!entry)
-    throw FormatError(container_->path().string(), "index",
-                      "brick (level " + std::to_string(key.level) + ", " + std::to_string(key.x) + "," +
-                          std::to_string(key.y) + "," + std::to_string(key.z) + ") is missing");
-  ta::decode_brick(entry->kind, container_->payload(*entry), entry->min, scheme_, geometry_->layout().brick,
+  const store::BrickEntry& e = entry(key);
+  ta::decode_brick(e.kind, container_->payload(e), e.min, scheme_, geometry_->layout().brick,
                    std::clamp(k, 1, rank_), reconstructor, scratch, out, container_->path().string());
 }
 

@@ -30,14 +30,18 @@ struct Encoded {
   Volume labels;
 };
 
-Encoded encode(gen::Kind kind, Extent dims, std::int64_t count, std::uint64_t seed, int bits = 9) {
+Volume generate(gen::Kind kind, Extent dims, std::int64_t count, std::uint64_t seed) {
   gen::Params p;
   p.kind = kind;
   p.dims = dims;
   p.seed = seed;
   p.count = count;
+  return gen::generate(p);
+}
+
+Encoded encode_volume(Volume labels, int bits = 9) {
   Encoded e;
-  e.labels = gen::generate(p);
+  e.labels = std::move(labels);
   HistogramMipmap h = HistogramMipmap::from_labels(e.labels, &e.map);
   FactorOptions o;
   o.bits = bits;
@@ -46,6 +50,16 @@ Encoded encode(gen::Kind kind, Extent dims, std::int64_t count, std::uint64_t se
   e.lookup = MixtureLookup::build(e.f.graph, e.schedule);
   e.max_l1 = measure_error(h, e.f, e.lookup).max_l1;
   e.num_sources = h.num_sources();
+  return e;
+}
+
+Encoded encode(gen::Kind kind, Extent dims, std::int64_t count, std::uint64_t seed, int bits = 9) {
+  return encode_volume(generate(kind, dims, count, seed), bits);
+}
+
+// fibres 64 x 64 x 32 with 200 ids (seed 11), shared by the tests that use it (built once).
+const Encoded& fibres_64x64x32() {
+  static const Encoded e = encode(gen::Kind::fibres, {64, 64, 32}, 200, 11);
   return e;
 }
 
@@ -231,7 +245,7 @@ TEST(BoxQuery, BorderSupportWeights) {
 
 TEST(BoxQuery, WholeVolumeIsFewSamplesAndOneVoxelIsExact) {
   const Extent dims{64, 64, 32};
-  const Encoded e = encode(gen::Kind::fibres, dims, 200, 11);
+  const Encoded& e = fibres_64x64x32();
   FactorizationGrid grid(e.f);
   BoxQuery q(grid, e.lookup, e.num_sources);
   const BoxHistogram w = q.hybrid(Box::whole(dims));
@@ -325,7 +339,7 @@ TEST(BoxQuery, FailedReadsPropagateAndLeaveNoState) {
 // sum to the box volume for any box, and a budget that holds the whole box is an exact scan.
 TEST(BoxQuery, CoarseRespectsTheBudgetAndSumsToTheBoxVolume) {
   const Extent dims{64, 64, 32};
-  const Encoded e = encode(gen::Kind::fibres, dims, 200, 11);
+  const Encoded& e = fibres_64x64x32();
   FactorizationGrid grid(e.f);
   BoxQuery q(grid, e.lookup, e.num_sources);
   std::mt19937_64 rng(5);
@@ -350,8 +364,7 @@ TEST(BoxQuery, CoarseRespectsTheBudgetAndSumsToTheBoxVolume) {
 // A box made of whole level-4 cells has no partly covered cell: the coarse answer is the
 // footprint assembly's (the same 8 samples), with no placement term in sigma.
 TEST(BoxQuery, CoarseOnAlignedCellsEqualsTheFootprint) {
-  const Extent dims{64, 64, 32};
-  const Encoded e = encode(gen::Kind::fibres, dims, 200, 11);
+  const Encoded& e = fibres_64x64x32();
   FactorizationGrid grid(e.f);
   BoxQuery q(grid, e.lookup, e.num_sources);
   const Box b{{16, 16, 0}, {48, 48, 32}};
@@ -375,12 +388,7 @@ TEST(BoxQuery, CoarseSigmaCoversRandomlyPlacedLabels) {
   Volume labels(dims, DType::u8);
   std::mt19937_64 rng(17);
   for (auto& v : labels.samples<std::uint8_t>()) v = std::uint8_t(rng() % 4);
-  Encoded e;
-  HistogramMipmap h = HistogramMipmap::from_labels(labels, &e.map);
-  e.f = factorize(h);
-  e.schedule = make_schedule(e.f.graph);
-  e.lookup = MixtureLookup::build(e.f.graph, e.schedule);
-  e.num_sources = h.num_sources();
+  const Encoded e = encode_volume(std::move(labels));
   FactorizationGrid grid(e.f);
   BoxQuery q(grid, e.lookup, e.num_sources);
   std::size_t labels_seen = 0, covered = 0;

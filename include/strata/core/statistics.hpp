@@ -42,7 +42,6 @@ class StatisticsAccumulator {
   std::int64_t small_offset_ = 0;
   std::unordered_map<std::int64_t, std::uint64_t> counts_;    // 32-bit integers
   std::vector<double> samples_;                               // floats / integers after the overflow
-  std::uint64_t counted_ = 0;  // integer voxels counted exactly in the map (before any overflow)
   std::uint64_t sample_stride_ = 1, sample_phase_ = 0;
 };
 

@@ -1,12 +1,15 @@
 #pragma once
 // Plain files, as every module that reads or writes one needs them: a read-only memory map,
-// output written as `<name>.tmp` and renamed into place, and a self-deleting temporary file.
-// All throw strata::Error naming the path and the system's reason.
+// output written as `<name>.tmp` and renamed into place, a self-deleting temporary file and a
+// whole JSON document. All throw strata::Error naming the path and the system's reason.
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <string>
+#include <string_view>
+
+#include <nlohmann/json_fwd.hpp>
 
 namespace strata::io {
 
@@ -53,5 +56,10 @@ class TempFile {
  private:
   std::filesystem::path path_;
 };
+
+// Parses the whole file at `path` as JSON. Throws Error "<path>: cannot open" if it cannot be
+// opened and FormatError(path, field, "invalid JSON: ...") if it does not parse; `field` is what
+// the caller's messages call the document.
+nlohmann::json read_json_file(const std::filesystem::path& path, std::string_view field);
 
 }  // namespace strata::io

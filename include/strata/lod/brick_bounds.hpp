@@ -21,10 +21,16 @@ WorldBox brick_world_box(const ta::OctreeGeometry& geometry, const Spacing& spac
 // are refined by their coarsest axis).
 double voxel_edge(const Spacing& spacing, int level);
 
+// The near plane's distance from the eye along the view direction (0 when the frustum has no
+// usable near plane).
+double near_distance(const View& view);
+
 // Smallest depth along view.forward of a point of `box`, measured from view.eye and clamped to
 // the near plane (points nearer than it are never drawn; the clamp also keeps a perspective
 // pixel size positive for boxes around the eye).
 double view_depth(const View& view, const WorldBox& box);
+// The same with near_distance(view) computed once by the caller (per frame, not per brick).
+double view_depth(const View& view, const WorldBox& box, double near);
 
 // False when the box lies wholly outside one of the frustum planes. Planes with a zero normal
 // (an unset frustum) never cull.

@@ -30,7 +30,7 @@ struct RankedKeyHash {
 };
 
 struct CacheCounters {
-  std::uint64_t hits = 0, misses = 0, evictions = 0;
+  std::uint64_t evictions = 0;
 };
 
 class BrickCache {
@@ -45,7 +45,6 @@ class BrickCache {
   bool contains(const store::BrickKey& key, int rank) const;
   // False when the brick alone exceeds the budget (then it is not kept).
   bool insert(const store::BrickKey& key, int rank, BrickSamples samples);
-  void clear();
 
   std::uint64_t bytes() const;
   std::uint64_t budget() const { return lru_.budget(); }
@@ -58,7 +57,6 @@ class BrickCache {
   LruCache<RankedKey, BrickSamples, RankedKeyHash> lru_;
   // Ranks cached per brick, so stand-in lookups need not probe every rank.
   std::unordered_map<store::BrickKey, std::vector<int>, store::BrickKeyHash> ranks_;
-  CacheCounters counters_;
 };
 
 }  // namespace strata::lod

@@ -62,7 +62,7 @@ class BrickLoader {
   std::condition_variable_any wake_;  // work arrived or stop requested
   std::condition_variable idle_;      // a job finished
   std::vector<LoadRequest> heap_;     // std::push_heap order: coarse, then near, on top
-  std::unordered_set<RankedKey, RankedKeyHash> queued_, running_;
+  std::unordered_set<RankedKey, RankedKeyHash> running_;
   std::exception_ptr failure_;
   std::vector<std::jthread> workers_;  // last: stopped and joined before the rest goes
 };

@@ -9,7 +9,6 @@
 // are resident; the sampler should prefer the finest brick that covers a point.
 #include <atomic>
 #include <cstdint>
-#include <unordered_set>
 #include <vector>
 
 #include "strata/lod/brick_cache.hpp"
@@ -53,9 +52,8 @@ class BrickProvider {
   BrickSamples decode(const RankedKey& key, BrickReconstructor& reconstructor, ta::DecodeScratch& scratch);
   ResidentBrick constant_brick(const store::BrickEntry& entry, int rank) const;
   // The nearest resident stand-in for a missing brick, if any; queues missing ancestors so the
-  // next frames have coarse data early.
-  bool stand_in(const CutBrick& brick, int rank, ResidentBrick& out, std::vector<LoadRequest>& requests,
-                std::unordered_set<RankedKey, RankedKeyHash>& requested);
+  // next frames have coarse data early (BrickLoader::submit drops repeated requests).
+  bool stand_in(const CutBrick& brick, int rank, ResidentBrick& out, std::vector<LoadRequest>& requests);
   void resolve_exact(const Selection& cut, const std::vector<std::size_t>& missing, int rank,
                      std::vector<LoadRequest> requests, FrameBricks& frame);
 

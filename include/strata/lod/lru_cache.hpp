@@ -52,12 +52,6 @@ class LruCache {
     return true;
   }
 
-  void clear() {
-    order_.clear();
-    index_.clear();
-    bytes_ = 0;
-  }
-
   std::uint64_t bytes() const { return bytes_; }
   std::uint64_t budget() const { return budget_; }
   std::size_t size() const { return index_.size(); }

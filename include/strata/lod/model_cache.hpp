@@ -24,7 +24,6 @@ class ModelCache {
 
   BrickModel find(const store::BrickKey& key);  // marked recently used; nullptr when absent
   bool insert(const store::BrickKey& key, BrickModel model);  // false when larger than the budget
-  void clear();
 
   std::uint64_t bytes() const;
   std::uint64_t budget() const { return lru_.budget(); }

@@ -44,6 +44,7 @@ struct MipmapStats {
   std::uint64_t voxels = 0;              // all levels
   std::uint64_t distinct_mixtures = 0;   // table entries used
   double nnz_per_voxel = 0.0;            // mean over all voxels of all levels
+  std::uint64_t nnz_total = 0;           // mixture entries summed over all voxels of all levels
   std::uint64_t input_pairs = 0;         // sum over distinct mixtures of C(nnz, 2)
   std::uint64_t voxel_pairs = 0;         // sum over voxels of C(nnz, 2)
   std::uint32_t max_nnz = 0;

@@ -64,8 +64,6 @@ class Camera {
   // world units.
   double half_width() const { return half_width_; }
   double half_height() const { return half_height_; }
-  // Radius of the volume's bounding sphere (world units), used for the far plane.
-  double scene_radius() const { return scene_radius_; }
 
   // Ray through the centre of pixel (px, py); py = 0 is the top row. Fractional positions
   // address sub-pixel points (pixel (0,0) spans [-0.5, 0.5) around its centre).
@@ -77,7 +75,6 @@ class Camera {
   Vec3 eye_, forward_, right_, up_;
   double half_height_ = 1;  // perspective: tan(fov/2); orthographic: half image height in world units
   double half_width_ = 1;   // half_height * aspect
-  double scene_radius_ = 1;
   double far_ = 1;          // distance of the far plane from the eye
 };
 

@@ -46,7 +46,6 @@ class LabelColorMap {
 
   void set(std::int64_t label, LabelRgba color);  // an explicit colour; also for label 0
   void set_default(LabelRgba color);              // unlisted labels get `color`
-  void set_hash_default(float opacity = 1.0f);    // unlisted labels get hash colours
 
   LabelRgba color_of(std::int64_t label) const;
 

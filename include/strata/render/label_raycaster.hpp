@@ -56,8 +56,4 @@ struct LabelRenderStats {
 Image render_labels(LabelScene& scene, const Camera& camera, const LabelRenderOptions& options = {},
                     LabelRenderStats* stats = nullptr);
 
-// The level-of-detail value (fractional level, before clamping) for a sample at view depth
-// `depth`: log2(pixel size at depth / level-0 voxel size) + lod_bias.
-double label_lod(const lod::View& view, double depth, double voxel_world, double lod_bias);
-
 }  // namespace strata::render

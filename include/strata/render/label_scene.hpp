@@ -37,7 +37,6 @@ struct LabelPrepareReport {
   double ids_ms = 0;              // decoding node ids of newly needed levels
   double skip_ms = 0;             // building skip grids
   std::uint64_t id_voxels_decoded = 0;
-  bool palette_rebuilt = false;
 };
 
 class LabelScene {
@@ -49,13 +48,11 @@ class LabelScene {
   // Keeps a reference: `labels` must outlive the scene. Decodes nothing yet.
   explicit LabelScene(const mixture::EncodedLabels& labels, LabelColorMap colors = {});
 
-  const mixture::EncodedLabels& labels() const { return labels_; }
   int level_count() const { return int(levels_.size()); }
   Extent level_dims(int level) const { return levels_.at(std::size_t(level)).dims; }
   Extent dims() const { return level_dims(0); }
   Spacing spacing() const { return labels_.spacing(); }
 
-  const LabelColorMap& color_map() const { return colors_; }
   // Takes effect at the next prepare(); node ids stay cached.
   void set_color_map(LabelColorMap colors);
 

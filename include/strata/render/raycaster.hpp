@@ -46,6 +46,7 @@
 
 #include <nlohmann/json_fwd.hpp>
 
+#include "strata/core/stopwatch.hpp"
 #include "strata/core/volume.hpp"
 #include "strata/lod/frame_bricks.hpp"
 #include "strata/render/camera.hpp"
@@ -125,6 +126,8 @@ class PreparedVolume {
  public:
   // [value_min, value_max] normalises values for the transfer function.
   PreparedVolume(const Volume& volume, double value_min, double value_max);
+  // ... over the volume's own sample range. Throws Error when the volume is empty.
+  explicit PreparedVolume(const Volume& volume);
   ~PreparedVolume();
   PreparedVolume(PreparedVolume&&) noexcept;
   PreparedVolume& operator=(PreparedVolume&&) noexcept;
@@ -133,8 +136,10 @@ class PreparedVolume {
   friend class RayCaster;
   std::unique_ptr<detail::FrameIndex> index_;  // one block: the volume
   double value_min_ = 0, value_max_ = 1;
-  std::shared_ptr<const detail::CellFlags> flags_;  // of the ray caster and mapping in flags_key_
-  std::array<double, 4> flags_key_{-1, 0, 0, 0};   // ray caster id, mapping lo and scale, dilation
+  // Empty-space cells for ray caster flags_owner_: a caster's TF and options never change, nor
+  // does this value range, so the caster's id is the whole key.
+  std::shared_ptr<const detail::CellFlags> flags_;
+  std::uint64_t flags_owner_ = 0;  // RayCaster::id_
 };
 
 class RayCaster {
@@ -160,6 +165,10 @@ class RayCaster {
   struct Tables;  // per-level classification tables (raycaster.cpp)
 
  private:
+  // The frame's common tail: level tables, ray casting, timings (from t0) into `stats`.
+  Image cast(const Camera& camera, const detail::FrameIndex& index, const ValueMapping& mapping,
+             SteadyClock::time_point t0, RenderStats& local, RenderStats* stats);
+
   TransferFunction tf_;
   RenderOptions options_;
   std::vector<std::unique_ptr<Tables>> tables_;  // by level, built on first use

@@ -9,6 +9,7 @@
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <span>
+#include <string>
 #include <unordered_map>
 #include <vector>
 
@@ -35,6 +36,9 @@ struct BrickKey {
   std::int32_t x = 0, y = 0, z = 0;  // brick coordinates in that level's grid
   bool operator==(const BrickKey&) const = default;
 };
+
+// "brick (level l, x,y,z)": how messages name a brick.
+std::string brick_name(const BrickKey& k);
 
 struct BrickKeyHash {
   std::size_t operator()(const BrickKey& k) const {

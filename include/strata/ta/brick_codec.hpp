@@ -47,6 +47,14 @@ std::span<const std::byte> plain_payload(store::PayloadKind kind, std::span<cons
                                          const quant::QuantScheme& scheme, DecodeScratch& scratch,
                                          const std::string& context);
 
+// The shared front of decode_brick and the LOD loader (lod::dequantize_payload): the plain
+// bytes of a tucker or tucker_zstd payload, checked to be `brick_width` wide along every axis
+// and dequantized at the leading ranks min(rank, R_n) into `model` (a rank of at least the
+// stored one keeps the full stored rank). Throws Error prefixed with `context`.
+void dequantize_brick(store::PayloadKind kind, std::span<const std::byte> payload, const quant::QuantScheme& scheme,
+                      int brick_width, int rank, DecodeScratch& scratch, quant::DequantizedModel& model,
+                      const std::string& context);
+
 // Splits a tucker payload's size into header, core and factor bytes (for `strata eval`).
 struct PayloadParts {
   std::size_t header_bytes = 0, core_bytes = 0, factor_bytes = 0;

@@ -25,6 +25,10 @@ class TaVolume {
   double value_min() const { return value_lo_; }
   double value_max() const { return value_hi_; }
 
+  // The index entry of `key`; throws FormatError ("brick (level l, x,y,z) is missing") when
+  // the index lacks it.
+  const store::BrickEntry& entry(const store::BrickKey& key) const;
+
   // B^3 floats of one brick (overlap included) reconstructed at rank K (clamped to 1..rank()).
   void decode_brick(const store::BrickKey& key, int k, std::span<float> out, BrickReconstructor& reconstructor,
                     DecodeScratch& scratch) const;
