@@ -46,8 +46,8 @@ struct RenderSession::Scalar {
   lod::SelectionOptions selection;
   int rank;
 
-  Scalar(const std::filesystem::path& input, const RenderSettings& s)
-      : volume(input),
+  Scalar(std::unique_ptr<store::ContainerReader> input, const RenderSettings& s)
+      : volume(std::move(input)),
         provider(volume, provider_options(s)),
         caster(render::TransferFunction::from_argument(s.tf), render_options(s)),
         visible_bins(caster.transfer_function().visible_bins(volume.value_min(), volume.value_max())),
@@ -88,8 +88,8 @@ struct RenderSession::Labels {
   render::LabelScene scene;
   render::LabelRenderOptions options;
 
-  Labels(const std::filesystem::path& input, const RenderSettings& s)
-      : labels(input), scene(labels, s.colors.empty() ? render::LabelColorMap{} : render::LabelColorMap::load(s.colors)) {
+  Labels(std::unique_ptr<store::ContainerReader> input, const RenderSettings& s)
+      : labels(std::move(input)), scene(labels, s.colors.empty() ? render::LabelColorMap{} : render::LabelColorMap::load(s.colors)) {
     options.lod_bias = s.lod_bias;
     options.step = s.step;
     options.shading = s.shading;
@@ -142,11 +142,12 @@ RenderSession::RenderSession(const std::filesystem::path& input, const RenderSet
     plain_ = std::make_unique<Plain>(input, settings);
     return;
   }
-  const store::ContainerReader probe(input);
-  if (probe.metadata().value("codec", std::string()) == mixture::kMixtureCodecName)
-    labels_ = std::make_unique<Labels>(input, settings);
+  // One reader, opened once: its codec picks the session kind, which takes it over.
+  auto reader = std::make_unique<store::ContainerReader>(input);
+  if (reader->metadata().value("codec", std::string()) == mixture::kMixtureCodecName)
+    labels_ = std::make_unique<Labels>(std::move(reader), settings);
   else
-    scalar_ = std::make_unique<Scalar>(input, settings);
+    scalar_ = std::make_unique<Scalar>(std::move(reader), settings);
 }
 
 RenderSession::~RenderSession() = default;

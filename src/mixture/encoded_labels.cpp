@@ -379,9 +379,12 @@ EncodeReport encode_labels(io::VolumeSource& labels, const std::filesystem::path
 
 EncodedLabels::~EncodedLabels() = default;
 
-EncodedLabels::EncodedLabels(const std::filesystem::path& path) : path_(path) {
-  const std::string file = path.string();
-  reader_ = std::make_unique<store::ContainerReader>(path);
+EncodedLabels::EncodedLabels(const std::filesystem::path& path)
+    : EncodedLabels(std::make_unique<store::ContainerReader>(path)) {}
+
+EncodedLabels::EncodedLabels(std::unique_ptr<store::ContainerReader> reader)
+    : path_(reader->path()), reader_(std::move(reader)) {
+  const std::string file = path_.string();
   const nlohmann::json& m = reader_->metadata();
   const std::string codec = m.is_object() && m.contains("codec") && m["codec"].is_string() ? m["codec"].get<std::string>() : "";
   if (codec != kMixtureCodecName)

@@ -31,9 +31,10 @@ Extent positive_extent(const std::vector<std::int64_t>& v, const std::string& fi
 
 }  // namespace
 
-TaVolume::TaVolume(const std::filesystem::path& path)
-    : container_(std::make_unique<store::ContainerReader>(path)) {
-  const std::string file = path.string();
+TaVolume::TaVolume(const std::filesystem::path& path) : TaVolume(std::make_unique<store::ContainerReader>(path)) {}
+
+TaVolume::TaVolume(std::unique_ptr<store::ContainerReader> container) : container_(std::move(container)) {
+  const std::string file = container_->path().string();
   const nlohmann::json& m = container_->metadata();
   if (!m.contains("codec") || !m["codec"].is_string() || m["codec"] != "ta-bricked")
     throw FormatError(file, "metadata.codec",

@@ -101,6 +101,8 @@ MixtureGraph read_graph_bitstream(std::span<const std::byte> bytes, const std::s
 class EncodedLabels final : public NodeGrid {
  public:
   explicit EncodedLabels(const std::filesystem::path& path);  // throws FormatError naming file and field
+  // The same over a container already open (its index is not read again).
+  explicit EncodedLabels(std::unique_ptr<store::ContainerReader> reader);
   ~EncodedLabels() override;
 
   // NodeGrid

@@ -15,6 +15,8 @@ namespace strata::ta {
 class TaVolume {
  public:
   explicit TaVolume(const std::filesystem::path& path);  // throws FormatError on bad metadata
+  // The same over a container already open (its index is not read again).
+  explicit TaVolume(std::unique_ptr<store::ContainerReader> container);
 
   const store::ContainerReader& container() const { return *container_; }
   const VolumeInfo& source_info() const { return source_; }
