@@ -325,7 +325,7 @@ void bind_levels(Frame& f, const LabelScene& scene) {
     LevelView& v = f.levels[std::size_t(l)];
     const Extent d = scene.level_dims(l);
     v.ids = scene.level_ids(l).data();
-    if (l >= LabelScene::kFinestSkipLevel) v.occupied = scene.occupied(l).data();
+    if (f.options.skip_empty && l >= LabelScene::kFinestSkipLevel) v.occupied = scene.occupied(l).data();
     v.nx = d.x, v.ny = d.y, v.nz = d.z;
     v.size = std::ldexp(1.0, l);
     v.scale = 1.0 / v.size;
@@ -359,7 +359,7 @@ Image render_labels(LabelScene& scene, const Camera& camera, const LabelRenderOp
   Frame f = make_frame(scene, camera, options);
   f.finest = frame_finest_level(f, scene.spacing());
 
-  const LabelPrepareReport prepared = scene.prepare(f.finest);
+  const LabelPrepareReport prepared = scene.prepare(f.finest, options.skip_empty);
   bind_levels(f, scene);
 
   LabelRenderStats local;

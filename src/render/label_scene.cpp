@@ -61,7 +61,7 @@ bool LabelScene::anything_visible() const {
   return visible_[top.ids[0]] != 0;
 }
 
-LabelPrepareReport LabelScene::prepare(int finest_level) {
+LabelPrepareReport LabelScene::prepare(int finest_level, bool skip_grids) {
   if (finest_level < 0 || finest_level >= level_count())
     throw Error(labels_.path().string() + ": level " + std::to_string(finest_level) + " is not in 0.." +
                 std::to_string(level_count() - 1));
@@ -79,7 +79,7 @@ LabelPrepareReport LabelScene::prepare(int finest_level) {
       report.ids_ms += ms_since(start);
       report.id_voxels_decoded += level.ids.size();
     }
-    if (l >= kFinestSkipLevel && level.skip_generation != palette_generation_) {
+    if (skip_grids && l >= kFinestSkipLevel && level.skip_generation != palette_generation_) {
       const auto start = std::chrono::steady_clock::now();
       build_skip_grid(level);
       report.skip_ms += ms_since(start);

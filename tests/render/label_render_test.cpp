@@ -165,8 +165,11 @@ TEST(LabelRender, SkippingEmptySpaceKeepsTheImage) {
   LabelRenderOptions with = options(), without = options();
   without.skip_empty = false;
   LabelRenderStats s_with, s_without;
-  const Image a = render_labels(scene, front_camera(Projection::perspective), with, &s_with);
+  // Without skipping no skip grid is built (rendered first, on a fresh scene).
   const Image b = render_labels(scene, front_camera(Projection::perspective), without, &s_without);
+  for (int l = LabelScene::kFinestSkipLevel; l < scene.level_count(); ++l) EXPECT_TRUE(scene.occupied(l).empty()) << l;
+  const Image a = render_labels(scene, front_camera(Projection::perspective), with, &s_with);
+  EXPECT_FALSE(scene.occupied(scene.level_count() - 1).empty());
   EXPECT_GT(s_with.skipped_cubes, 0u);
   EXPECT_EQ(s_without.skipped_cubes, 0u);
   EXPECT_LT(s_with.samples, s_without.samples);

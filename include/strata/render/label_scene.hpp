@@ -57,9 +57,9 @@ class LabelScene {
   void set_color_map(LabelColorMap colors);
 
   // Makes levels finest..level_count()-1 renderable for the current colour map: decodes
-  // the ids of levels not yet cached, rebuilds the palette if the colour map changed, and the
-  // skip grids that are missing or stale.
-  LabelPrepareReport prepare(int finest_level);
+  // the ids of levels not yet cached, rebuilds the palette if the colour map changed, and
+  // (with skip_grids) the skip grids that are missing or stale.
+  LabelPrepareReport prepare(int finest_level, bool skip_grids = true);
 
   // Valid after prepare(): premultiplied RGBA per node (4 floats per node id).
   std::span<const float> palette() const { return palette_; }
