@@ -99,17 +99,7 @@ struct RenderSession::Labels {
   render::Image frame(const render::Camera& camera, nlohmann::json& stats) {
     render::LabelRenderStats st;
     render::Image image = render::render_labels(scene, camera, options, &st);
-    stats["render"] = {{"ms", st.ms},
-                       {"march_ms", st.march_ms},
-                       {"palette_ms", st.palette_ms},
-                       {"ids_ms", st.ids_ms},
-                       {"skip_grid_ms", st.skip_grid_ms},
-                       {"ids_decoded", st.ids_decoded},
-                       {"rays", st.rays},
-                       {"samples", st.samples},
-                       {"skipped_cubes", st.skipped_cubes},
-                       {"terminated_rays", st.terminated_rays},
-                       {"levels", {st.finest_level, st.coarsest_level}}};
+    stats = render::stats_json(st);
     return image;
   }
 };

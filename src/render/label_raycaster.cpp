@@ -8,6 +8,8 @@
 #include <limits>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "strata/core/error.hpp"
 #include "strata/core/threads.hpp"
 #include "strata/render/transfer_function.hpp"  // Rgbaf
@@ -377,6 +379,22 @@ Image render_labels(LabelScene& scene, const Camera& camera, const LabelRenderOp
   local.ms = ms_since(start);
   if (stats) *stats = local;
   return image;
+}
+
+nlohmann::json stats_json(const LabelRenderStats& s) {
+  nlohmann::json j;
+  j["render"] = {{"ms", s.ms},
+                 {"march_ms", s.march_ms},
+                 {"palette_ms", s.palette_ms},
+                 {"ids_ms", s.ids_ms},
+                 {"skip_grid_ms", s.skip_grid_ms},
+                 {"ids_decoded", s.ids_decoded},
+                 {"rays", s.rays},
+                 {"samples", s.samples},
+                 {"skipped_cubes", s.skipped_cubes},
+                 {"terminated_rays", s.terminated_rays},
+                 {"levels", {s.finest_level, s.coarsest_level}}};
+  return j;
 }
 
 }  // namespace strata::render

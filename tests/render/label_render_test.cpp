@@ -9,6 +9,8 @@
 #include <memory>
 #include <string>
 
+#include <nlohmann/json.hpp>
+
 #include "strata/core/error.hpp"
 #include "strata/mixture/encoded_labels.hpp"
 #include "strata/render/label_color_map.hpp"
@@ -172,6 +174,11 @@ TEST(LabelRender, SkippingEmptySpaceKeepsTheImage) {
   EXPECT_FALSE(scene.occupied(scene.level_count() - 1).empty());
   EXPECT_GT(s_with.skipped_cubes, 0u);
   EXPECT_EQ(s_without.skipped_cubes, 0u);
+  // --stats carries the counters under "render".
+  const nlohmann::json j = stats_json(s_with);
+  EXPECT_EQ(j["render"]["skipped_cubes"].get<std::uint64_t>(), s_with.skipped_cubes);
+  EXPECT_EQ(j["render"]["samples"].get<std::uint64_t>(), s_with.samples);
+  EXPECT_EQ(j["render"]["levels"], nlohmann::json({s_with.finest_level, s_with.coarsest_level}));
   EXPECT_LT(s_with.samples, s_without.samples);
   int worst = 0;
   for (std::size_t i = 0; i < a.pixels().size(); ++i) {

@@ -13,6 +13,8 @@
 // are per level-0 voxel thickness (the geometric mean of the spacing).
 #include <cstdint>
 
+#include <nlohmann/json_fwd.hpp>
+
 #include "strata/render/camera.hpp"
 #include "strata/render/image.hpp"
 #include "strata/render/label_color_map.hpp"
@@ -55,5 +57,8 @@ struct LabelRenderStats {
 // frames only recompute what a colour-map change invalidated. Throws Error on bad options.
 Image render_labels(LabelScene& scene, const Camera& camera, const LabelRenderOptions& options = {},
                     LabelRenderStats* stats = nullptr);
+
+// A frame's statistics as the JSON `strata render --stats` writes: {"render": {...}}.
+nlohmann::json stats_json(const LabelRenderStats& stats);
 
 }  // namespace strata::render
