@@ -36,12 +36,10 @@ ResidentBrick BrickProvider::constant_brick(const store::BrickEntry& entry, int 
 
 BrickSamples BrickProvider::decode(const RankedKey& key, BrickReconstructor& reconstructor, ta::DecodeScratch& scratch) {
   const auto start = std::chrono::steady_clock::now();
-  const store::BrickEntry* entry = volume_.container().find(key.brick);
-  if (!entry) throw Error(brick_context(volume_, key.brick) + ": missing from the index");
   BrickModel model = models_.find(key.brick);
   if (!model) {
     std::uint64_t read = 0;
-    model = fetch_model(volume_, *entry, scratch, read);
+    model = fetch_model(volume_, volume_.entry(key.brick), scratch, read);
     bytes_read_ += read;
     models_.insert(key.brick, model);
   }

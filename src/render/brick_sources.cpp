@@ -29,10 +29,7 @@ lod::FrameBricks level_bricks(const ta::TaVolume& volume, int level, int rank, s
       try {
         const store::BrickKey key{std::uint8_t(level), std::int32_t(i % grid.x), std::int32_t((i / grid.x) % grid.y),
                                   std::int32_t(i / (grid.x * grid.y))};
-        const store::BrickEntry* entry = volume.container().find(key);
-        if (!entry)
-          throw FormatError(volume.container().path().string(), "index",
-                            "brick of level " + std::to_string(level) + " is missing");
+        const store::BrickEntry* entry = &volume.entry(key);
         if ((entry->histogram & visible_mask) == 0) continue;
         lod::ResidentBrick& b = slots[std::size_t(i)];
         b.key = key;

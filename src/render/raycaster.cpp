@@ -279,8 +279,7 @@ struct Marcher {
       }
     }
 #endif
-    if (vectorised) {
-    } else if (!use_skip) {
+    if (!vectorised && !use_skip) {
       const std::int64_t k_loop = k;
       for (; k < k1 && acc.a <= mp.termination; ++k) {
         const float j = float(k - k0);
@@ -288,7 +287,7 @@ struct Marcher {
       }
       taken += std::uint64_t(k - k_loop);
       if (k > k_loop) last = k - 1;
-    } else {
+    } else if (!vectorised) {
       for (; k < k1 && acc.a <= mp.termination; ++k) {
         const float j = float(k - k0);
         const float x = p[0] + dp[0] * j, y = p[1] + dp[1] * j, z = p[2] + dp[2] * j;
@@ -385,11 +384,10 @@ void validate(const RenderOptions& o) {
     if (!(c >= 0 && c <= 1)) throw Error("render: background components must lie in [0, 1]");
 }
 
-}  // namespace
-
-namespace {
+// Tells PreparedVolume which caster's empty-space cells it holds.
 std::atomic<std::uint64_t> next_caster_id{0};
-}
+
+}  // namespace
 
 RayCaster::RayCaster(TransferFunction tf, RenderOptions options)
     : tf_(std::move(tf)),
@@ -438,10 +436,6 @@ void attach_flags(Block& b, const std::shared_ptr<const CellFlags>& f, RenderSta
   b.cells = f->cells;
   b.empty = f->empty_count > 0 ? f->empty.data() : nullptr;
 }
-
-}  // namespace
-
-namespace {
 
 // The pre-integrated table regrouped into bilinear cells (Classifier::cells).
 std::vector<float> bilinear_cells(const PreintegratedTable& t) {
