@@ -30,10 +30,10 @@ void run_generate(const GenerateArgs& args, const GlobalOptions& global) {
 void register_generate(CLI::App& app, const GlobalOptions& global) {
   auto args = std::make_shared<GenerateArgs>();
   CLI::App* cmd = app.add_subcommand("generate", "Generate a synthetic volume (deterministic for a seed)");
-  cmd->add_option("kind", args->kind, "prisms | marschner-lobb | sphere | voronoi | fibres")->required();
+  cmd->add_option("kind", args->kind, "prisms | marschner-lobb | sphere | voronoi | fibres | superpixels")->required();
   cmd->add_option("--size", args->size, "X or X,Y,Z voxels")->capture_default_str();
   cmd->add_option("--seed", args->seed, "Random seed")->capture_default_str();
-  cmd->add_option("--count", args->count, "Number of blobs / cells / fibres (0 = the kind's default)")
+  cmd->add_option("--count", args->count, "Number of blobs / cells / fibres / superpixels per section (0 = the kind's default)")
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--dtype", args->dtype, "Sample type of the output (default: the kind's own, e.g. u16 for prisms)");
   cmd->add_option("-o,--output", args->output, "Output volume file")->required();

@@ -14,7 +14,8 @@
 namespace strata::gen {
 
 namespace {
-constexpr std::array<std::string_view, 5> kKindNames = {"prisms", "marschner-lobb", "sphere", "voronoi", "fibres"};
+constexpr std::array<std::string_view, 6> kKindNames = {"prisms", "marschner-lobb", "sphere", "voronoi", "fibres",
+                                                        "superpixels"};
 
 std::string joined_kind_names() {
   std::string all;
@@ -59,7 +60,7 @@ std::string_view kind_name(Kind k) {
   return kKindNames[i];
 }
 
-bool is_label_kind(Kind k) { return k == Kind::voronoi || k == Kind::fibres; }
+bool is_label_kind(Kind k) { return k == Kind::voronoi || k == Kind::fibres || k == Kind::superpixels; }
 
 std::span<const std::string_view> kind_names() { return kKindNames; }
 
@@ -68,6 +69,7 @@ std::int64_t default_count(Kind k) {
     case Kind::prisms: return 40;
     case Kind::voronoi: return 64;
     case Kind::fibres: return 200;
+    case Kind::superpixels: return 256;
     case Kind::marschner_lobb:
     case Kind::sphere: return 0;
   }
@@ -84,6 +86,7 @@ std::unique_ptr<Generator> make_generator(const Params& params) {
     case Kind::sphere: return detail::make_sphere(p);
     case Kind::voronoi: return detail::make_voronoi(p);
     case Kind::fibres: return detail::make_fibres(p);
+    case Kind::superpixels: return detail::make_superpixels(p);
   }
   throw Error("make_generator: invalid generator kind " + std::to_string(int(p.kind)));
 }

@@ -33,6 +33,7 @@ std::unique_ptr<Generator> make_marschner_lobb(const Params& params);
 std::unique_ptr<Generator> make_sphere(const Params& params);
 std::unique_ptr<Generator> make_voronoi(const Params& params);
 std::unique_ptr<Generator> make_fibres(const Params& params);
+std::unique_ptr<Generator> make_superpixels(const Params& params);
 
 // Geometric mean of the dimensions: the length scale object sizes are chosen from.
 double mean_extent(const Extent& dims);

@@ -31,6 +31,7 @@
 #include <limits>
 #include <string>
 
+#include "strata/core/check.hpp"
 #include "strata/core/error.hpp"
 #include "strata/core/threads.hpp"
 #include "strata/mixture/flat_hash.hpp"
@@ -99,6 +100,33 @@ Interpolation orient(std::uint32_t x, std::uint32_t y, double mx, double my, int
   return r;
 }
 
+void validate(const MixtureGraph& g) {
+  const std::uint32_t bins = std::uint32_t(1) << g.codebook.bits;
+  if (g.codebook.value.size() != bins || g.codebook.sigma.size() != bins)
+    throw Error("mixture graph: codebook has " + std::to_string(g.codebook.value.size()) + " values and " +
+                std::to_string(g.codebook.sigma.size()) + " sigmas, expected " + std::to_string(bins) + " each");
+  const double w_max = g.codebook.layout == WeightBins::symmetric ? 0.5 : 1.0;
+  for (std::uint32_t q = 0; q < bins; ++q) {
+    const double w = g.codebook.value[q], s = g.codebook.sigma[q];
+    if (!(w > 0.0 && w <= w_max && (w < 1.0)))
+      throw Error("mixture graph: codebook weight " + std::to_string(q) + " is " + std::to_string(w) +
+                  ", expected in (0, " + std::to_string(w_max) + "]");
+    if (!(s >= 0.0 && std::isfinite(s)))
+      throw Error("mixture graph: codebook sigma " + std::to_string(q) + " is " + std::to_string(s) +
+                  ", expected finite and >= 0");
+  }
+  for (std::size_t i = 0; i < g.nodes.size(); ++i) {
+    const InternalNode& n = g.nodes[i];
+    const std::uint64_t id = std::uint64_t(g.num_sources) + i;
+    if (n.a == n.b || n.a >= id || n.b >= id)
+      throw Error("mixture graph: node " + std::to_string(id) + " has predecessors (" + std::to_string(n.a) + ", " +
+                  std::to_string(n.b) + "), expected two distinct earlier nodes");
+    if (n.bin >= bins)
+      throw Error("mixture graph: node " + std::to_string(id) + " uses weight bin " + std::to_string(n.bin) +
+                  ", expected < " + std::to_string(bins));
+  }
+}
+
 namespace {
 
 constexpr std::uint32_t kNone = ~0u;
@@ -123,6 +151,12 @@ class NodeStore {
 
   // The canonical node merging x (mass mx) and y (mass my); records the use of its bin.
   std::uint32_t merge(std::uint32_t x, std::uint32_t y, double mx, double my, std::uint64_t mult, bool* reused) {
+    STRATA_DEBUG_CHECK(x != y && x < next_id() && y < next_id(),
+                       "mixture factorisation merges nodes " + std::to_string(x) + " and " + std::to_string(y) +
+                           ": predecessors must be distinct existing nodes (next id " + std::to_string(next_id()) + ")");
+    STRATA_DEBUG_CHECK(mx > 0.0 && my > 0.0 && std::isfinite(mx + my),
+                       "mixture factorisation merges masses " + std::to_string(mx) + " and " + std::to_string(my) +
+                           ": both must be positive and finite");
     const Interpolation it = orient(x, y, mx, my, bits_, layout_);
     const std::uint32_t q = it.bin;
     const double d = it.w - bin_center(q, bits_, layout_);
@@ -431,6 +465,72 @@ void check_options(const FactorOptions& o) {
   if (o.bits < 1 || o.bits > 16) throw Error("mixture factorisation: bits must be in 1..16, got " + std::to_string(o.bits));
 }
 
+// Nodes of the <= 8 children of dense mixture `id` (at its first voxel), with how many
+// children hold each: (count, node), ascending node.
+std::vector<std::pair<std::uint64_t, std::uint32_t>> children_of(const MixtureTable& table,
+                                                                 const std::vector<MipLevel>& levels,
+                                                                 const std::vector<std::uint32_t>& node_of_mixture,
+                                                                 std::uint32_t id) {
+  const int l = table.first_level(id);
+  const MipLevel& P = levels[std::size_t(l)];
+  const MipLevel& C = levels[std::size_t(l) - 1];
+  const std::uint64_t v = table.first_voxel(id);
+  const std::int64_t x = std::int64_t(v % std::uint64_t(P.dims.x));
+  const std::int64_t y = std::int64_t((v / std::uint64_t(P.dims.x)) % std::uint64_t(P.dims.y));
+  const std::int64_t z = std::int64_t(v / std::uint64_t(P.dims.x * P.dims.y));
+  std::uint32_t child[8] = {};
+  int n = 0;
+  for (std::int64_t cz = 2 * z; cz < std::min(C.dims.z, 2 * z + 2); ++cz)
+    for (std::int64_t cy = 2 * y; cy < std::min(C.dims.y, 2 * y + 2); ++cy)
+      for (std::int64_t cx = 2 * x; cx < std::min(C.dims.x, 2 * x + 2); ++cx) {
+        const std::uint32_t node = node_of_mixture[C.ids[C.index(cx, cy, cz)]];
+        if (node == kNone) throw Error("mixture factorisation: internal error, child without a node");
+        child[n++] = node;
+      }
+  for (int i = 1; i < n; ++i)  // insertion sort of <= 8 node ids
+    for (int j = i; j > 0 && child[j - 1] > child[j]; --j) std::swap(child[j - 1], child[j]);
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> out;
+  for (int i = 0; i < n;) {
+    const std::uint32_t node = child[i];
+    std::uint64_t c = 0;
+    while (i < n && child[i] == node) ++c, ++i;
+    out.push_back({c, node});
+  }
+  return out;
+}
+
+// Eq. 4 as interpolations: merges the children's nodes smallest count first (Huffman-like)
+// into one node. A merge may return a node that already exists (the store dedupes on (pair,
+// bin)), and that node can be one of the pending children itself: e.g. children A, B and
+// C = (A, B, bin) where A and B, merged with their counts, fall in C's bin. The two copies of C
+// then describe the same mixture, so their counts add up in one entry; merging C with itself
+// would make a node with equal predecessors (a self-loop in the DAG).
+std::uint32_t merge_children(std::vector<std::pair<std::uint64_t, std::uint32_t>> pending, std::uint64_t mult,
+                             NodeStore& store, FactorStats& stats) {
+  auto smallest = [&]() {
+    const auto it = std::min_element(pending.begin(), pending.end());
+    const auto p = *it;
+    pending.erase(it);
+    return p;
+  };
+  while (pending.size() > 1) {
+    const auto p = smallest();
+    const auto q = smallest();
+    bool reused = false;
+    const std::uint32_t node = store.merge(p.second, q.second, double(p.first), double(q.first), mult, &reused);
+    ++stats.merges;
+    stats.reused += reused ? 1 : 0;
+    const std::uint64_t count = p.first + q.first;
+    const auto same = std::find_if(pending.begin(), pending.end(), [&](const auto& e) { return e.second == node; });
+    if (same != pending.end()) {
+      same->first += count;
+    } else {
+      pending.push_back({count, node});
+    }
+  }
+  return pending.front().second;
+}
+
 // Shared driver. `levels` (mixture ids per voxel) enables the dense shortcut; may be null.
 Factorization run_factorize(const MixtureTable& table, const std::vector<MipLevel>* levels, const FactorOptions& opt,
                             ProgressSink& progress) {
@@ -473,57 +573,17 @@ Factorization run_factorize(const MixtureTable& table, const std::vector<MipLeve
   // Dense mixtures: average of the children's nodes, coarse levels after finer ones.
   std::stable_sort(dense.begin(), dense.end(),
                    [&](std::uint32_t x, std::uint32_t y) { return table.first_level(x) < table.first_level(y); });
-  std::vector<std::pair<std::uint64_t, std::uint32_t>> heap;  // (count, node), min first
   for (std::uint32_t id : dense) {
-    const int l = table.first_level(id);
-    const MipLevel& P = (*levels)[std::size_t(l)];
-    const MipLevel& C = (*levels)[std::size_t(l) - 1];
-    const std::uint64_t v = table.first_voxel(id);
-    const std::int64_t x = std::int64_t(v % std::uint64_t(P.dims.x));
-    const std::int64_t y = std::int64_t((v / std::uint64_t(P.dims.x)) % std::uint64_t(P.dims.y));
-    const std::int64_t z = std::int64_t(v / std::uint64_t(P.dims.x * P.dims.y));
-    std::uint32_t child[8] = {};
-    int n = 0;
-    for (std::int64_t cz = 2 * z; cz < std::min(C.dims.z, 2 * z + 2); ++cz)
-      for (std::int64_t cy = 2 * y; cy < std::min(C.dims.y, 2 * y + 2); ++cy)
-        for (std::int64_t cx = 2 * x; cx < std::min(C.dims.x, 2 * x + 2); ++cx) {
-          const std::uint32_t node = f.node_of_mixture[C.ids[C.index(cx, cy, cz)]];
-          if (node == kNone) throw Error("mixture factorisation: internal error, child without a node");
-          child[n++] = node;
-        }
-    for (int i = 1; i < n; ++i)  // insertion sort of <= 8 node ids
-      for (int j = i; j > 0 && child[j - 1] > child[j]; --j) std::swap(child[j - 1], child[j]);
-    heap.clear();
-    for (int i = 0; i < n;) {
-      const std::uint32_t node = child[i];
-      std::uint64_t c = 0;
-      while (i < n && child[i] == node) ++c, ++i;
-      heap.push_back({c, node});
-    }
-    auto cmp = [](const auto& p, const auto& q) { return p > q; };  // min-heap on (count, node)
-    std::make_heap(heap.begin(), heap.end(), cmp);
     const std::uint64_t mult = std::max<std::uint64_t>(1, table.multiplicity(id));
-    while (heap.size() > 1) {
-      std::pop_heap(heap.begin(), heap.end(), cmp);
-      auto p = heap.back();
-      heap.pop_back();
-      std::pop_heap(heap.begin(), heap.end(), cmp);
-      auto q = heap.back();
-      heap.pop_back();
-      bool reused = false;
-      const std::uint32_t node = store.merge(p.second, q.second, double(p.first), double(q.first), mult, &reused);
-      ++f.stats.merges;
-      f.stats.reused += reused ? 1 : 0;
-      heap.push_back({p.first + q.first, node});
-      std::push_heap(heap.begin(), heap.end(), cmp);
-    }
-    f.node_of_mixture[id] = heap.front().second;
+    f.node_of_mixture[id] = merge_children(children_of(table, *levels, f.node_of_mixture, id), mult, store, f.stats);
   }
-
   f.graph.nodes = std::move(store.nodes());
   f.graph.codebook = store.codebook();
   f.stats.internal_nodes = f.graph.nodes.size();
   f.stats.nodes = f.graph.node_count();
+#ifndef NDEBUG
+  validate(f.graph);
+#endif
   f.stats.depth = topological_depth(f.graph);
   f.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return f;

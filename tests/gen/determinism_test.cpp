@@ -63,7 +63,8 @@ TEST_P(GenEveryKind, DegenerateShapes) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Kinds, GenEveryKind,
-                         ::testing::Values(Kind::prisms, Kind::marschner_lobb, Kind::sphere, Kind::voronoi, Kind::fibres),
+                         ::testing::Values(Kind::prisms, Kind::marschner_lobb, Kind::sphere, Kind::voronoi, Kind::fibres,
+                                           Kind::superpixels),
                          [](const auto& info) {
                            std::string name(kind_name(info.param));
                            std::erase(name, '-');
@@ -78,7 +79,8 @@ TEST_P(GenSeededKind, OtherSeedOtherBytes) {
   EXPECT_FALSE(a == b);
 }
 
-INSTANTIATE_TEST_SUITE_P(Kinds, GenSeededKind, ::testing::Values(Kind::prisms, Kind::voronoi, Kind::fibres),
+INSTANTIATE_TEST_SUITE_P(Kinds, GenSeededKind,
+                         ::testing::Values(Kind::prisms, Kind::voronoi, Kind::fibres, Kind::superpixels),
                          [](const auto& info) { return std::string(kind_name(info.param)); });
 
 }  // namespace

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <set>
 
 #include "gen/gen_test_util.hpp"
 
@@ -105,6 +106,57 @@ TEST(GenFibres, TubesAreConnected) {
                     view(x, y + 1, z) == id || view(x, y, z - 1) == id || view(x, y, z + 1) == id);
       }
   EXPECT_LT(double(lonely) / double(foreground), 0.01);
+}
+
+// Superpixels: no background; every section has its own ids (about `count` of them, each a
+// 2D-connected patch in [z * cells + 1, (z + 1) * cells]); runs of sections share a partition,
+// and about half of the consecutive pairs start a new one.
+TEST(GenSuperpixels, OwnIdsPerSectionAndRunsOfRepeatedPartitions) {
+  const Extent d{60, 48, 64};
+  const std::int64_t count = 40;
+  const Volume v = generate(helpers::params(Kind::superpixels, d, 5, count));
+  EXPECT_EQ(helpers::zero_fraction(v), 0.0);
+  const auto view = v.view<std::uint32_t>();
+  std::set<std::uint32_t> previous;
+  std::int64_t cells = 0, repeated = 0;
+  for (std::int64_t z = 0; z < d.z; ++z) {
+    std::set<std::uint32_t> section;
+    for (std::int64_t y = 0; y < d.y; ++y)
+      for (std::int64_t x = 0; x < d.x; ++x) section.insert(view(x, y, z));
+    if (z == 0) cells = std::int64_t(*section.rbegin());  // ids of section 0 end at <= cells
+    EXPECT_GE(*section.begin(), std::uint32_t(z * cells + 1)) << "section " << z;
+    EXPECT_LE(*section.rbegin(), std::uint32_t((z + 1) * cells)) << "section " << z;
+    EXPECT_GT(section.size(), std::size_t(count * 8 / 10)) << "section " << z;
+    for (std::uint32_t id : section) EXPECT_EQ(previous.count(id), 0u) << "id " << id << " continues into " << z;
+    if (z > 0) {
+      bool same = true;  // same partition: ids differ by the same offset everywhere
+      const std::int64_t offset = std::int64_t(view(0, 0, z)) - std::int64_t(view(0, 0, z - 1));
+      for (std::int64_t y = 0; y < d.y && same; ++y)
+        for (std::int64_t x = 0; x < d.x && same; ++x)
+          same = std::int64_t(view(x, y, z)) - std::int64_t(view(x, y, z - 1)) == offset;
+      repeated += same;
+    }
+    previous = std::move(section);
+  }
+  EXPECT_GT(repeated, (d.z - 1) / 4);
+  EXPECT_LT(repeated, 3 * (d.z - 1) / 4);
+}
+
+// A superpixel is one patch: every voxel has a 4-neighbour with its id, but for single-voxel
+// slivers at cell corners, which are rare.
+TEST(GenSuperpixels, PatchesAreConnectedInTheSection) {
+  const Extent d{64, 64, 6};
+  const Volume v = generate(helpers::params(Kind::superpixels, d, 2, 100));
+  const auto view = v.view<std::uint32_t>();
+  std::int64_t lonely = 0;
+  for (std::int64_t z = 0; z < d.z; ++z)
+    for (std::int64_t y = 1; y + 1 < d.y; ++y)
+      for (std::int64_t x = 1; x + 1 < d.x; ++x) {
+        const std::uint32_t id = view(x, y, z);
+        lonely += !(view(x - 1, y, z) == id || view(x + 1, y, z) == id || view(x, y - 1, z) == id ||
+                    view(x, y + 1, z) == id);
+      }
+  EXPECT_LT(double(lonely) / double(d.voxel_count()), 0.001);
 }
 
 }  // namespace

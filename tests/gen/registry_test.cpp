@@ -12,7 +12,7 @@ namespace {
 TEST(GenRegistry, NamesRoundTrip) {
   for (std::string_view name : kind_names()) EXPECT_EQ(kind_name(parse_kind(name)), name);
   EXPECT_EQ(parse_kind("marschner-lobb"), Kind::marschner_lobb);
-  EXPECT_EQ(kind_names().size(), 5u);
+  EXPECT_EQ(kind_names().size(), 6u);
 }
 
 TEST(GenRegistry, UnknownKindListsTheValidOnes) {
@@ -29,6 +29,7 @@ TEST(GenRegistry, UnknownKindListsTheValidOnes) {
 TEST(GenRegistry, LabelKinds) {
   EXPECT_TRUE(is_label_kind(Kind::voronoi));
   EXPECT_TRUE(is_label_kind(Kind::fibres));
+  EXPECT_TRUE(is_label_kind(Kind::superpixels));
   EXPECT_FALSE(is_label_kind(Kind::prisms));
   EXPECT_FALSE(is_label_kind(Kind::marschner_lobb));
   EXPECT_FALSE(is_label_kind(Kind::sphere));
@@ -41,6 +42,7 @@ TEST(GenRegistry, DtypesPerKind) {
   EXPECT_EQ(make_generator(helpers::params(Kind::sphere, d))->info().dtype, DType::f32);
   EXPECT_EQ(make_generator(helpers::params(Kind::voronoi, d))->info().dtype, DType::u32);
   EXPECT_EQ(make_generator(helpers::params(Kind::fibres, d))->info().dtype, DType::u32);
+  EXPECT_EQ(make_generator(helpers::params(Kind::superpixels, d))->info().dtype, DType::u32);
   EXPECT_EQ(make_generator(helpers::params(Kind::fibres, d))->info().dims, d);
 }
 
@@ -49,6 +51,9 @@ TEST(GenRegistry, RejectsBadParams) {
   EXPECT_THROW(make_generator(helpers::params(Kind::sphere, {4, -1, 4})), Error);
   EXPECT_THROW(make_generator(helpers::params(Kind::voronoi, {4, 4, 4}, 1, -3)), Error);
   EXPECT_THROW(make_generator(helpers::params(Kind::fibres, {4, 4, 4}, 1, std::int64_t(1) << 33)), Error);
+  // Ids are unique per section: sections x superpixels must fit u32.
+  EXPECT_THROW(make_generator(helpers::params(Kind::superpixels, {1 << 16, 1 << 16, 2}, 1, std::int64_t(1) << 31)),
+               Error);
 }
 
 TEST(GenRegistry, SlabRangeIsChecked) {
@@ -63,6 +68,7 @@ TEST(GenRegistry, DefaultCounts) {
   EXPECT_EQ(default_count(Kind::prisms), 40);
   EXPECT_EQ(default_count(Kind::voronoi), 64);
   EXPECT_EQ(default_count(Kind::fibres), 200);
+  EXPECT_EQ(default_count(Kind::superpixels), 256);
 }
 
 }  // namespace

@@ -27,6 +27,12 @@ TempDir::~TempDir() {
   std::filesystem::remove_all(path_, ec);
 }
 
+std::filesystem::path test_data(const std::string& name) {
+  std::filesystem::path p = std::filesystem::path(STRATA_TEST_DATA_DIR) / name;
+  if (!std::filesystem::exists(p)) throw std::runtime_error("test fixture missing: " + p.string());
+  return p;
+}
+
 std::optional<std::filesystem::path> shared_data(const std::string& name) {
   std::filesystem::path p = std::filesystem::path(STRATA_SHARED_DATA_DIR) / name;
   if (std::filesystem::exists(p)) return p;

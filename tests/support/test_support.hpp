@@ -19,6 +19,8 @@ class TempDir {
   std::filesystem::path path_;
 };
 
+// `tests/data/<name>`: small fixtures kept in the repository (always present; see its NOTICE).
+std::filesystem::path test_data(const std::string& name);
 // `../shared/data/<name>` if present (tests on real data skip otherwise).
 std::optional<std::filesystem::path> shared_data(const std::string& name);
 // `/usr/share/mricron/templates/<name>` if the mricron-data package is installed.

@@ -19,15 +19,17 @@ enum class Kind {
   sphere,          // scalar: analytic solid sphere (value 1 inside, smooth 1-voxel edge), f32
   voronoi,         // labels: N warped Voronoi cells separated by thin background membranes, u32
   fibres,          // labels: N curved tubes on ~85% background, u32
+  superpixels,     // labels: ~N 2D superpixels per z-section, own ids per section, sections in runs
+                   // sharing one partition (serial-section EM over-segmentation), no background, u32
 };
 
-Kind parse_kind(std::string_view name);  // "prisms", "marschner-lobb", "sphere", "voronoi", "fibres"
+Kind parse_kind(std::string_view name);  // "prisms", "marschner-lobb", "sphere", "voronoi", "fibres", "superpixels"
 std::string_view kind_name(Kind k);
 bool is_label_kind(Kind k);
 std::span<const std::string_view> kind_names();  // every valid name, in Kind order
 // What count = 0 means: prisms 40 blobs (plus max(3, count/4) fibre bundles), voronoi 64 cells,
-// fibres 200 tubes; marschner-lobb ignores count; sphere uses count as its radius in voxels
-// when > 0 (default 0.4 * the smallest dimension).
+// fibres 200 tubes, superpixels 256 per section; marschner-lobb ignores count; sphere uses count
+// as its radius in voxels when > 0 (default 0.4 * the smallest dimension).
 std::int64_t default_count(Kind k);
 
 struct Params {

@@ -119,6 +119,13 @@ class MixtureGraph {
   double sigma(std::uint32_t id) const { return codebook.sigma[node(id).bin]; }
 };
 
+/// @brief Checks the Mixture Graph's invariants and throws Error naming the first violation:
+/// every internal node has two distinct predecessors that come earlier (the node list is in
+/// topological order, so the graph is acyclic), every bin index is < 2^bits, and every codebook
+/// weight lies in its layout's range (symmetric (0, 0.5], uniform (0, 1)) with a finite sigma >= 0.
+/// factorize() runs it on its result in debug builds.
+void validate(const MixtureGraph& g);
+
 struct FactorStats {
   std::uint64_t nodes = 0;             // including sources
   std::uint64_t internal_nodes = 0;
