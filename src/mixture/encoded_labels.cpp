@@ -23,6 +23,7 @@ namespace {
 
 constexpr int kCodeBits = 20;
 constexpr std::uint32_t kCodeMax = (1u << kCodeBits) - 1u;
+const double kCodeRoundingVariance = std::ldexp(1.0, -2 * (kCodeBits + 1)) / 3.0;
 constexpr int kFormatVersion = 1;
 
 // LSB-first bit packing (bit i of the stream is bit i % 8 of byte i / 8).
@@ -188,8 +189,9 @@ std::vector<std::byte> write_graph_bitstream(const MixtureGraph& g, bool fractio
     const double v = std::clamp(g.codebook.value[i], 0.0, 1.0);
     w.put(std::min<std::uint64_t>(kCodeMax, std::uint64_t(std::llround(v * double(1u << kCodeBits)))), kCodeBits);
     const double s = std::isfinite(g.codebook.sigma[i]) ? g.codebook.sigma[i] : 0.0;
+    // Rounded up: a decoded sigma never claims more precision than the encoder measured.
     const std::uint64_t qs =
-        sigma_max > 0.0f ? std::min<std::uint64_t>(kCodeMax, std::uint64_t(std::llround(s / double(sigma_max) * kCodeMax))) : 0;
+        sigma_max > 0.0f ? std::min<std::uint64_t>(kCodeMax, std::uint64_t(std::ceil(s / double(sigma_max) * kCodeMax))) : 0;
     w.put(qs, kCodeBits);
   }
   return w.take();
@@ -247,7 +249,10 @@ MixtureGraph read_graph_bitstream(std::span<const std::byte> bytes, const std::s
     const std::uint64_t qv = r.get(kCodeBits, "codebook value");
     const std::uint64_t qs = r.get(kCodeBits, "codebook sigma");
     g.codebook.value[std::size_t(i)] = double(qv) / double(1u << kCodeBits);
-    g.codebook.sigma[std::size_t(i)] = double(qs) / double(kCodeMax) * double(h.sigma_max);
+    // The stored value is the code rounded to 2^-20: a weight error of up to 2^-21 that even a
+    // bin of exact weights (sigma 0) carries, taken as uniform, variance (2^-21)^2 / 3.
+    const double stored_sigma = double(qs) / double(kCodeMax) * double(h.sigma_max);
+    g.codebook.sigma[std::size_t(i)] = std::sqrt(stored_sigma * stored_sigma + kCodeRoundingVariance);
   }
   if (out_header) *out_header = h;
   return g;

@@ -147,7 +147,9 @@ class NodeStore {
  public:
   NodeStore(std::uint32_t num_sources, int bits, WeightBins layout)
       : num_sources_(num_sources), bits_(bits), layout_(layout), map_(NodeKey{~0ULL, 0}),
-        use_count_(std::size_t(1) << bits, 0), sum_d_(std::size_t(1) << bits, 0.0), sum_d2_(std::size_t(1) << bits, 0.0) {}
+        use_count_(std::size_t(1) << bits, 0), sum_d_(std::size_t(1) << bits, 0.0), sum_d2_(std::size_t(1) << bits, 0.0),
+        min_d_(std::size_t(1) << bits, std::numeric_limits<double>::infinity()),
+        max_d_(std::size_t(1) << bits, -std::numeric_limits<double>::infinity()) {}
 
   // The canonical node merging x (mass mx) and y (mass my); records the use of its bin.
   std::uint32_t merge(std::uint32_t x, std::uint32_t y, double mx, double my, std::uint64_t mult, bool* reused) {
@@ -163,6 +165,8 @@ class NodeStore {
     use_count_[q] += mult;
     sum_d_[q] += double(mult) * d;
     sum_d2_[q] += double(mult) * d * d;
+    min_d_[q] = std::min(min_d_[q], d);
+    max_d_[q] = std::max(max_d_[q], d);
     auto [slot, inserted] = map_.insert(NodeKey{pair_key(it.a, it.b), q}, 0);
     if (inserted) {
       *slot = num_sources_ + std::uint32_t(nodes_.size());
@@ -182,18 +186,20 @@ class NodeStore {
     c.layout = layout_;
     const std::size_t n = std::size_t(1) << bits_;
     c.value.resize(n);
-    c.sigma.resize(n);
+    c.sigma.assign(n, 0.0);
+    c.max_deviation.assign(n, 0.0);
     c.uses = use_count_;
     for (std::size_t q = 0; q < n; ++q) {
       const double centre = bin_center(std::uint32_t(q), bits_, layout_);
       if (use_count_[q] == 0) {
         c.value[q] = centre;
-        c.sigma[q] = 0.0;
         continue;
       }
       const double mean_d = sum_d_[q] / double(use_count_[q]);
+      const double spread = std::sqrt(std::max(0.0, sum_d2_[q] / double(use_count_[q]) - mean_d * mean_d));
       c.value[q] = centre + mean_d;
-      c.sigma[q] = std::sqrt(std::max(0.0, sum_d2_[q] / double(use_count_[q]) - mean_d * mean_d));
+      c.max_deviation[q] = std::max(max_d_[q] - mean_d, mean_d - min_d_[q]);
+      c.sigma[q] = std::max(spread, c.max_deviation[q] / std::sqrt(3.0));
     }
     return c;
   }
@@ -206,6 +212,7 @@ class NodeStore {
   std::vector<InternalNode> nodes_;
   std::vector<std::uint64_t> use_count_;
   std::vector<double> sum_d_, sum_d2_;  // deviations from the bin centre (no cancellation)
+  std::vector<double> min_d_, max_d_;   // their range (empty bins: +inf, -inf)
 };
 
 struct PairStat {

@@ -154,3 +154,28 @@ TEST(LabelsCli, QueryAgreesWithTheExactScan) {
   for (const auto& l : coarse["labels"]) coarse_total += l["count"].get<double>();
   EXPECT_NEAR(coarse_total, volume, 1e-6 * volume);
 }
+
+// `labels calibrate`: random boxes against exact counts; the JSON shares are consistent, the
+// generated superpixel stack (real-like dyadic mixtures) stays within the 3-sigma acceptance,
+// and bad arguments are usage errors.
+TEST(LabelsCli, CalibrateReportsSharesOutsideSigma) {
+  TempDir dir;
+  const std::string in = (dir / "sp.nrrd").string(), enc = (dir / "sp.strata").string();
+  std::string out;
+  ASSERT_EQ(run_command(strata_cmd("generate superpixels --size 64,60,40 --count 30 --seed 4 -o " + in), &out), 0) << out;
+  ASSERT_EQ(run_command(strata_cmd("labels encode " + in + " -o " + enc), &out), 0) << out;
+  ASSERT_EQ(run_command(strata_cmd("labels calibrate " + enc + " --sizes 8,24 --boxes 10 --json"), &out), 0) << out;
+  const auto c = nlohmann::json::parse(out);
+  EXPECT_EQ(c["boxes"], 20);
+  EXPECT_GT(c["pairs"].get<int>(), 100);
+  for (int k = 1; k < 6; ++k)
+    EXPECT_GE(c["outside_" + std::to_string(k) + "_sigma"].get<double>(),
+              c["outside_" + std::to_string(k + 1) + "_sigma"].get<double>());
+  EXPECT_LE(c["outside_3_sigma"].get<double>(), 0.005);
+  EXPECT_EQ(c["outside_6_sigma"].get<double>(), 0.0);
+  ASSERT_EQ(run_command(strata_cmd("labels calibrate " + enc + " --boxes 3"), &out), 0) << out;
+  EXPECT_NE(out.find("outside 1/2/3/6 sigma"), std::string::npos) << out;
+  EXPECT_EQ(run_command(strata_cmd("labels calibrate " + enc + " --sizes 0"), &out), 2) << out;
+  EXPECT_EQ(run_command(strata_cmd("labels calibrate " + enc + " --method naive"), &out), 2) << out;
+  EXPECT_EQ(run_command(strata_cmd("labels calibrate " + (dir / "missing.strata").string()), &out), 1) << out;
+}

@@ -94,14 +94,23 @@ struct InternalNode {
   bool operator==(const InternalNode&) const = default;
 };
 
-// Scalar quantiser of the interpolation weights: per bin the mean of the member weights and
-// their empirical standard deviation, both over all uses (a use = one voxel of H whose
-// factorisation applies the node; i.e. weighted by multiplicity). Empty bins: the centre.
+// Scalar quantiser of the interpolation weights: per bin the mean of the member weights (the code
+// value) and the uncertainty of a weight decoded as that value, both over all uses (a use = one
+// voxel of H whose factorisation applies the node; i.e. weighted by multiplicity). Empty bins:
+// the centre, sigma 0.
+//
+// sigma is what box queries propagate (paper Eq. 17-18), and it must hold for every node, not
+// just on average: a bin's uses are mostly the exact dyadic weights of the fine levels, so
+// their empirical standard deviation is tiny, while the rarer weights of the same bin sit up
+// to half a bin away and every voxel of such a node carries that whole deviation. So
+// sigma = max(empirical sigma, max_deviation / sqrt(3)): at least the spread of a weight
+// uniform within +- the largest deviation seen in the bin.
 struct Codebook {
   int bits = 9;
   WeightBins layout = WeightBins::symmetric;
   std::vector<double> value;
   std::vector<double> sigma;
+  std::vector<double> max_deviation;  // largest |w - value| over the bin's uses (not stored in files)
   std::vector<std::uint64_t> uses;
   std::uint32_t bins() const { return std::uint32_t(value.size()); }
 };
