@@ -1,8 +1,13 @@
-// Box histogram queries (paper §3.6, Table 4) on a generated fibres label volume with 10,000 ids:
-// footprint assembly (hybrid, the default, and pure one-sample-per-cube) against the naive
-// parallel level-0 scan, for boxes of 16^3 .. 256^3 at random (fixed-seed) positions.
+// Box histogram queries (paper §3.6, Table 4) on an encoded label file, the path `strata labels
+// query` takes (block-palette ids decoded from the .strata file): footprint assembly (hybrid, the
+// default, and pure one-sample-per-cube) against the naive parallel level-0 scan, for boxes of
+// 16^3 .. 256^3 at random (fixed-seed) positions.
 //   ./build/release/bench/bench_box_query --benchmark_counters_tabular=true
-//   STRATA_BOX_DIM=256 ./build/release/bench/bench_box_query      (smaller volume, faster setup)
+// The volume (encoded once per run into a temporary file, default options):
+//   STRATA_BOX_KIND=fibres|voronoi|superpixels  generated, STRATA_BOX_DIM^3 (default 512), seed 1,
+//                   STRATA_BOX_IDS labels (default: fibres 10,000, voronoi 10,000, superpixels 600
+//                   per section)
+//   STRATA_BOX_FILE=labels.nrrd|.nii.gz|.strata  a real volume (a .strata file is used as is)
 // Table4/<size>: per box the time of each method (best of 5 batches of >= 0.5 ms; small queries
 // are timed with a warm cache), then the MEDIAN over 32 boxes: fetches (ids read), saved % vs the
 // naive voxel count, hybrid / footprint / naive ms (naive1 = one thread) and the speed-up of hybrid
@@ -16,16 +21,17 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <memory>
 #include <random>
 #include <string>
 
+#include <unistd.h>
+
 #include "strata/gen/generators.hpp"
+#include "strata/io/volume_io.hpp"
 #include "strata/mixture/box_query.hpp"
-#include "strata/mixture/factorize.hpp"
-#include "strata/mixture/histogram_mipmap.hpp"
-#include "strata/mixture/lookup.hpp"
-#include "strata/mixture/schedule.hpp"
+#include "strata/mixture/encoded_labels.hpp"
 
 namespace {
 
@@ -38,40 +44,68 @@ int env_int(const char* name, int fallback) {
   return fallback;
 }
 
+std::string env_string(const char* name, const char* fallback) {
+  const char* v = std::getenv(name);
+  return v ? v : fallback;
+}
+
 struct Fixture {
-  Factorization f;
-  Schedule schedule;
-  MixtureLookup lookup;
-  std::unique_ptr<FactorizationGrid> grid;
+  std::filesystem::path temp;  // the encoded file when made here (removed at exit)
+  std::unique_ptr<EncodedLabels> labels;
   std::unique_ptr<BoxQuery> query;
   Extent dims;
   double setup_seconds = 0.0;
+  ~Fixture() {
+    std::error_code ec;
+    if (!temp.empty()) std::filesystem::remove(temp, ec);
+  }
 };
 
+// The labels to query, encoded with the default options unless already a .strata file.
+std::filesystem::path encoded_input(Fixture& x, std::string& name) {
+  const std::string file = env_string("STRATA_BOX_FILE", "");
+  if (!file.empty() && std::filesystem::path(file).extension() == ".strata") {
+    name = file;
+    return file;
+  }
+  x.temp = std::filesystem::temp_directory_path() / ("strata-bench-box-" + std::to_string(::getpid()) + ".strata");
+  EncodeOptions o;
+  o.measure_error = false;
+  if (!file.empty()) {
+    name = file;
+    encode_labels(io::read_volume(file), x.temp, o);
+    return x.temp;
+  }
+  gen::Params p;
+  p.kind = gen::parse_kind(env_string("STRATA_BOX_KIND", "fibres"));
+  const int d = env_int("STRATA_BOX_DIM", 512);
+  p.dims = {d, d, d};
+  p.seed = 1;
+  p.count = env_int("STRATA_BOX_IDS", p.kind == gen::Kind::superpixels ? 600 : 10000);
+  name = std::string(gen::kind_name(p.kind)) + " " + p.dims.to_string() + " count " + std::to_string(p.count);
+  encode_labels(gen::generate(p), x.temp, o);
+  return x.temp;
+}
+
+void set_up(Fixture& x) {
+  const auto t0 = Clock::now();
+  std::string name;
+  const std::filesystem::path path = encoded_input(x, name);
+  x.labels = std::make_unique<EncodedLabels>(path);
+  x.dims = x.labels->level_dims(0);
+  const MixtureLookup& lookup = x.labels->lookup();
+  x.query = std::make_unique<BoxQuery>(*x.labels, lookup, x.labels->graph().num_sources);
+  x.setup_seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+  std::fprintf(stderr, "%s: %u labels, %llu nodes, lookup nnz %llu, setup %.1f s\n", name.c_str(),
+               x.labels->graph().num_sources, (unsigned long long)x.labels->graph().node_count(),
+               (unsigned long long)lookup.total_nnz(), x.setup_seconds);
+}
+
 Fixture& fixture() {
-  static Fixture* fx = [] {
-    auto* x = new Fixture;
-    const auto t0 = Clock::now();
-    gen::Params p;
-    p.kind = gen::Kind::fibres;
-    const int d = env_int("STRATA_BOX_DIM", 512);
-    p.dims = {d, d, d};
-    p.seed = 1;
-    p.count = 10000;
-    x->dims = p.dims;
-    HistogramMipmap h = HistogramMipmap::from_labels(gen::generate(p));
-    x->f = factorize(std::move(h));
-    x->schedule = make_schedule(x->f.graph);
-    x->lookup = MixtureLookup::build(x->f.graph, x->schedule);
-    x->grid = std::make_unique<FactorizationGrid>(x->f);
-    x->query = std::make_unique<BoxQuery>(*x->grid, x->lookup, x->f.graph.num_sources);
-    x->setup_seconds = std::chrono::duration<double>(Clock::now() - t0).count();
-    std::fprintf(stderr, "fibres %lldx%lldx%lld, 10000 ids: %llu nodes, lookup nnz %llu, setup %.1f s\n",
-                 (long long)d, (long long)d, (long long)d, (unsigned long long)x->f.graph.node_count(),
-                 (unsigned long long)x->lookup.total_nnz(), x->setup_seconds);
-    return x;
-  }();
-  return *fx;
+  static Fixture fx;  // destroyed at exit, which removes the temporary file
+  static const bool ready = (set_up(fx), true);
+  (void)ready;
+  return fx;
 }
 
 std::vector<Box> boxes(std::int64_t size, int n) {
@@ -115,7 +149,7 @@ double median(std::vector<double> v) {
 void Table4(benchmark::State& state) {
   Fixture& fx = fixture();
   const std::int64_t size = state.range(0);
-  if (size > fx.dims.x) {
+  if (size > std::min({fx.dims.x, fx.dims.y, fx.dims.z})) {
     state.SkipWithError("box larger than the volume");
     return;
   }

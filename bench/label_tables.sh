@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # Tables 2 and 3 of the Mixture Graph paper, measured with `strata labels encode --json` on the
-# sample label volumes, the mricron atlases and a generated fibres volume. Every encoded file is
-# decoded at level 0 and compared with its input (must be bit-exact). Prints Markdown tables.
-#   bench/label_tables.sh [strata-binary] [table2|table3|all]
+# sample label volumes, the mricron atlases and a generated fibres volume, and the calibration of
+# box-query sigmas (`strata labels calibrate`: 30 random boxes each of 64^3 and 128^3, hybrid
+# against exact counts). Every encoded file is decoded at level 0 and compared with its input
+# (must be bit-exact). Prints Markdown tables.
+#   bench/label_tables.sh [strata-binary] [table2|table3|sigma|all]
 # Environment: STRATA_THREADS (default 2), FIBRES_SIZE (default 512), FIBRES_COUNT (default 10000).
 set -euo pipefail
 STRATA=$(realpath "${1:-./build/release/strata}")
@@ -76,9 +78,39 @@ print("| {strategy} | {bits} | {nodes:,} | {mib:.2f} MiB | {bits_per_voxel:.3f} 
   done
 }
 
+sigma_row() {
+  local name=$1 input=$2
+  encode_checked "$input" > /dev/null
+  strata labels calibrate "$WORK/labels.strata" --sizes 64,128 --boxes 30 --json | python3 -c '
+import json, sys
+r = json.load(sys.stdin)
+w = r["worst"]
+print("| {} | {:,} | {:.2f}% | {:.2f}% | {:.3f}% | {:.3f}% | {} | {:.3g} |".format(
+    sys.argv[1], r["pairs"], 100 * r["outside_1_sigma"], 100 * r["outside_2_sigma"], 100 * r["outside_3_sigma"],
+    100 * r["outside_6_sigma"], w["z"] if isinstance(w["z"], str) else "{:.2f}".format(w["z"]), r["mean_abs_error"]))
+' "$name"
+}
+
+sigma() {
+  local generated="$WORK/generated.nrrd"
+  echo "| volume | label/box pairs | > 1σ | > 2σ | > 3σ | > 6σ | worst \|error\|/σ | mean \|error\| (voxels) |"
+  echo "| --- | --- | --- | --- | --- | --- | --- | --- |"
+  for v in fibsem_medulla_250_gt fibsem_medulla_250_ws fibsem_medulla_250_sp vtk_frog_tissue gala_fibsem_test_gt; do
+    sigma_row "$v" "$DATA/$v.nrrd"
+  done
+  sigma_row aal "$ATLAS/aal.nii.gz"
+  sigma_row inia19-NeuroMaps "$ATLAS/inia19-NeuroMaps.nii.gz"
+  for kind in "fibres 256 4000" "voronoi 256 2000" "superpixels 256 200"; do
+    set -- $kind
+    strata generate "$1" --size "$2" --count "$3" --seed 1 -o "$generated" > /dev/null
+    sigma_row "$1 $2³ (generated, count $3)" "$generated"
+  done
+}
+
 case "$WHICH" in
   table2) table2 ;;
   table3) table3 ;;
-  all) table2; echo; table3 ;;
-  *) echo "usage: $0 [strata-binary] [table2|table3|all]" >&2; exit 2 ;;
+  sigma) sigma ;;
+  all) table2; echo; table3; echo; sigma ;;
+  *) echo "usage: $0 [strata-binary] [table2|table3|sigma|all]" >&2; exit 2 ;;
 esac

@@ -185,13 +185,26 @@ void BlockPaletteIds::decode_box(const Box& box, std::span<std::uint32_t> out) c
     throw Error("BlockPaletteIds::decode_box: " + std::to_string(out.size()) + " outputs for " + box.to_string());
   for (std::int64_t z = box.lo.z; z < box.hi.z; ++z)
     for (std::int64_t y = box.lo.y; y < box.hi.y; ++y) {
-      std::uint32_t* row = out.data() + ((z - box.lo.z) * s.y + (y - box.lo.y)) * s.x;
+      std::uint32_t* row = out.data() + ((z - box.lo.z) * s.y + (y - box.lo.y)) * s.x - box.lo.x;
+      // The 8 indices of one block row are 8 * bits bits = `bits` whole bytes, starting on a
+      // byte: row r of a block begins at byte r * bits of the block's indices.
+      const std::size_t block_row = std::size_t((z % kBlock) * kBlock + y % kBlock);
       for (std::int64_t x = box.lo.x; x < box.hi.x;) {
-        // One block header per run of up to 8 voxels along x.
         const BlockHeader& b = block_of(x, y, z);
         const std::int64_t run_end = std::min(box.hi.x, (x / kBlock + 1) * kBlock);
         const std::uint32_t* palette = palettes_.data() + b.palette_offset;
-        for (; x < run_end; ++x) row[x - box.lo.x] = palette[index_in_block(b, x, y, z)];
+        if (b.bits == 0) {
+          std::fill(row + x, row + run_end, palette[0]);
+        } else if (b.bits <= 8) {
+          std::uint64_t word = 0;  // the whole block row in one little-endian word
+          std::memcpy(&word, indices_.data() + b.bit_offset / 8 + block_row * b.bits, b.bits);
+          const unsigned bits = b.bits;
+          const std::uint64_t mask = (std::uint64_t(1) << bits) - 1;
+          for (std::int64_t i = x; i < run_end; ++i) row[i] = palette[(word >> (unsigned(i % kBlock) * bits)) & mask];
+        } else {
+          for (std::int64_t i = x; i < run_end; ++i) row[i] = palette[index_in_block(b, i, y, z)];
+        }
+        x = run_end;
       }
     }
 }

@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstring>
 #include <random>
 
@@ -97,4 +98,43 @@ TEST(IdStorage, CorruptStreamsAreErrors) {
   EXPECT_THROW(BlockPaletteIds::deserialize(wrong), Error);
   auto fixed = FixedRateIds(ids, d).serialize();
   EXPECT_THROW(FixedRateIds::deserialize(std::span(fixed).first(fixed.size() - 3)), Error);
+}
+
+// decode_box reads a block row at once for 1..8-bit indices and per voxel above: blocks with
+// 1 to 512 distinct ids (index widths 0..9), boxes at random offsets, against the ids and at().
+TEST(IdStorage, BlockPaletteDecodesEveryIndexWidth) {
+  const Extent d{40, 24, 24};  // 5 x 3 x 3 blocks
+  std::mt19937 rng(11);
+  std::vector<std::uint32_t> ids(std::size_t(d.voxel_count()));
+  const std::uint32_t distinct[] = {1, 2, 3, 4, 5, 8, 9, 16, 17, 31, 64, 65, 100, 128, 129, 200, 255,
+                                    256, 257, 300, 400, 511, 512, 7, 33, 6, 70, 140, 250, 384, 2, 1, 90, 480, 12, 3, 260,
+                                    45, 13, 500, 240, 22, 1, 150, 96};
+  static_assert(std::size(distinct) == 45);  // one per block
+  for (std::int64_t bz = 0; bz < 3; ++bz)
+    for (std::int64_t by = 0; by < 3; ++by)
+      for (std::int64_t bx = 0; bx < 5; ++bx) {
+        const std::uint32_t n = distinct[std::size_t((bz * 3 + by) * 5 + bx)];
+        std::vector<std::uint32_t> local(512);
+        for (std::uint32_t v = 0; v < 512; ++v) local[v] = 70000 + 3 * (v % n);  // every one of the n ids occurs
+        std::shuffle(local.begin(), local.end(), rng);
+        for (std::int64_t k = 0; k < 8; ++k)
+          for (std::int64_t j = 0; j < 8; ++j)
+            for (std::int64_t i = 0; i < 8; ++i)
+              ids[std::size_t(((bz * 8 + k) * d.y + by * 8 + j) * d.x + bx * 8 + i)] = local[std::size_t((k * 8 + j) * 8 + i)];
+      }
+  const BlockPaletteIds b = BlockPaletteIds::deserialize(BlockPaletteIds(ids, d).serialize());
+  expect_all_equal(b, ids, d);
+  for (int round = 0; round < 200; ++round) {
+    auto pick = [&](std::int64_t n) { return std::int64_t(rng() % std::uint32_t(n)); };
+    Extent lo{pick(d.x), pick(d.y), pick(d.z)};
+    Extent hi{lo.x + 1 + pick(d.x - lo.x), lo.y + 1 + pick(d.y - lo.y), lo.z + 1 + pick(d.z - lo.z)};
+    const Box box{lo, hi};
+    std::vector<std::uint32_t> out(std::size_t(box.voxel_count()));
+    b.decode_box(box, out);
+    std::size_t i = 0;
+    for (std::int64_t z = lo.z; z < hi.z; ++z)
+      for (std::int64_t y = lo.y; y < hi.y; ++y)
+        for (std::int64_t x = lo.x; x < hi.x; ++x)
+          ASSERT_EQ(out[i++], ids[std::size_t((z * d.y + y) * d.x + x)]) << box.to_string() << " at " << x << "," << y << "," << z;
+  }
 }
