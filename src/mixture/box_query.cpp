@@ -32,6 +32,7 @@ struct SourceSink {
   std::vector<double> count, var;
   std::vector<std::uint8_t> mark;
   std::vector<std::uint32_t> touched;
+  std::vector<std::pair<std::uint32_t, NodeAcc>> pending;  // expand()'s internal nodes
 
   void prepare(std::uint32_t ns) {
     if (count.size() < ns) {
@@ -56,28 +57,39 @@ struct SourceSink {
     var[c.source] += c.sigma * c.sigma;
   }
   // Every node of `nodes` through the lookup: returns how many internal nodes were expanded.
+  // The nodes are listed first so their lookup entries can be prefetched ahead of use: on large
+  // volumes the expansion is bound by the latency of those scattered reads, not by arithmetic.
   std::uint64_t expand(const NodeMap& nodes, const MixtureLookup& lookup, std::uint32_t ns) {
-    std::uint64_t expanded = 0;
+    pending.clear();
     nodes.for_each([&](std::uint32_t id, const NodeAcc& a) {
       if (id < ns) {
         add(id, a.w);
-        return;
+      } else {
+        pending.push_back({id, a});
       }
-      ++expanded;
+    });
+    constexpr std::size_t kNodeAhead = 16, kEntriesAhead = 8;
+    const std::size_t n = pending.size();
+    for (std::size_t i = 0; i < std::min(n, kNodeAhead); ++i) lookup.prefetch_node(pending[i].first);
+    for (std::size_t i = 0; i < std::min(n, kEntriesAhead); ++i) lookup.prefetch_entries(pending[i].first);
+    for (std::size_t i = 0; i < n; ++i) {
+      if (i + kNodeAhead < n) lookup.prefetch_node(pending[i + kNodeAhead].first);
+      if (i + kEntriesAhead < n) lookup.prefetch_entries(pending[i + kEntriesAhead].first);
+      const std::uint32_t id = pending[i].first;
       const auto ix = lookup.index(id);
       const auto mu = lookup.mean_weights(id);
       const auto sg = lookup.sigma(id);
       // The lookup's means are convex combinations of unit vectors: they sum to 1 to rounding,
       // so the counts of all nodes sum to the box volume without renormalising.
-      const double w = a.w, w2 = a.w2;
+      const double w = pending[i].second.w, w2 = pending[i].second.w2;
       for (std::size_t k = 0; k < ix.size(); ++k) {
         const std::uint32_t s = ix[k];
         touch(s);
         count[s] += w * mu[k];
         var[s] += w2 * sg[k] * sg[k];
       }
-    });
-    return expanded;
+    }
+    return n;
   }
   // A partly covered cell of the coarse method: `n` of its `total` voxels lie in the box. Label
   // s has about c = total mu_s voxels in the cell, so the box holds between max(0, n - (total

@@ -159,6 +159,7 @@ BlockPaletteIds::BlockPaletteIds(std::span<const std::uint32_t> ids, const Exten
         indices_.resize(start + quant::packed_size(codes.size(), h.bits));
         quant::pack_codes(codes, h.bits, std::span(indices_).subspan(start));
       }
+  indices_.resize(indices_.size() + kIndexPadding);
 }
 
 const BlockPaletteIds::BlockHeader& BlockPaletteIds::block_of(std::int64_t x, std::int64_t y, std::int64_t z) const {
@@ -196,8 +197,10 @@ void BlockPaletteIds::decode_box(const Box& box, std::span<std::uint32_t> out) c
         if (b.bits == 0) {
           std::fill(row + x, row + run_end, palette[0]);
         } else if (b.bits <= 8) {
-          std::uint64_t word = 0;  // the whole block row in one little-endian word
-          std::memcpy(&word, indices_.data() + b.bit_offset / 8 + block_row * b.bits, b.bits);
+          // The whole block row in one little-endian word: 8 bytes are read (the store keeps
+          // kIndexPadding bytes after the last block), the bytes past the row never shifted in.
+          std::uint64_t word;
+          std::memcpy(&word, indices_.data() + b.bit_offset / 8 + block_row * b.bits, sizeof word);
           const unsigned bits = b.bits;
           const std::uint64_t mask = (std::uint64_t(1) << bits) - 1;
           for (std::int64_t i = x; i < run_end; ++i) row[i] = palette[(word >> (unsigned(i % kBlock) * bits)) & mask];
@@ -210,7 +213,7 @@ void BlockPaletteIds::decode_box(const Box& box, std::span<std::uint32_t> out) c
 }
 
 std::size_t BlockPaletteIds::byte_size() const {
-  return 1 + 3 * 8 + 3 * 8 + blocks_.size() * 17 + palettes_.size() * 4 + indices_.size();
+  return 1 + 3 * 8 + 3 * 8 + blocks_.size() * 17 + palettes_.size() * 4 + index_bytes();
 }
 
 std::vector<std::byte> BlockPaletteIds::serialize() const {
@@ -221,7 +224,7 @@ std::vector<std::byte> BlockPaletteIds::serialize() const {
   w.put(dims_.z);
   w.put(std::uint64_t(blocks_.size()));
   w.put(std::uint64_t(palettes_.size()));
-  w.put(std::uint64_t(indices_.size()));
+  w.put(std::uint64_t(index_bytes()));
   for (const BlockHeader& b : blocks_) {
     w.put(b.palette_offset);
     w.put(b.palette_size);
@@ -229,7 +232,7 @@ std::vector<std::byte> BlockPaletteIds::serialize() const {
     w.put(b.bits);
   }
   for (std::uint32_t p : palettes_) w.put(p);
-  w.put_bytes(indices_);
+  w.put_bytes(std::span(indices_).first(index_bytes()));
   return w.out;
 }
 
@@ -255,6 +258,7 @@ BlockPaletteIds BlockPaletteIds::deserialize(std::span<const std::byte> bytes) {
   for (auto& p : s.palettes_) p = r.get<std::uint32_t>();
   auto idx = r.bytes(nindex);
   s.indices_.assign(idx.begin(), idx.end());
+  s.indices_.resize(s.indices_.size() + kIndexPadding);
   // Validate every block so at() never reads out of bounds.
   const std::size_t block_voxels = std::size_t(b * b * b);
   for (const BlockHeader& h : s.blocks_) {

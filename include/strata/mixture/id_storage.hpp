@@ -64,10 +64,15 @@ class BlockPaletteIds {
   const BlockHeader& block_of(std::int64_t x, std::int64_t y, std::int64_t z) const;
   std::uint32_t index_in_block(const BlockHeader& b, std::int64_t x, std::int64_t y, std::int64_t z) const;
 
+  // decode_box reads a block row as one 8-byte word, which may run past the last block's
+  // indices: indices_ ends with this many zero bytes that are not serialized.
+  static constexpr std::size_t kIndexPadding = 8;
+  std::size_t index_bytes() const { return indices_.empty() ? 0 : indices_.size() - kIndexPadding; }
+
   Extent dims_, grid_;
   std::vector<BlockHeader> blocks_;
   std::vector<std::uint32_t> palettes_;
-  std::vector<std::byte> indices_;
+  std::vector<std::byte> indices_;  // packed indices of every block, then kIndexPadding zeros
 };
 
 }  // namespace strata::mixture
