@@ -7,6 +7,7 @@
 #include <exception>
 #include <limits>
 #include <mutex>
+#include <tuple>
 
 #include <omp.h>
 
@@ -30,6 +31,7 @@ using NodeMap = detail::FlatMap<std::uint32_t, NodeAcc>;
 // small query does not pay for zeroing num_sources entries.
 struct SourceSink {
   std::vector<double> count, var;
+  std::vector<double> spread;  // coarse: summed placement standard deviations (correlated)
   std::vector<std::uint8_t> mark;
   std::vector<std::uint32_t> touched;
   std::vector<std::pair<std::uint32_t, NodeAcc>> pending;  // expand()'s internal nodes
@@ -38,6 +40,7 @@ struct SourceSink {
     if (count.size() < ns) {
       count.resize(ns, 0.0);
       var.resize(ns, 0.0);
+      spread.resize(ns, 0.0);
       mark.resize(ns, 0);
     }
   }
@@ -92,23 +95,33 @@ struct SourceSink {
     return n;
   }
   // A partly covered cell of the coarse method: `n` of its `total` voxels lie in the box. Label
-  // s has about c = total mu_s voxels in the cell, so the box holds between max(0, n - (total
-  // - c)) and min(n, c) of them wherever they sit; the spread of a uniform law over that range
-  // is added to the variance (labels are spatially coherent, so no random-placement model).
-  void add_placement(std::uint32_t node, double n, double total, const MixtureLookup& lookup, std::uint32_t ns) {
+  // s has about c = total mu_s voxels in the cell, so the box holds between lo = max(0, n -
+  // (total - c)) and hi = min(n, c) of them wherever they sit, while the estimate is n mu_s. Its
+  // error is taken as uniform over [lo, hi] around that estimate: the root of range^2 / 12 plus
+  // the squared offset of the range's middle from the estimate (n mu_s can lie near one end).
+  // Labels are spatially coherent, so a label cut by one face is cut the same way in the
+  // neighbouring cells: the placement errors of one label add up as fully correlated (standard
+  // deviations summed, then squared into the variance at drain), not as independent cells.
+  // `bias_lo`, `bias_hi` (1 for an ordinary cell): for a cell cut by the far border, the range
+  // of total x voxel weight (border_weight_range), so the cell holds between c / bias_hi and
+  // c / bias_lo voxels of label s instead of exactly c.
+  void add_placement(std::uint32_t node, double n, double total, double bias_lo, double bias_hi,
+                     const MixtureLookup& lookup, std::uint32_t ns) {
     if (node < ns) return;  // one label fills the cell: no uncertainty however it is cut
     const auto ix = lookup.index(node);
     const auto mu = lookup.mean_weights(node);
     for (std::size_t k = 0; k < ix.size(); ++k) {
       const double c = total * mu[k];
-      const double range = std::min(n, c) - std::max(0.0, n - (total - c));
+      const double c_lo = c / bias_hi, c_hi = std::min(total, c / bias_lo);
+      const double lo = std::max(0.0, n - (total - c_lo)), hi = std::min(n, c_hi);
+      const double range = hi - lo, off = 0.5 * (lo + hi) - n * mu[k];
       touch(ix[k]);
-      var[ix[k]] += range * range / 12.0;
+      spread[ix[k]] += std::sqrt(range * range / 12.0 + off * off);
     }
   }
   // Zeroes the touched entries (after an exception; drain() leaves nothing behind).
   void clear() {
-    for (std::uint32_t s : touched) count[s] = var[s] = 0.0, mark[s] = 0;
+    for (std::uint32_t s : touched) count[s] = var[s] = spread[s] = 0.0, mark[s] = 0;
     touched.clear();
   }
   // Moves the touched entries out (ascending source) and clears them.
@@ -117,9 +130,10 @@ struct SourceSink {
     if (!std::is_sorted(touched.begin(), touched.end())) std::sort(touched.begin(), touched.end());
     out.reserve(out.size() + touched.size());
     for (std::uint32_t s : touched) {
-      if (count[s] > 0.0) out.push_back({s, count[s], std::sqrt(var[s])});
+      if (count[s] > 0.0) out.push_back({s, count[s], std::sqrt(var[s] + spread[s] * spread[s])});
       count[s] = 0.0;
       var[s] = 0.0;
+      spread[s] = 0.0;
       mark[s] = 0;
     }
     touched.clear();
@@ -193,6 +207,33 @@ void cell_overlaps(std::vector<double>& w, std::int64_t c0, std::int64_t c1, std
     const std::int64_t a = std::max(lo, c << l), e = std::min(hi, (c + 1) << l);
     w[std::size_t(c - c0)] = double(e - a);
   }
+}
+
+// Eq. 4 averages a voxel's children with equal weights, so in a level-l cell cut by the
+// volume's far border (real length e < 2^l along an axis) the level-0 voxels carry unequal
+// weights when some split on the way down has halves of unequal length (e = 3: 1/2 for the
+// first two voxels together, 1/2 for the third). The cell's mixture is then not its support's
+// histogram. Returns, along one axis, the smallest and largest voxel weight times e (both 1 for
+// an unbiased cell: full, or e a power of two).
+std::pair<double, double> border_weight_range(std::int64_t e, int l) {
+  // Walks down the cut right-most node: at each level where it has two children, the left one
+  // is full (its voxels weigh 2^-(j-1) of it) and the right one carries on with half the weight.
+  double factor = 1.0;  // weight of the current cut node within the cell
+  double wmin = std::numeric_limits<double>::infinity(), wmax = 0.0;
+  std::int64_t length = e;
+  for (int j = l; j > 0; --j) {
+    const std::int64_t half = std::int64_t(1) << (j - 1);
+    if (length <= half) continue;  // one child: weight passes through
+    // A full left half (voxel weight 2^-(j-1) within it) and the cut right rest.
+    const double left = factor * 0.5 * std::ldexp(1.0, -(j - 1));
+    wmin = std::min(wmin, left);
+    wmax = std::max(wmax, left);
+    factor *= 0.5;
+    length -= half;
+  }
+  wmin = std::min(wmin, factor);  // the last node holds one voxel
+  wmax = std::max(wmax, factor);
+  return {wmin * double(e), wmax * double(e)};
 }
 
 }  // namespace
@@ -429,11 +470,17 @@ BoxHistogram BoxQuery::coarse(const Box& box, std::uint64_t max_samples) const {
   // does not change its overlap with the box.
   struct Overlap {
     std::vector<double> n, support;
+    std::vector<double> bias_lo, bias_hi;  // border_weight_range per cell (1, 1 when unbiased)
   };
   auto axis = [&](std::int64_t c0, std::int64_t c1, std::int64_t lo, std::int64_t hi, std::int64_t dim) {
     Overlap o;
     cell_overlaps(o.n, c0, c1, lo, hi, level);
     cell_overlaps(o.support, c0, c1, 0, dim, level);
+    o.bias_lo.assign(o.support.size(), 1.0);
+    o.bias_hi.assign(o.support.size(), 1.0);
+    const std::size_t last = o.support.size() - 1;  // only the last cell can be cut by the border
+    if (o.support[last] < std::ldexp(1.0, level))
+      std::tie(o.bias_lo[last], o.bias_hi[last]) = border_weight_range(std::int64_t(o.support[last]), level);
     return o;
   };
   const Extent d0 = dims_[0];
@@ -453,9 +500,9 @@ BoxHistogram BoxQuery::coarse(const Box& box, std::uint64_t max_samples) const {
   const SinkGuard guard{sink};
   struct Partial {
     std::uint32_t node;
-    double n, total;
+    double n, total, bias_lo, bias_hi;
   };
-  std::vector<Partial> partial;  // cells on the box's faces only
+  std::vector<Partial> partial;  // cells on the box's faces and biased border cells only
   const std::uint32_t* id = ids.data();
   for (std::size_t z = 0; z < oz.n.size(); ++z)
     for (std::size_t y = 0; y < oy.n.size(); ++y)
@@ -464,10 +511,12 @@ BoxHistogram BoxQuery::coarse(const Box& box, std::uint64_t max_samples) const {
         NodeAcc* a = nodes.insert(*id, {}).first;
         a->w += n;
         a->w2 += n * n;
-        if (n < total) partial.push_back({*id, n, total});
+        const double bias_lo = ox.bias_lo[x] * oy.bias_lo[y] * oz.bias_lo[z];
+        const double bias_hi = ox.bias_hi[x] * oy.bias_hi[y] * oz.bias_hi[z];
+        if (n < total || bias_lo != 1.0 || bias_hi != 1.0) partial.push_back({*id, n, total, bias_lo, bias_hi});
       }
   result.distinct_nodes = sink.expand(nodes, lookup_, num_sources_);
-  for (const Partial& p : partial) sink.add_placement(p.node, p.n, p.total, lookup_, num_sources_);
+  for (const Partial& p : partial) sink.add_placement(p.node, p.n, p.total, p.bias_lo, p.bias_hi, lookup_, num_sources_);
   sink.drain(result.counts);
   return result;
 }

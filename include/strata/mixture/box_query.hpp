@@ -23,9 +23,11 @@
 //              meeting the box number at most QueryOptions::max_samples) is sampled once,
 //              weighted by the voxels it shares with the box. A cell the box covers only in
 //              part (n of its N voxels) holds c = N mu_s voxels of label s somewhere: the box
-//              gets between max(0, n - (N - c)) and min(n, c) of them, and the variance of a
-//              uniform law over that range is added (no random-placement assumption: labels
-//              are spatially coherent). Counts still sum to the box volume. Near-whole boxes
+//              gets between max(0, n - (N - c)) and min(n, c) of them; the estimate's error is
+//              taken as uniform over that range (its second moment about the estimate), and a
+//              label's errors over the partly covered cells add up as fully correlated (labels
+//              are spatially coherent: a face cuts neighbouring cells alike). Counts still sum
+//              to the box volume. Near-whole boxes
 //              whose faces miss coarse cell boundaries cost O(surface) voxels exactly; this
 //              answers them from a few thousand samples.
 // Accumulation: samples go into a flat hash per node id (weight sum W and sum of squared
