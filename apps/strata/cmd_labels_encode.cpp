@@ -22,7 +22,7 @@ struct LabelsEncodeArgs {
 void run_labels_encode(const LabelsEncodeArgs& args, const GlobalOptions& global) {
   mixture::EncodeOptions o;
   o.bits = args.bits;
-  o.strategy = mixture::parse_strategy(args.strategy);
+  o.strategy = mixture::parse_pair_score(args.strategy);
   o.tau = args.tau;
   o.ids = mixture::parse_ids_mode(args.ids);
   o.measure_error = !args.no_error;

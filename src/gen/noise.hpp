@@ -8,15 +8,9 @@
 #include <random>
 #include <vector>
 
-namespace strata::gen::detail {
+#include "strata/core/hash.hpp"
 
-// splitmix64's finaliser: a bijection with full avalanche, cheap enough to call per voxel.
-constexpr std::uint64_t splitmix64(std::uint64_t x) {
-  x += 0x9e3779b97f4a7c15ull;
-  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ull;
-  x = (x ^ (x >> 27)) * 0x94d049bb133111ebull;
-  return x ^ (x >> 31);
-}
+namespace strata::gen::detail {
 
 constexpr std::uint64_t hash_combine(std::uint64_t h, std::int64_t v) {
   return splitmix64(h ^ std::uint64_t(v));

@@ -139,22 +139,6 @@ IdsMode parse_ids_mode(std::string_view name) {
   throw Error("ids mode: expected blocks or fixed, got '" + std::string(name) + "'");
 }
 
-std::string_view strategy_name(PairScore s) {
-  switch (s) {
-    case PairScore::occurrence: return "max-occurrence";
-    case PairScore::reduction: return "max-reduction";
-    case PairScore::reuse: return "reuse";
-  }
-  return "?";
-}
-
-PairScore parse_strategy(std::string_view name) {
-  if (name == "max-occurrence" || name == "occurrence") return PairScore::occurrence;
-  if (name == "max-reduction" || name == "reduction") return PairScore::reduction;
-  if (name == "reuse") return PairScore::reuse;
-  throw Error("strategy: expected max-reduction, max-occurrence or reuse, got '" + std::string(name) + "'");
-}
-
 // ---------------------------------------------------------------------------------------------
 // Graph bitstream
 

@@ -39,20 +39,34 @@
 
 namespace strata::mixture {
 
-std::string_view pair_score_name(PairScore s) {
-  switch (s) {
-    case PairScore::occurrence: return "occurrence";
-    case PairScore::reduction: return "reduction";
-    case PairScore::reuse: return "reuse";
-  }
-  return "?";
+namespace {
+
+// The one name table of the pair scores: the short name (library, tests), the paper's strategy
+// name (CLI, file metadata) and the formula it implements.
+struct PairScoreNames {
+  PairScore score;
+  std::string_view name, strategy, formula;
+};
+constexpr PairScoreNames kPairScoreNames[] = {{PairScore::occurrence, "occurrence", "max-occurrence", "phi1"},
+                                              {PairScore::reduction, "reduction", "max-reduction", "phi2"},
+                                              {PairScore::reuse, "reuse", "reuse", "reuse"}};
+
+const PairScoreNames& names_of(PairScore s) {
+  for (const PairScoreNames& n : kPairScoreNames)
+    if (n.score == s) return n;
+  throw Error("pair score: invalid value " + std::to_string(int(s)));
 }
 
+}  // namespace
+
+std::string_view pair_score_name(PairScore s) { return names_of(s).name; }
+std::string_view strategy_name(PairScore s) { return names_of(s).strategy; }
+
 PairScore parse_pair_score(std::string_view name) {
-  if (name == "occurrence" || name == "phi1" || name == "max-occurrence") return PairScore::occurrence;
-  if (name == "reduction" || name == "phi2" || name == "max-reduction") return PairScore::reduction;
-  if (name == "reuse") return PairScore::reuse;
-  throw Error("pair score: expected occurrence, reduction or reuse, got '" + std::string(name) + "'");
+  for (const PairScoreNames& n : kPairScoreNames)
+    if (name == n.name || name == n.strategy || name == n.formula) return n.score;
+  throw Error("pair score: expected max-reduction, max-occurrence or reuse (or reduction, occurrence, phi2, phi1), got '" +
+              std::string(name) + "'");
 }
 
 std::string_view weight_bins_name(WeightBins b) { return b == WeightBins::uniform ? "uniform" : "symmetric"; }
@@ -139,7 +153,7 @@ struct NodeKey {
   bool operator==(const NodeKey&) const = default;
 };
 struct NodeKeyHash {
-  std::uint64_t operator()(const NodeKey& k) const { return detail::mix64(k.pair ^ (std::uint64_t(k.bin) << 47) ^ k.bin); }
+  std::uint64_t operator()(const NodeKey& k) const { return splitmix64(k.pair ^ (std::uint64_t(k.bin) << 47) ^ k.bin); }
 };
 
 // Nodes, their dedupe map and the per-bin statistics of the codebook.

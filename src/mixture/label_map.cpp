@@ -17,7 +17,7 @@ namespace {
 constexpr std::int64_t kNoValue = std::numeric_limits<std::int64_t>::min();
 
 struct I64Hash {
-  std::uint64_t operator()(std::int64_t k) const { return detail::mix64(std::uint64_t(k)); }
+  std::uint64_t operator()(std::int64_t k) const { return splitmix64(std::uint64_t(k)); }
 };
 
 template <class T>

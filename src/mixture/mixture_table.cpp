@@ -45,8 +45,8 @@ void MixtureTable::canonicalize(std::span<double> mass, bool integral) {
 std::uint64_t MixtureTable::hash_of(std::span<const std::uint32_t> index, std::span<const double> mass) {
   std::uint64_t h = 0x51ed270b27a0c2d1ULL ^ index.size();
   for (std::size_t i = 0; i < index.size(); ++i) {
-    h = detail::mix64(h ^ index[i]);
-    h = detail::mix64(h ^ std::bit_cast<std::uint64_t>(mass[i]));
+    h = splitmix64(h ^ index[i]);
+    h = splitmix64(h ^ std::bit_cast<std::uint64_t>(mass[i]));
   }
   return h;
 }

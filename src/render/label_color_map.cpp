@@ -4,8 +4,8 @@
 #include <cmath>
 
 #include "strata/core/error.hpp"
+#include "strata/core/hash.hpp"
 #include "strata/io/files.hpp"
-#include "strata/mixture/flat_hash.hpp"
 
 namespace strata::render {
 
@@ -59,7 +59,7 @@ std::int64_t parse_label_key(const std::string& key, const std::string& name) {
 }  // namespace
 
 LabelRgba hash_label_color(std::int64_t label, float opacity) {
-  const std::uint64_t h = mixture::detail::mix64(std::uint64_t(label));  // splitmix64
+  const std::uint64_t h = splitmix64(std::uint64_t(label));
   // Full hue circle; saturation and value kept high so neighbours stay distinguishable and
   // no label comes out near-black.
   return hsv(unit(h), 0.55f + 0.4f * unit(h >> 24), 0.75f + 0.25f * unit(h >> 48), opacity);

@@ -418,17 +418,6 @@ template <int VW>
   return true;
 }
 
-template <int VW>
-[[gnu::always_inline]] inline bool sym_eigen_impl(double* a, std::int64_t n, double* v, double* d, double* work) {
-  if (n <= 0) return true;
-  double* e = work;
-  double* tau = work + n;
-  double* p = work + 2 * n;
-  tridiagonalize<VW>(a, n, d, e, tau, p);
-  accumulate_householder<VW>(a, n, tau, v);
-  return tql2<VW>(d, e, n, v);
-}
-
 // ---- Leading eigenvectors -------------------------------------------------------------------
 // The decompositions need only the r eigenvectors of the largest eigenvalues, and the QL
 // iteration above is bound by the latency of its chain of square roots and divisions (about 40
@@ -794,9 +783,6 @@ bool leading_eigen_generic(double* a, std::int64_t n, std::int64_t r, double* u,
   return leading_eigen_impl<2, 4>(a, n, r, u, work);
 }
 void gram_generic(const DGramArgs& a) { gram_dot<2, 3>(a); }
-bool sym_eigen_generic(double* a, std::int64_t n, double* v, double* w, double* work) {
-  return sym_eigen_impl<2>(a, n, v, w, work);
-}
 
 #define STRATA_TARGET_AVX2 __attribute__((target("avx2,fma")))
 STRATA_TARGET_AVX2 void gemm_avx2(const DGemmArgs& g) {
@@ -807,9 +793,6 @@ STRATA_TARGET_AVX2 bool leading_eigen_avx2(double* a, std::int64_t n, std::int64
   return leading_eigen_impl<4, 2>(a, n, r, u, work);
 }
 STRATA_TARGET_AVX2 void gram_avx2(const DGramArgs& a) { gram_dot<4, 3>(a); }
-STRATA_TARGET_AVX2 bool sym_eigen_avx2(double* a, std::int64_t n, double* v, double* w, double* work) {
-  return sym_eigen_impl<4>(a, n, v, w, work);
-}
 
 #define STRATA_TARGET_AVX512 __attribute__((target("avx512f,avx512vl,avx2,fma,prefer-vector-width=512")))
 STRATA_TARGET_AVX512 void gemm_avx512(const DGemmArgs& g) {
@@ -819,9 +802,6 @@ STRATA_TARGET_AVX512 void gemm_avx512(const DGemmArgs& g) {
 STRATA_TARGET_AVX512 void gram_avx512(const DGramArgs& a) { gram_dot<8, 4>(a); }
 STRATA_TARGET_AVX512 bool leading_eigen_avx512(double* a, std::int64_t n, std::int64_t r, double* u, double* work) {
   return leading_eigen_impl<8, 2>(a, n, r, u, work);
-}
-STRATA_TARGET_AVX512 bool sym_eigen_avx512(double* a, std::int64_t n, double* v, double* w, double* work) {
-  return sym_eigen_impl<8>(a, n, v, w, work);
 }
 
 double sum_squares_generic(const double* x, std::int64_t n) { return sum_squares_impl<2>(x, n); }
@@ -833,13 +813,12 @@ STRATA_TARGET_AVX512 double sum_squares_f_avx512(const float* x, std::int64_t n)
   return sum_squares_impl<8>(x, n);
 }
 
-const DecomposeKernels kGeneric{KernelIsa::generic,  gemm_generic,        gram_generic,
-                                sym_eigen_generic,   leading_eigen_generic, sum_squares_generic,
-                                sum_squares_f_generic};
-const DecomposeKernels kAvx2{KernelIsa::avx2,   gemm_avx2,        gram_avx2,       sym_eigen_avx2,
-                             leading_eigen_avx2, sum_squares_avx2, sum_squares_f_avx2};
-const DecomposeKernels kAvx512{KernelIsa::avx512,  gemm_avx512,        gram_avx512,         sym_eigen_avx512,
-                               leading_eigen_avx512, sum_squares_avx512, sum_squares_f_avx512};
+const DecomposeKernels kGeneric{KernelIsa::generic, gemm_generic, gram_generic, leading_eigen_generic,
+                                sum_squares_generic, sum_squares_f_generic};
+const DecomposeKernels kAvx2{KernelIsa::avx2, gemm_avx2, gram_avx2, leading_eigen_avx2, sum_squares_avx2,
+                             sum_squares_f_avx2};
+const DecomposeKernels kAvx512{KernelIsa::avx512, gemm_avx512, gram_avx512, leading_eigen_avx512, sum_squares_avx512,
+                               sum_squares_f_avx512};
 
 KernelIsa isa_from_environment() {
   const char* forced = std::getenv("STRATA_DECOMPOSE_ISA");

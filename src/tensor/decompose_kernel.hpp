@@ -52,11 +52,6 @@ struct DecomposeKernels {
   KernelIsa isa = KernelIsa::generic;
   void (*gemm)(const DGemmArgs&) = nullptr;
   void (*gram)(const DGramArgs&) = nullptr;
-  // Eigen-decomposition of the symmetric n x n matrix `a` (column-major, both triangles read,
-  // destroyed): `v` (n x n, column-major) receives orthonormal eigenvectors as columns and
-  // w[0..n) the eigenvalues in increasing order. `work` holds at least 3 n doubles. Returns false
-  // if the QL iteration does not converge (it always does for finite input).
-  bool (*sym_eigen)(double* a, std::int64_t n, double* v, double* w, double* work) = nullptr;
   // The r eigenvectors of the r largest eigenvalues of the symmetric n x n matrix `a` (both
   // triangles read, destroyed), in order of decreasing eigenvalue, as the columns of u (n x r,
   // column-major), orthonormal to working precision. Eigenvectors of (numerically) equal

@@ -43,9 +43,6 @@ inline constexpr const char* kMixtureCodecName = "mixture-graph";
 enum class IdsMode : std::uint8_t { blocks, fixed };
 std::string_view ids_mode_name(IdsMode m);   // "blocks", "fixed"
 IdsMode parse_ids_mode(std::string_view name);  // throws Error
-// "max-reduction" | "max-occurrence" | "reuse" (also the bare PairScore names).
-std::string_view strategy_name(PairScore s);
-PairScore parse_strategy(std::string_view name);
 
 struct EncodeOptions {
   int bits = 9;                              // weight quantisation bitrate, 1..16

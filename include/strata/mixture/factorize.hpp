@@ -40,6 +40,8 @@ enum class PairScore : std::uint8_t {
   reuse,       // merges saved by bin sharing first (mixtures touched - distinct bins), then phi1
 };
 std::string_view pair_score_name(PairScore s);  // "occurrence", "reduction", "reuse"
+std::string_view strategy_name(PairScore s);    // the paper's: "max-occurrence", "max-reduction", "reuse"
+// Accepts any of the names above and "phi1" / "phi2"; throws Error otherwise.
 PairScore parse_pair_score(std::string_view name);
 
 // How interpolation weights are binned; 2^bits bins (bits per node) either way.

@@ -8,18 +8,12 @@
 #include <utility>
 #include <vector>
 
+#include "strata/core/hash.hpp"
+
 namespace strata::mixture::detail {
 
-// splitmix64 finaliser: a cheap, well-mixing 64-bit hash.
-constexpr std::uint64_t mix64(std::uint64_t x) {
-  x += 0x9e3779b97f4a7c15ULL;
-  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
-  return x ^ (x >> 31);
-}
-
 struct U64Hash {
-  std::uint64_t operator()(std::uint64_t k) const { return mix64(k); }
+  std::uint64_t operator()(std::uint64_t k) const { return splitmix64(k); }
 };
 
 // Key and Value must be cheap to copy. `empty` is the sentinel key marking free slots.

@@ -51,7 +51,7 @@ struct BrickKeyHash {
 };
 
 // One index entry. `histogram` bit i is set when some voxel falls into bin i of 64 equal
-// bins over the volume's value range (metadata "value_range"), for transfer-function culling.
+// bins over the volume's value range (metadata "source.value_range"), for transfer-function culling.
 struct BrickEntry {
   BrickKey key;
   PayloadKind kind = PayloadKind::constant;

@@ -65,7 +65,7 @@ PayloadParts payload_parts(std::span<const std::byte> payload, const quant::Quan
 
 // Decodes a payload at reconstruction rank K (1 <= K <= stored rank; larger K is clamped)
 // into `out` (B^3 floats). Constant bricks fill `out` with their value. Reuses the scratch of
-// `reconstructor` and `work` so a loop over bricks does not allocate.
+// `reconstructor` and `scratch` so a loop over bricks does not allocate.
 void decode_brick(store::PayloadKind kind, std::span<const std::byte> payload, float constant_value,
                   const quant::QuantScheme& scheme, int brick_width, int rank, BrickReconstructor& reconstructor,
                   DecodeScratch& scratch, std::span<float> out, const std::string& context);
