@@ -1,14 +1,19 @@
 # strata_add_module(name "deps"): one static library per folder src/<name>, public headers in
 # include/strata/<name>. Sources are globbed so a new file needs no CMake edit.
+#
+# `deps` is the module's own list of strata modules (cmake/ModuleGraph.cmake); each include of
+# another module must be one of them, or configuring fails.
 function(strata_add_module name deps)
   file(GLOB _sources CONFIGURE_DEPENDS ${PROJECT_SOURCE_DIR}/src/${name}/*.cpp)
   if(NOT _sources)
     return()
   endif()
+  strata_check_module_includes(${PROJECT_SOURCE_DIR} ${name} "${deps}")
+  list(TRANSFORM deps PREPEND strata_ OUTPUT_VARIABLE _dep_targets)
   add_library(strata_${name} STATIC ${_sources})
   target_include_directories(strata_${name} PUBLIC ${PROJECT_SOURCE_DIR}/include
                                              PRIVATE ${PROJECT_SOURCE_DIR}/src)
-  target_link_libraries(strata_${name} PUBLIC ${deps} strata_options OpenMP::OpenMP_CXX
+  target_link_libraries(strata_${name} PUBLIC ${_dep_targets} strata_options OpenMP::OpenMP_CXX
                         Threads::Threads nlohmann_json::nlohmann_json fmt::fmt)
   if(name STREQUAL "io")
     target_link_libraries(strata_${name} PRIVATE ZLIB::ZLIB TIFF::TIFF)
