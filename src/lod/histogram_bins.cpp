@@ -2,14 +2,6 @@
 
 namespace strata::lod {
 
-int histogram_bin(double value, double lo, double hi) {
-  // Same arithmetic as the compressor's brick statistics (src/ta/level_pipeline.cpp), so a
-  // constant brick lands in the bin the writer would have set.
-  const double scale = hi > lo ? double(kHistogramBins) / (hi - lo) : 0.0;
-  const double x = (value - lo) * scale;
-  return !(x >= 0) ? 0 : x < kHistogramBins - 1 ? int(x) : kHistogramBins - 1;
-}
-
 std::uint64_t visible_bins_where(double lo, double hi, const std::function<bool(double, double)>& visible) {
   std::uint64_t mask = 0;
   const double width = (hi - lo) / kHistogramBins;

@@ -212,7 +212,7 @@ bool TransferFunction::visible(double x_lo, double x_hi) const {
 std::uint64_t TransferFunction::visible_bins(double value_lo, double value_hi) const {
   const ValueMapping m = mapping(value_lo, value_hi);
   if (!(value_hi > value_lo)) return visible(m.normalise(value_lo), m.normalise(value_lo)) ? ~std::uint64_t(0) : 0;
-  const int bins = lod::kHistogramBins;
+  const int bins = store::kHistogramBins;
   const double width = (value_hi - value_lo) / bins;
   std::uint64_t mask = 0;
   for (int i = 0; i < bins; ++i) {

@@ -14,6 +14,7 @@
 
 #include "strata/core/error.hpp"
 #include "strata/core/threads.hpp"
+#include "strata/store/brick_histogram.hpp"
 #include "strata/tensor/reconstruct.hpp"
 
 // The statistics kernels below pass vectors by value between always-inlined helpers of
@@ -38,22 +39,14 @@ struct BrickStats {
   std::uint64_t bits = 0;
 };
 
-struct BinScale {
-  double lo = 0, scale = 0;
-  explicit BinScale(const HistogramRange& r) : lo(r.lo), scale(r.hi > r.lo ? 64.0 / (r.hi - r.lo) : 0.0) {}
-};
-
-inline int bin_of(float v, const BinScale& s) {
-  const double x = (double(v) - s.lo) * s.scale;
-  return !(x >= 0) ? 0 : x < 63 ? int(x) : 63;
-}
+using BinScale = store::HistogramBinning;  // the format's bin rule, shared with the readers
 
 // Scalar reference and tail.
 inline void accumulate_scalar(const float* v, std::size_t n, const BinScale& s, BrickStats& st) {
   for (std::size_t i = 0; i < n; ++i) {
     st.lo = std::min(st.lo, v[i]);
     st.hi = std::max(st.hi, v[i]);
-    st.bits |= std::uint64_t(1) << bin_of(v[i], s);
+    st.bits |= std::uint64_t(1) << s.bin(double(v[i]));
   }
 }
 
@@ -77,7 +70,7 @@ template <int VW>
   vmax = vmin;
   VL bits{};
   const VL one = VL{} + 1;
-  const VD zero{}, top = VD{} + 63.0;
+  const VD zero{}, top = VD{} + double(store::kHistogramBins - 1);  // s.bin(), lane by lane
   std::size_t i = 0;
   for (; i + VW <= n; i += VW) {
     VF f;
@@ -156,7 +149,7 @@ StatsFn stats_kernel() {
 
 // Min, max and histogram bits over both spans (each non-empty).
 BrickStats brick_stats(std::span<const float> a, std::span<const float> b, const HistogramRange& range) {
-  const BinScale s(range);
+  const BinScale s(range.lo, range.hi);
   BrickStats st{a[0], a[0], 0};
   const StatsFn fn = stats_kernel();
   fn(a.data(), a.size(), s, st);

@@ -6,15 +6,15 @@
 #include <cstdint>
 #include <functional>
 
+#include "strata/store/brick_histogram.hpp"
 #include "strata/store/container.hpp"
 
 namespace strata::lod {
 
-inline constexpr int kHistogramBins = 64;
+using store::kHistogramBins;
 
-// The bin of `value` exactly as the compressor assigns it (values outside [lo, hi] clamp to the
-// first or last bin; a degenerate range puts everything in bin 0).
-int histogram_bin(double value, double lo, double hi);
+// The bin of `value` exactly as the compressor assigns it (store::HistogramBinning).
+inline int histogram_bin(double value, double lo, double hi) { return store::HistogramBinning(lo, hi).bin(value); }
 
 // Mask of the bins for which `visible(bin_lo, bin_hi)` is true, bin i spanning
 // [lo + i (hi - lo) / 64, lo + (i + 1) (hi - lo) / 64].
