@@ -8,18 +8,18 @@
 #include <utility>
 
 // GCC 12 reports the _mm512_undefined_* pass-through operands inside the AVX-512 intrinsics as
-// maybe-uninitialized (a false positive, fixed in later releases).
+// maybe-uninitialized (a false positive, fixed in later releases). The warning is located in
+// the intrinsics header, so the suppression covers that header only.
+#pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 #include <immintrin.h>
+#pragma GCC diagnostic pop
 
 #include "strata/core/error.hpp"
 #include "strata/core/threads.hpp"
 #include "strata/store/brick_histogram.hpp"
 #include "strata/tensor/reconstruct.hpp"
 
-// The statistics kernels below pass vectors by value between always-inlined helpers of
-// target-attributed functions; the ABI note about vector arguments does not apply.
-#pragma GCC diagnostic ignored "-Wpsabi"
 
 namespace strata::ta {
 

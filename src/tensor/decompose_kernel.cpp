@@ -18,7 +18,9 @@
 #include "strata/core/error.hpp"
 
 // The helpers below pass vectors by value; they are always inlined into a target-attributed entry
-// point, so the ABI note about vector arguments without AVX enabled does not apply.
+// point, so the ABI note about vector arguments without AVX enabled does not apply. File-wide on
+// purpose: GCC reports it at the end of the translation unit, where the helper templates are
+// instantiated, so a push/pop around the helpers does not reach it.
 #pragma GCC diagnostic ignored "-Wpsabi"
 
 namespace strata::detail {
