@@ -9,13 +9,13 @@
 #include <cstring>
 #include <limits>
 
-#include <zstd.h>
 
 #include "strata/core/error.hpp"
 #include "strata/io/volume_io.hpp"
 #include "strata/mixture/histogram_mipmap.hpp"
 #include "strata/mixture/palette.hpp"
 #include "strata/store/container.hpp"
+#include "strata/store/zstd_frame.hpp"
 
 namespace strata::mixture {
 
@@ -79,27 +79,6 @@ std::uint64_t get_le(std::span<const std::byte> in, std::size_t at, int n) {
   std::uint64_t v = 0;
   for (int i = 0; i < n; ++i) v |= std::uint64_t(std::to_integer<unsigned>(in[at + std::size_t(i)])) << (8 * i);
   return v;
-}
-
-std::vector<std::byte> zstd_compress(std::span<const std::byte> in, int level) {
-  std::vector<std::byte> out(ZSTD_compressBound(in.size()));
-  const std::size_t n = ZSTD_compress(out.data(), out.size(), in.data(), in.size(), level);
-  if (ZSTD_isError(n)) throw Error(std::string("zstd: ") + ZSTD_getErrorName(n));
-  out.resize(n);
-  return out;
-}
-
-// `limit` bounds the decompressed size (a corrupt header must not allocate without bound).
-std::vector<std::byte> zstd_decompress(std::span<const std::byte> in, std::uint64_t limit, const std::string& file,
-                                       const std::string& field) {
-  const unsigned long long size = ZSTD_getFrameContentSize(in.data(), in.size());
-  if (size == ZSTD_CONTENTSIZE_ERROR || size == ZSTD_CONTENTSIZE_UNKNOWN)
-    throw FormatError(file, field, "not a zstd frame with a known content size");
-  if (size > limit) throw FormatError(file, field, "decompressed size " + std::to_string(size) + " exceeds " + std::to_string(limit));
-  std::vector<std::byte> out(static_cast<std::size_t>(size));
-  const std::size_t n = ZSTD_decompress(out.data(), out.size(), in.data(), in.size());
-  if (ZSTD_isError(n) || n != size) throw FormatError(file, field, std::string("zstd: ") + (ZSTD_isError(n) ? ZSTD_getErrorName(n) : "short frame"));
-  return out;
 }
 
 std::string level_section(int level) { return "ids_L" + std::to_string(level); }
@@ -318,7 +297,7 @@ EncodeReport encode_labels(const Volume& labels, const std::filesystem::path& ou
       const MipLevel& lv = f.levels[l];
       std::vector<std::byte> bytes = options.ids == IdsMode::fixed ? FixedRateIds(lv.ids, lv.dims).serialize()
                                                                    : BlockPaletteIds(lv.ids, lv.dims).serialize();
-      if (options.ids_zstd > 0) bytes = zstd_compress(bytes, options.ids_zstd);
+      if (options.ids_zstd > 0) bytes = store::zstd_compress(bytes, options.ids_zstd);
       writer.add_section(level_section(int(l)), bytes);
       rep.ids_bytes.push_back(bytes.size());
       levels.push_back({{"dims", extent_json(lv.dims)}, {"ids_bytes", bytes.size()}});
@@ -450,7 +429,7 @@ EncodedLabels::EncodedLabels(std::unique_ptr<store::ContainerReader> reader)
     if (ids_zstd_) {
       // Either layout needs at most ~8 bytes per voxel plus headers.
       const std::uint64_t limit = 16 * std::uint64_t(expect[l].voxel_count()) + (1u << 20);
-      inflated = zstd_decompress(bytes, limit, file, "section " + sec);
+      store::zstd_decompress(bytes, limit, inflated, file, "section " + sec);
       bytes = inflated;
     }
     Extent got;

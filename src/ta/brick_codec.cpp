@@ -3,10 +3,9 @@
 #include <algorithm>
 #include <memory>
 
-#include <zstd.h>
-
 #include "strata/core/error.hpp"
 #include "strata/quant/bitpack.hpp"
+#include "strata/store/zstd_frame.hpp"
 #include "strata/tensor/tucker.hpp"
 
 namespace strata::ta {
@@ -59,16 +58,13 @@ std::vector<std::byte> deflate_payload(const std::vector<std::byte>& plain, cons
   std::vector<std::byte> shuffled(plain);
   auto [f0, f1] = factor_plane_range(plain, scheme);
   split_byte_planes(std::span(plain).subspan(f0, f1 - f0), std::span(shuffled).subspan(f0, f1 - f0));
-  std::vector<std::byte> out(ZSTD_compressBound(shuffled.size()));
-  // One compression context per thread: ZSTD_compress would create and free one per brick.
-  thread_local std::unique_ptr<ZSTD_CCtx, decltype(&ZSTD_freeCCtx)> cctx(ZSTD_createCCtx(), &ZSTD_freeCCtx);
-  const std::size_t n = ZSTD_compressCCtx(cctx.get(), out.data(), out.size(), shuffled.data(), shuffled.size(), level);
-  if (ZSTD_isError(n)) throw Error(std::string("zstd compression failed: ") + ZSTD_getErrorName(n));
-  out.resize(n);
-  return out;
+  return store::zstd_compress(shuffled, level);
 }
 
 }  // namespace
+
+// A quantized brick is far below this (32^3 at f32 everywhere: 128 KiB plus factors).
+constexpr std::uint64_t kMaxInflatedBrick = std::uint64_t(64) << 20;
 
 std::span<const std::byte> plain_payload(store::PayloadKind kind, std::span<const std::byte> payload,
                                          const quant::QuantScheme& scheme, DecodeScratch& scratch,
@@ -76,14 +72,7 @@ std::span<const std::byte> plain_payload(store::PayloadKind kind, std::span<cons
   if (kind == store::PayloadKind::tucker) return payload;
   if (kind != store::PayloadKind::tucker_zstd)
     throw Error(context + ": payload kind " + std::to_string(int(kind)) + " is not a Tucker brick");
-  const unsigned long long size = ZSTD_getFrameContentSize(payload.data(), payload.size());
-  if (size == ZSTD_CONTENTSIZE_ERROR || size == ZSTD_CONTENTSIZE_UNKNOWN || size > (64ull << 20))
-    throw Error(context + ": zstd payload has no valid frame header");
-  scratch.inflated.resize(std::size_t(size));
-  thread_local std::unique_ptr<ZSTD_DCtx, decltype(&ZSTD_freeDCtx)> dctx(ZSTD_createDCtx(), &ZSTD_freeDCtx);
-  const std::size_t n = ZSTD_decompressDCtx(dctx.get(), scratch.inflated.data(), scratch.inflated.size(), payload.data(),
-                                            payload.size());
-  if (ZSTD_isError(n) || n != size) throw Error(context + ": corrupt zstd payload");
+  store::zstd_decompress(payload, kMaxInflatedBrick, scratch.inflated, context, "zstd payload");
   scratch.unshuffled = scratch.inflated;
   auto [f0, f1] = factor_plane_range(scratch.inflated, scheme);
   merge_byte_planes(std::span<const std::byte>(scratch.inflated).subspan(f0, f1 - f0),
