@@ -10,6 +10,7 @@
 #include <limits>
 
 
+#include "strata/core/bytes.hpp"
 #include "strata/core/error.hpp"
 #include "strata/io/volume_io.hpp"
 #include "strata/mixture/histogram_mipmap.hpp"
@@ -67,18 +68,6 @@ int ceil_log2(std::uint64_t n) {  // bits for values 0..n-1, at least 1
   int b = 1;
   while (b < 64 && (std::uint64_t(1) << b) < n) ++b;
   return b;
-}
-
-void put_u32(std::vector<std::byte>& out, std::uint32_t v) {
-  for (int i = 0; i < 4; ++i) out.push_back(std::byte((v >> (8 * i)) & 0xFF));
-}
-void put_u64(std::vector<std::byte>& out, std::uint64_t v) {
-  for (int i = 0; i < 8; ++i) out.push_back(std::byte((v >> (8 * i)) & 0xFF));
-}
-std::uint64_t get_le(std::span<const std::byte> in, std::size_t at, int n) {
-  std::uint64_t v = 0;
-  for (int i = 0; i < n; ++i) v |= std::uint64_t(std::to_integer<unsigned>(in[at + std::size_t(i)])) << (8 * i);
-  return v;
 }
 
 std::string level_section(int level) { return "ids_L" + std::to_string(level); }
@@ -284,11 +273,12 @@ EncodeReport encode_labels(const Volume& labels, const std::filesystem::path& ou
   store::ContainerWriter writer(out);
   writer.add_section("mixture_graph", graph_bytes);
   rep.graph_bytes = graph_bytes.size();
-  std::vector<std::byte> lm;
-  put_u32(lm, map.size());
-  for (std::int64_t v : map.values()) put_u64(lm, std::uint64_t(v));
-  writer.add_section("label_map", lm);
-  rep.label_map_bytes = lm.size();
+  ByteWriter lm;
+  lm.put(std::uint32_t(map.size()));
+  for (std::int64_t v : map.values()) lm.put(v);
+  const std::vector<std::byte> label_map_bytes = lm.take();
+  writer.add_section("label_map", label_map_bytes);
+  rep.label_map_bytes = label_map_bytes.size();
 
   nlohmann::json levels = nlohmann::json::array();
   {
@@ -397,16 +387,16 @@ EncodedLabels::EncodedLabels(std::unique_ptr<store::ContainerReader> reader)
 
   // Label map.
   {
-    const auto lm = reader_->section("label_map");
-    if (lm.size() < 4) throw FormatError(file, "section label_map", "too short");
-    const std::uint64_t n = get_le(lm, 0, 4);
-    if (lm.size() != 4 + 8 * n)
-      throw FormatError(file, "section label_map", "size " + std::to_string(lm.size()) + " does not hold " + std::to_string(n) + " values");
+    const auto section = reader_->section("label_map");
+    ByteReader lm(section, file);
+    const std::uint64_t n = lm.get<std::uint32_t>("section label_map");
+    if (lm.remaining() != 8 * n)
+      throw FormatError(file, "section label_map", "size " + std::to_string(section.size()) + " does not hold " + std::to_string(n) + " values");
     if (n != graph_.num_sources)
       throw FormatError(file, "section label_map", std::to_string(n) + " labels but the graph has " +
                                                        std::to_string(graph_.num_sources) + " sources");
     std::vector<std::int64_t> values(n);
-    for (std::uint64_t i = 0; i < n; ++i) values[i] = std::int64_t(get_le(lm, 4 + 8 * i, 8));
+    for (std::int64_t& v : values) v = lm.get<std::int64_t>("section label_map");
     try {
       label_map_ = LabelMap(dtype, std::move(values));
     } catch (const Error& e) {

@@ -6,6 +6,7 @@
 #include <map>
 #include <string>
 
+#include "strata/core/bytes.hpp"
 #include "strata/core/error.hpp"
 #include "strata/quant/bitpack.hpp"
 
@@ -24,38 +25,6 @@ void check_ids(std::span<const std::uint32_t> ids, const Extent& dims, const cha
     throw Error(std::string(what) + ": " + std::to_string(ids.size()) + " ids for dims " + dims.to_string());
 }
 
-// Minimal byte writer/reader for the serialized forms; the reader checks every length.
-struct Writer {
-  std::vector<std::byte> out;
-  template <class T> void put(T v) {
-    const auto* p = reinterpret_cast<const std::byte*>(&v);
-    out.insert(out.end(), p, p + sizeof(T));
-  }
-  void put_bytes(std::span<const std::byte> b) { out.insert(out.end(), b.begin(), b.end()); }
-};
-
-struct Reader {
-  std::span<const std::byte> in;
-  std::size_t at = 0;
-  const char* what;
-  void need(std::size_t n) const {
-    if (n > in.size() - at) throw FormatError(what, "size", "truncated at byte " + std::to_string(at));
-  }
-  template <class T> T get() {
-    need(sizeof(T));
-    T v;
-    std::memcpy(&v, in.data() + at, sizeof(T));
-    at += sizeof(T);
-    return v;
-  }
-  std::span<const std::byte> bytes(std::uint64_t n) {
-    need(std::size_t(n));
-    auto s = in.subspan(at, std::size_t(n));
-    at += std::size_t(n);
-    return s;
-  }
-};
-
 constexpr std::uint8_t kFixedTag = 1, kBlockTag = 2;
 
 Extent block_grid(const Extent& dims) {
@@ -63,10 +32,13 @@ Extent block_grid(const Extent& dims) {
   return {(dims.x + b - 1) / b, (dims.y + b - 1) / b, (dims.z + b - 1) / b};
 }
 
-Extent read_dims(Reader& r) {
-  Extent d{r.get<std::int64_t>(), r.get<std::int64_t>(), r.get<std::int64_t>()};
+Extent read_dims(ByteReader& r) {
+  Extent d;
+  d.x = r.get<std::int64_t>("dims");
+  d.y = r.get<std::int64_t>("dims");
+  d.z = r.get<std::int64_t>("dims");
   if (d.x < 1 || d.y < 1 || d.z < 1 || d.x > (1 << 24) || d.y > (1 << 24) || d.z > (1 << 24))
-    throw FormatError(r.what, "dims", "invalid extents " + d.to_string());
+    throw FormatError(r.file(), "dims", "invalid extents " + d.to_string());
   return d;
 }
 
@@ -93,7 +65,7 @@ std::uint32_t FixedRateIds::at(std::int64_t x, std::int64_t y, std::int64_t z) c
 }
 
 std::vector<std::byte> FixedRateIds::serialize() const {
-  Writer w;
+  ByteWriter w;
   w.put(kFixedTag);
   w.put(dims_.x);
   w.put(dims_.y);
@@ -102,21 +74,21 @@ std::vector<std::byte> FixedRateIds::serialize() const {
   w.put(std::uint8_t(bits_));
   w.put(std::uint64_t(packed_.size()));
   w.put_bytes(packed_);
-  return w.out;
+  return w.take();
 }
 
 FixedRateIds FixedRateIds::deserialize(std::span<const std::byte> bytes) {
-  Reader r{bytes, 0, "fixed-rate ids"};
-  if (r.get<std::uint8_t>() != kFixedTag) throw FormatError(r.what, "tag", "not a fixed-rate id stream");
+  ByteReader r(bytes, "fixed-rate ids");
+  if (r.get<std::uint8_t>("tag") != kFixedTag) throw FormatError(r.file(), "tag", "not a fixed-rate id stream");
   FixedRateIds f;
   f.dims_ = read_dims(r);
-  f.min_ = r.get<std::uint32_t>();
-  f.bits_ = r.get<std::uint8_t>();
-  if (f.bits_ > 32) throw FormatError(r.what, "bits", "more than 32");
-  const auto n = r.get<std::uint64_t>();
+  f.min_ = r.get<std::uint32_t>("min");
+  f.bits_ = r.get<std::uint8_t>("bits");
+  if (f.bits_ > 32) throw FormatError(r.file(), "bits", "more than 32");
+  const auto n = r.get<std::uint64_t>("size");
   if (n != quant::packed_size(std::size_t(f.dims_.voxel_count()), f.bits_) && !(f.bits_ == 0 && n == 0))
-    throw FormatError(r.what, "size", "packed length does not match dims and bits");
-  auto b = r.bytes(n);
+    throw FormatError(r.file(), "size", "packed length does not match dims and bits");
+  auto b = r.bytes(n, "codes");
   f.packed_.assign(b.begin(), b.end());
   return f;
 }
@@ -217,7 +189,7 @@ std::size_t BlockPaletteIds::byte_size() const {
 }
 
 std::vector<std::byte> BlockPaletteIds::serialize() const {
-  Writer w;
+  ByteWriter w;
   w.put(kBlockTag);
   w.put(dims_.x);
   w.put(dims_.y);
@@ -233,30 +205,31 @@ std::vector<std::byte> BlockPaletteIds::serialize() const {
   }
   for (std::uint32_t p : palettes_) w.put(p);
   w.put_bytes(std::span(indices_).first(index_bytes()));
-  return w.out;
+  return w.take();
 }
 
 BlockPaletteIds BlockPaletteIds::deserialize(std::span<const std::byte> bytes) {
-  Reader r{bytes, 0, "block-palette ids"};
-  if (r.get<std::uint8_t>() != kBlockTag) throw FormatError(r.what, "tag", "not a block-palette id stream");
+  ByteReader r(bytes, "block-palette ids");
+  if (r.get<std::uint8_t>("tag") != kBlockTag) throw FormatError(r.file(), "tag", "not a block-palette id stream");
   BlockPaletteIds s;
   s.dims_ = read_dims(r);
   const std::int64_t b = kBlock;
   s.grid_ = block_grid(s.dims_);
-  const auto nblocks = r.get<std::uint64_t>(), npalette = r.get<std::uint64_t>(), nindex = r.get<std::uint64_t>();
-  if (nblocks != std::uint64_t(s.grid_.voxel_count())) throw FormatError(r.what, "blocks", "count does not match dims");
-  r.need(std::size_t(nblocks) * 17);
+  const auto nblocks = r.get<std::uint64_t>("blocks"), npalette = r.get<std::uint64_t>("palette size"),
+             nindex = r.get<std::uint64_t>("index size");
+  if (nblocks != std::uint64_t(s.grid_.voxel_count())) throw FormatError(r.file(), "blocks", "count does not match dims");
+  r.need_array(nblocks, 17, "block headers");
   s.blocks_.resize(std::size_t(nblocks));
   for (BlockHeader& h : s.blocks_) {
-    h.palette_offset = r.get<std::uint32_t>();
-    h.palette_size = r.get<std::uint32_t>();
-    h.bit_offset = r.get<std::uint64_t>();
-    h.bits = r.get<std::uint8_t>();
+    h.palette_offset = r.get<std::uint32_t>("block headers");
+    h.palette_size = r.get<std::uint32_t>("block headers");
+    h.bit_offset = r.get<std::uint64_t>("block headers");
+    h.bits = r.get<std::uint8_t>("block headers");
   }
-  r.need(std::size_t(npalette) * 4);
+  r.need_array(npalette, 4, "palettes");
   s.palettes_.resize(std::size_t(npalette));
-  for (auto& p : s.palettes_) p = r.get<std::uint32_t>();
-  auto idx = r.bytes(nindex);
+  for (auto& p : s.palettes_) p = r.get<std::uint32_t>("palettes");
+  auto idx = r.bytes(nindex, "indices");
   s.indices_.assign(idx.begin(), idx.end());
   s.indices_.resize(s.indices_.size() + kIndexPadding);
   // Validate every block so at() never reads out of bounds.
@@ -265,7 +238,7 @@ BlockPaletteIds BlockPaletteIds::deserialize(std::span<const std::byte> bytes) {
     if (h.palette_size == 0 || std::uint64_t(h.palette_offset) + h.palette_size > npalette || h.bits > 32 ||
         h.bits != bits_for(h.palette_size) || h.bit_offset % 8 != 0 ||
         h.bit_offset / 8 + quant::packed_size(block_voxels, h.bits) > nindex)
-      throw FormatError(r.what, "blocks", "a block header is inconsistent");
+      throw FormatError(r.file(), "blocks", "a block header is inconsistent");
   }
   return s;
 }
