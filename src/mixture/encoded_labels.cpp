@@ -10,6 +10,7 @@
 #include <limits>
 
 
+#include "strata/core/bitstream.hpp"
 #include "strata/core/bytes.hpp"
 #include "strata/core/error.hpp"
 #include "strata/io/volume_io.hpp"
@@ -26,43 +27,6 @@ constexpr int kCodeBits = 20;
 constexpr std::uint32_t kCodeMax = (1u << kCodeBits) - 1u;
 const double kCodeRoundingVariance = std::ldexp(1.0, -2 * (kCodeBits + 1)) / 3.0;
 constexpr int kFormatVersion = 1;
-
-// LSB-first bit packing (bit i of the stream is bit i % 8 of byte i / 8).
-class BitWriter {
- public:
-  void put(std::uint64_t value, int bits) {
-    for (int i = 0; i < bits; ++i) {
-      if (pos_ % 8 == 0) bytes_.push_back(std::byte{0});
-      if ((value >> i) & 1u) bytes_.back() |= std::byte(1u << (pos_ % 8));
-      ++pos_;
-    }
-  }
-  std::vector<std::byte> take() { return std::move(bytes_); }
-
- private:
-  std::vector<std::byte> bytes_;
-  std::uint64_t pos_ = 0;
-};
-
-class BitReader {
- public:
-  BitReader(std::span<const std::byte> bytes, const std::string& file) : bytes_(bytes), file_(file) {}
-  std::uint64_t get(int bits, const char* field) {
-    if (pos_ + std::uint64_t(bits) > std::uint64_t(bytes_.size()) * 8u)
-      throw FormatError(file_, std::string("mixture_graph ") + field, "bitstream ends early (truncated)");
-    std::uint64_t v = 0;
-    for (int i = 0; i < bits; ++i, ++pos_)
-      if ((std::to_integer<unsigned>(bytes_[pos_ / 8]) >> (pos_ % 8)) & 1u) v |= std::uint64_t(1) << i;
-    return v;
-  }
-  std::uint64_t position() const { return pos_; }
-  std::uint64_t size_bits() const { return std::uint64_t(bytes_.size()) * 8u; }
-
- private:
-  std::span<const std::byte> bytes_;
-  const std::string& file_;
-  std::uint64_t pos_ = 0;
-};
 
 int ceil_log2(std::uint64_t n) {  // bits for values 0..n-1, at least 1
   int b = 1;
@@ -150,7 +114,7 @@ std::vector<std::byte> write_graph_bitstream(const MixtureGraph& g, bool fractio
 }
 
 MixtureGraph read_graph_bitstream(std::span<const std::byte> bytes, const std::string& file, GraphHeader* out_header) {
-  BitReader r(bytes, file);
+  BitReader r(bytes, file, "mixture_graph ");
   GraphHeader h;
   h.num_sources = std::uint32_t(r.get(32, "#sources"));
   h.fractional = r.get(1, "fractional flag") != 0;

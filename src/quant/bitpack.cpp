@@ -1,7 +1,10 @@
 #include "strata/quant/bitpack.hpp"
 
+#include <algorithm>
 #include <string>
+#include <vector>
 
+#include "strata/core/bitstream.hpp"
 #include "strata/core/error.hpp"
 
 namespace strata::quant {
@@ -28,20 +31,12 @@ void unpack_aligned(const std::byte* in, std::span<std::uint32_t> codes) {
   }
 }
 
-// Any width: a 64-bit accumulator collects bits LSB first and flushes whole bytes.
+// Any width: the project's one bit stream (LSB first), then copied into the caller's span.
 void pack_generic(std::span<const std::uint32_t> codes, int bits, std::byte* out) {
-  std::uint64_t acc = 0;
-  int filled = 0;
-  for (std::uint32_t c : codes) {
-    acc |= std::uint64_t(c) << filled;
-    filled += bits;
-    while (filled >= 8) {
-      *out++ = std::byte(acc & 0xFF);
-      acc >>= 8;
-      filled -= 8;
-    }
-  }
-  if (filled > 0) *out = std::byte(acc & 0xFF);
+  BitWriter w;
+  for (std::uint32_t c : codes) w.put(c, bits);
+  const std::vector<std::byte> packed = w.take();
+  std::copy(packed.begin(), packed.end(), out);
 }
 
 void check_fits(std::span<const std::uint32_t> codes, int bits) {
