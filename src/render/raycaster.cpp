@@ -41,7 +41,7 @@ using detail::run;
 using detail::Transparency;
 
 // Classification tables of one level: the step ratio h_l / reference differs per level.
-struct RayCaster::Tables {
+struct detail::LevelTables {
   std::vector<float> cells;  // the pre-integrated table as bilinear cells (Classifier::cells)
   LookupTable lookup;
 };
@@ -458,7 +458,7 @@ std::vector<float> bilinear_cells(const PreintegratedTable& t) {
 
 // Levels 0..max_level: world step and classification tables (built into `tables` on first
 // use; the step ratio, and so the table, differs per level).
-std::vector<LevelParams> level_params(std::vector<std::unique_ptr<RayCaster::Tables>>& tables,
+std::vector<LevelParams> level_params(std::vector<std::unique_ptr<detail::LevelTables>>& tables,
                                       const TransferFunction& tf, const RenderOptions& options, int max_level,
                                       double min_spacing) {
   std::vector<LevelParams> levels(std::size_t(max_level) + 1);
@@ -466,7 +466,7 @@ std::vector<LevelParams> level_params(std::vector<std::unique_ptr<RayCaster::Tab
   for (std::size_t l = 0; l < levels.size(); ++l) {
     const double ratio = options.step * std::ldexp(1.0, int(l));
     if (!tables[l]) {
-      auto t = std::make_unique<RayCaster::Tables>();
+      auto t = std::make_unique<detail::LevelTables>();
       if (options.preintegrated) {
         t->cells = bilinear_cells(tf.preintegrated_table(options.table_size, ratio));
       } else {
@@ -474,7 +474,7 @@ std::vector<LevelParams> level_params(std::vector<std::unique_ptr<RayCaster::Tab
       }
       tables[l] = std::move(t);
     }
-    const RayCaster::Tables& t = *tables[l];
+    const detail::LevelTables& t = *tables[l];
     levels[l].h = ratio * min_spacing;
     // The pre-integrated table is options.table_size^2 entries (read through its cells only).
     levels[l].classify = options.preintegrated

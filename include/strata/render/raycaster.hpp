@@ -65,6 +65,7 @@ namespace strata::render {
 
 namespace detail {
 class CellFlagCache;
+struct LevelTables;  // per-level classification tables (raycaster.cpp)
 struct CellFlags;
 struct FrameIndex;
 struct Transparency;
@@ -162,7 +163,6 @@ class RayCaster {
                RenderStats* stats = nullptr);
   Image render(const Camera& camera, PreparedVolume& volume, RenderStats* stats = nullptr);
 
-  struct Tables;  // per-level classification tables (raycaster.cpp)
 
  private:
   // The frame's common tail: level tables, ray casting, timings (from t0) into `stats`.
@@ -171,7 +171,7 @@ class RayCaster {
 
   TransferFunction tf_;
   RenderOptions options_;
-  std::vector<std::unique_ptr<Tables>> tables_;  // by level, built on first use
+  std::vector<std::unique_ptr<detail::LevelTables>> tables_;  // by level, built on first use
   std::unique_ptr<detail::CellFlagCache> cell_flags_;  // per brick, while the brick lives
   std::unique_ptr<const detail::Transparency> transparency_;  // of tf_, which never changes
   std::uint64_t id_;  // tells PreparedVolume whose empty-space cells it holds
