@@ -119,12 +119,12 @@ void validate(const MixtureGraph& g) {
   if (g.codebook.value.size() != bins || g.codebook.sigma.size() != bins)
     throw Error("mixture graph: codebook has " + std::to_string(g.codebook.value.size()) + " values and " +
                 std::to_string(g.codebook.sigma.size()) + " sigmas, expected " + std::to_string(bins) + " each");
-  const double w_max = g.codebook.layout == WeightBins::symmetric ? 0.5 : 1.0;
+  const bool symmetric = g.codebook.layout == WeightBins::symmetric;
   for (std::uint32_t q = 0; q < bins; ++q) {
     const double w = g.codebook.value[q], s = g.codebook.sigma[q];
-    if (!(w > 0.0 && w <= w_max && (w < 1.0)))
+    if (!(w > 0.0 && (symmetric ? w <= 0.5 : w < 1.0)))
       throw Error("mixture graph: codebook weight " + std::to_string(q) + " is " + std::to_string(w) +
-                  ", expected in (0, " + std::to_string(w_max) + "]");
+                  (symmetric ? ", expected in (0, 0.5]" : ", expected in (0, 1)"));
     if (!(s >= 0.0 && std::isfinite(s)))
       throw Error("mixture graph: codebook sigma " + std::to_string(q) + " is " + std::to_string(s) +
                   ", expected finite and >= 0");
@@ -201,7 +201,6 @@ class NodeStore {
     const std::size_t n = std::size_t(1) << bits_;
     c.value.resize(n);
     c.sigma.assign(n, 0.0);
-    c.max_deviation.assign(n, 0.0);
     c.uses = use_count_;
     for (std::size_t q = 0; q < n; ++q) {
       const double centre = bin_center(std::uint32_t(q), bits_, layout_);
@@ -212,8 +211,8 @@ class NodeStore {
       const double mean_d = sum_d_[q] / double(use_count_[q]);
       const double spread = std::sqrt(std::max(0.0, sum_d2_[q] / double(use_count_[q]) - mean_d * mean_d));
       c.value[q] = centre + mean_d;
-      c.max_deviation[q] = std::max(max_d_[q] - mean_d, mean_d - min_d_[q]);
-      c.sigma[q] = std::max(spread, c.max_deviation[q] / std::sqrt(3.0));
+      const double max_deviation = std::max(max_d_[q] - mean_d, mean_d - min_d_[q]);
+      c.sigma[q] = std::max(spread, max_deviation / std::sqrt(3.0));
     }
     return c;
   }
@@ -486,12 +485,12 @@ void check_options(const FactorOptions& o) {
   if (o.bits < 1 || o.bits > 16) throw Error("mixture factorisation: bits must be in 1..16, got " + std::to_string(o.bits));
 }
 
-// Nodes of the <= 8 children of dense mixture `id` (at its first voxel), with how many
-// children hold each: (count, node), ascending node.
-std::vector<std::pair<std::uint64_t, std::uint32_t>> children_of(const MixtureTable& table,
-                                                                 const std::vector<MipLevel>& levels,
-                                                                 const std::vector<std::uint32_t>& node_of_mixture,
-                                                                 std::uint32_t id) {
+using NodeCounts = std::vector<std::pair<std::uint64_t, std::uint32_t>>;  // (count, node)
+
+// Into `out`: the nodes of the <= 8 children of dense mixture `id` (at its first voxel), with how
+// many children hold each, ascending node.
+void children_of(const MixtureTable& table, const std::vector<MipLevel>& levels,
+                 const std::vector<std::uint32_t>& node_of_mixture, std::uint32_t id, NodeCounts& out) {
   const int l = table.first_level(id);
   const MipLevel& P = levels[std::size_t(l)];
   const MipLevel& C = levels[std::size_t(l) - 1];
@@ -510,14 +509,13 @@ std::vector<std::pair<std::uint64_t, std::uint32_t>> children_of(const MixtureTa
       }
   for (int i = 1; i < n; ++i)  // insertion sort of <= 8 node ids
     for (int j = i; j > 0 && child[j - 1] > child[j]; --j) std::swap(child[j - 1], child[j]);
-  std::vector<std::pair<std::uint64_t, std::uint32_t>> out;
+  out.clear();
   for (int i = 0; i < n;) {
     const std::uint32_t node = child[i];
     std::uint64_t c = 0;
     while (i < n && child[i] == node) ++c, ++i;
     out.push_back({c, node});
   }
-  return out;
 }
 
 // Eq. 4 as interpolations: merges the children's nodes smallest count first (Huffman-like)
@@ -526,8 +524,8 @@ std::vector<std::pair<std::uint64_t, std::uint32_t>> children_of(const MixtureTa
 // C = (A, B, bin) where A and B, merged with their counts, fall in C's bin. The two copies of C
 // then describe the same mixture, so their counts add up in one entry; merging C with itself
 // would make a node with equal predecessors (a self-loop in the DAG).
-std::uint32_t merge_children(std::vector<std::pair<std::uint64_t, std::uint32_t>> pending, std::uint64_t mult,
-                             NodeStore& store, FactorStats& stats) {
+// Consumes `pending`.
+std::uint32_t merge_children(NodeCounts& pending, std::uint64_t mult, NodeStore& store, FactorStats& stats) {
   auto smallest = [&]() {
     const auto it = std::min_element(pending.begin(), pending.end());
     const auto p = *it;
@@ -594,9 +592,11 @@ Factorization run_factorize(const MixtureTable& table, const std::vector<MipLeve
   // Dense mixtures: average of the children's nodes, coarse levels after finer ones.
   std::stable_sort(dense.begin(), dense.end(),
                    [&](std::uint32_t x, std::uint32_t y) { return table.first_level(x) < table.first_level(y); });
+  NodeCounts children;  // reused: one dense mixture after another
   for (std::uint32_t id : dense) {
     const std::uint64_t mult = std::max<std::uint64_t>(1, table.multiplicity(id));
-    f.node_of_mixture[id] = merge_children(children_of(table, *levels, f.node_of_mixture, id), mult, store, f.stats);
+    children_of(table, *levels, f.node_of_mixture, id, children);
+    f.node_of_mixture[id] = merge_children(children, mult, store, f.stats);
   }
   f.graph.nodes = std::move(store.nodes());
   f.graph.codebook = store.codebook();

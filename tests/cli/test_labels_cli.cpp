@@ -176,6 +176,11 @@ TEST(LabelsCli, CalibrateReportsSharesOutsideSigma) {
   ASSERT_EQ(run_command(strata_cmd("labels calibrate " + enc + " --boxes 3"), &out), 0) << out;
   EXPECT_NE(out.find("outside 1/2/3/6 sigma"), std::string::npos) << out;
   EXPECT_EQ(run_command(strata_cmd("labels calibrate " + enc + " --sizes 0"), &out), 2) << out;
+  EXPECT_EQ(run_command(strata_cmd("labels calibrate " + enc + " --boxes 0"), &out), 2) << out;
+  EXPECT_EQ(run_command(strata_cmd("labels calibrate " + enc + " --sizes nan"), &out), 2) << out;
+  // A box edge beyond the volume is clamped to it, not an error or an overrun.
+  ASSERT_EQ(run_command(strata_cmd("labels calibrate " + enc + " --sizes 1000000000 --boxes 2 --json"), &out), 0) << out;
+  EXPECT_EQ(nlohmann::json::parse(out)["boxes"], 2);
   EXPECT_EQ(run_command(strata_cmd("labels calibrate " + enc + " --method naive"), &out), 2) << out;
   EXPECT_EQ(run_command(strata_cmd("labels calibrate " + (dir / "missing.strata").string()), &out), 1) << out;
 }

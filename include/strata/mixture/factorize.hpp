@@ -105,14 +105,13 @@ struct InternalNode {
 // just on average: a bin's uses are mostly the exact dyadic weights of the fine levels, so
 // their empirical standard deviation is tiny, while the rarer weights of the same bin sit up
 // to half a bin away and every voxel of such a node carries that whole deviation. So
-// sigma = max(empirical sigma, max_deviation / sqrt(3)): at least the spread of a weight
+// sigma = max(empirical sigma, largest |w - value| / sqrt(3)): at least the spread of a weight
 // uniform within +- the largest deviation seen in the bin.
 struct Codebook {
   int bits = 9;
   WeightBins layout = WeightBins::symmetric;
   std::vector<double> value;
   std::vector<double> sigma;
-  std::vector<double> max_deviation;  // largest |w - value| over the bin's uses (not stored in files)
   std::vector<std::uint64_t> uses;
   std::uint32_t bins() const { return std::uint32_t(value.size()); }
 };
