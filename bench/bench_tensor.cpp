@@ -12,6 +12,7 @@
 
 // The decomposition kernels are private to src/tensor; the benchmark reaches them directly.
 #include "../src/tensor/decompose_kernel.hpp"
+#include "strata/core/isa.hpp"
 #include "strata/quant/brick.hpp"
 #include "strata/tensor/reconstruct.hpp"
 #include "strata/tensor/ttm.hpp"
@@ -68,8 +69,8 @@ template <int VW>
   return sum;
 }
 
-__attribute__((target("avx512f,fma"))) float fma_avx512(std::int64_t n) { return fma_chains<16>(n); }
-__attribute__((target("avx2,fma"))) float fma_avx2(std::int64_t n) { return fma_chains<8>(n); }
+STRATA_TARGET_AVX512 float fma_avx512(std::int64_t n) { return fma_chains<16>(n); }
+STRATA_TARGET_AVX2 float fma_avx2(std::int64_t n) { return fma_chains<8>(n); }
 float fma_sse(std::int64_t n) { return fma_chains<4>(n); }
 
 // FLOPs of one fma_chains iteration for the widest vectors this CPU has (FMA = 2 FLOPs).
@@ -80,8 +81,8 @@ struct FmaProbe {
 };
 
 FmaProbe fma_probe() {
-  if (kernel_isa_supported(KernelIsa::avx512)) return {fma_avx512, 12 * 16 * 2, "avx512"};
-  if (kernel_isa_supported(KernelIsa::avx2)) return {fma_avx2, 12 * 8 * 2, "avx2"};
+  if (active_isa() >= Isa::avx512) return {fma_avx512, 12 * 16 * 2, "avx512"};
+  if (active_isa() >= Isa::avx2) return {fma_avx2, 12 * 8 * 2, "avx2"};
   return {fma_sse, 12 * 4 * 2, "sse (mul+add)"};
 }
 
@@ -133,17 +134,18 @@ void report_reconstruction(benchmark::State& state, int k) {
                                                        benchmark::Counter::kIsRate);
 }
 
-// Args: leading rank K, kernel ISA (0 automatic, 1 generic, 2 avx2, 3 avx512).
+// Args: leading rank K, instruction-set level (strata::Isa: 0 generic, 1 sse4.2, 2 avx2, 3 avx512).
 void BM_Reconstruct(benchmark::State& state) {
   const int k = int(state.range(0));
-  const auto isa = KernelIsa(state.range(1));
-  if (!kernel_isa_supported(isa)) {
+  const auto isa = Isa(state.range(1));
+  if (!isa_supported(isa)) {
     state.SkipWithError("ISA not supported on this CPU");
     return;
   }
+  const ScopedIsaLimit limit(isa);
   const Tucker model = hosvd(synthetic_brick(1), {kRank, kRank, kRank});
   const TuckerView view = view_of(model);
-  BrickReconstructor rec(isa);
+  BrickReconstructor rec;
   std::vector<float> out(kBrick * kBrick * kBrick);
   measured_peak_flops();
   for (auto _ : state) {
@@ -152,12 +154,11 @@ void BM_Reconstruct(benchmark::State& state) {
     benchmark::ClobberMemory();
   }
   report_reconstruction(state, k);
-  state.SetLabel(std::string(kernel_isa_name(rec.isa())));
+  state.SetLabel(std::string(isa_name(isa)));
 }
 BENCHMARK(BM_Reconstruct)
     ->ArgNames({"K", "isa"})
-    ->ArgsProduct({{16, 8}, {int(KernelIsa::automatic), int(KernelIsa::generic), int(KernelIsa::avx2),
-                             int(KernelIsa::avx512)}});
+    ->ArgsProduct({{16, 8}, {int(Isa::generic), int(Isa::avx2), int(Isa::avx512)}});
 
 // The same three products as Eigen GEMMs on reshaped views of preallocated buffers (the
 // alternative the hand-tuned kernel has to beat). Eigen's code path is fixed at compile time, so
@@ -243,10 +244,10 @@ Matrix<double> brick_gram(int n) {
   return g.topLeftCorner(n, n);
 }
 
-// Args: ISA (0 generic, 1 AVX2, 2 AVX-512), n (R = n / 2).
+// Args: instruction-set level (strata::Isa), n (R = n / 2).
 void BM_LeadingEigenvectors(benchmark::State& state) {
-  const KernelIsa isa = state.range(0) == 0 ? KernelIsa::generic : state.range(0) == 1 ? KernelIsa::avx2 : KernelIsa::avx512;
-  if (!kernel_isa_supported(isa)) {
+  const auto isa = Isa(state.range(0));
+  if (!isa_supported(isa)) {
     state.SkipWithError("ISA not supported by this CPU");
     return;
   }
@@ -259,9 +260,11 @@ void BM_LeadingEigenvectors(benchmark::State& state) {
     a = g;
     benchmark::DoNotOptimize(k.leading_eigen(a.data(), n, r, u.data(), work.data()));
   }
-  state.SetLabel(std::string(kernel_isa_name(isa)));
+  state.SetLabel(std::string(isa_name(isa)));
 }
-BENCHMARK(BM_LeadingEigenvectors)->ArgNames({"isa", "n"})->ArgsProduct({{0, 1, 2}, {32, 16}})->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_LeadingEigenvectors)
+    ->ArgNames({"isa", "n"})
+    ->ArgsProduct({{int(Isa::generic), int(Isa::avx2), int(Isa::avx512)}, {32, 16}})->Unit(benchmark::kMicrosecond);
 
 void BM_EigenSelfAdjointSolver(benchmark::State& state) {
   const int n = int(state.range(0));

@@ -14,6 +14,7 @@ namespace strata::cli {
 struct GlobalOptions {
   int threads = 0;                // 0 = hardware threads
   std::string progress = "auto";  // auto | bar | json | none
+  std::string isa;                // empty = STRATA_ISA or the machine's widest
   std::unique_ptr<ProgressSink> make_progress() const { return make_progress_sink(parse_progress_mode(progress)); }
 };
 

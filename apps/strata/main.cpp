@@ -1,10 +1,31 @@
 // `strata`: the command line. Exit codes: 0 ok, 1 runtime error, 2 usage error.
 #include <cstdio>
 #include <exception>
+#include <string>
 
 #include "commands.hpp"
 #include "strata/core/error.hpp"
+#include "strata/core/isa.hpp"
 #include "strata/core/threads.hpp"
+
+namespace {
+
+// --isa limits every kernel; without it STRATA_ISA is read here, so a bad value is reported
+// before any work starts.
+void apply_isa_option(const std::string& name) {
+  using namespace strata;
+  if (name.empty()) {
+    active_isa();
+    return;
+  }
+  const Isa isa = *parse_isa(name);  // CLI::IsMember admitted only known names
+  if (!isa_supported(isa))
+    throw Error("--isa " + name + ": this CPU does not support it (it supports up to " +
+                std::string(isa_name(machine_isa())) + ")");
+  set_isa_limit(isa);
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   using namespace strata;
@@ -15,7 +36,14 @@ int main(int argc, char** argv) {
   app.add_option("--threads", global.threads, "Worker threads (default: all hardware threads)")->check(CLI::NonNegativeNumber);
   app.add_option("--progress", global.progress, "Progress display: auto (bar on a terminal), bar, json, none")
       ->check(CLI::IsMember({"auto", "bar", "json", "none"}));
-  app.parse_complete_callback([&] { set_thread_count(global.threads); });
+  app.add_option("--isa", global.isa,
+                 "Widest instruction set the kernels may use: generic, sse4.2, avx2, avx512 (default: STRATA_ISA, "
+                 "else all this CPU has)")
+      ->check(CLI::IsMember({"generic", "sse4.2", "sse42", "avx2", "avx512"}));
+  app.parse_complete_callback([&] {
+    set_thread_count(global.threads);
+    apply_isa_option(global.isa);
+  });
 
   cli::register_info(app, global);
   cli::register_convert(app, global);

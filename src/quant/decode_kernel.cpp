@@ -10,6 +10,7 @@
 #include <string>
 
 #include "strata/core/error.hpp"
+#include "strata/core/isa.hpp"
 #include "strata/quant/bitpack.hpp"
 #include "strata/quant/quantizers.hpp"
 
@@ -100,20 +101,18 @@ inline void decode_any(const DecodeJob& j) {
 }
 
 __attribute__((flatten)) void decode_generic(const DecodeJob& j) { decode_any(j); }
-__attribute__((flatten, target("avx2,fma"))) void decode_avx2(const DecodeJob& j) { decode_any(j); }
-__attribute__((flatten, target("avx512f,avx512vl,avx512bw,avx512dq,avx2,fma,prefer-vector-width=512"))) void decode_avx512(
-    const DecodeJob& j) {
-  decode_any(j);
-}
+__attribute__((flatten)) STRATA_TARGET_AVX2 void decode_avx2(const DecodeJob& j) { decode_any(j); }
+__attribute__((flatten)) STRATA_TARGET_AVX512 void decode_avx512(const DecodeJob& j) { decode_any(j); }
 
 using DecodeFn = void (*)(const DecodeJob&);
 
-DecodeFn best_decoder() {
-  if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx512bw") &&
-      __builtin_cpu_supports("avx512dq"))
-    return decode_avx512;
-  if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) return decode_avx2;
-  return decode_generic;
+// The widest variant active_isa() allows.
+DecodeFn decoder_for(Isa isa) {
+  switch (isa) {
+    case Isa::avx512: return decode_avx512;
+    case Isa::avx2: return decode_avx2;
+    default: return decode_generic;
+  }
 }
 
 // Rows that follow each other in the stream (K1 = R1, and then K2 = R2) merge into one long run.
@@ -134,7 +133,7 @@ DecodeJob merge_contiguous_rows(DecodeJob j) {
 }  // namespace
 
 void decode_codes(const DecodeJob& job) {
-  static const DecodeFn decode = best_decoder();
+  const DecodeFn decode = decoder_for(active_isa());
   decode(merge_contiguous_rows(job));
 }
 

@@ -23,7 +23,8 @@ struct DecodeJob {
   float* out = nullptr;
 };
 
-// Runs the job with the widest instruction set this CPU supports.
+// Runs the job with the widest variant active_isa() allows (strata/core/isa.hpp). The FMA
+// variants may differ from the generic one by a few ulps (one rounding per multiply-add).
 void decode_codes(const DecodeJob& job);
 
 }  // namespace strata::quant::detail

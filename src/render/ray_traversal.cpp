@@ -5,6 +5,7 @@
 #include <limits>
 #include <utility>
 
+#include "strata/core/isa.hpp"
 #include "strata/core/threads.hpp"
 
 namespace strata::render::detail {
@@ -152,8 +153,8 @@ Image run(const RenderJob& job, RenderStats& stats) {
   march.reserve(index.blocks.size());
   for (const Block& b : index.blocks) march.push_back(march_function(b, job.options.preintegrated, job.options.shading));
   const Transparency& transparency = job.transparency;
-  const bool simd = job.options.simd && have_avx2();
-  const MarchParams mp{simd, simd && job.options.avx512 && have_avx512(),
+  const Isa isa = active_isa();
+  const MarchParams mp{isa >= Isa::avx2, isa >= Isa::avx512,
                        job.levels.data(), transparency.next_visible.data(), job.value_lo, job.value_scale, job.options.light, job.options.termination_alpha};
   double extent = 0;
   for (double v : index.volume_hi) extent = std::max(extent, v);

@@ -60,9 +60,6 @@ struct MarchFns {
 
 // The march of block b's kind (raycaster.cpp).
 MarchFns march_function(const Block& b, bool preint, bool shade);
-// Run-time CPU checks for the 8-lane march (raycaster.cpp).
-bool have_avx2();
-bool have_avx512();
 
 struct RenderJob {
   const Transparency& transparency;  // of the frame's transfer function

@@ -1,3 +1,4 @@
+#include "strata/core/isa.hpp"
 #include "strata/core/stopwatch.hpp"
 #include "strata/render/raycaster.hpp"
 
@@ -66,29 +67,9 @@ inline void local_position(const Block& b, const RayContext& ray, double t, floa
 // Eight consecutive lattice points of one block at a time (trilinear taps, transparency bins and
 // table indices by 8-wide gathers), composited in order per lane. The arithmetic is the scalar
 // path's, operation for operation and without FMA, so both give the same image; compiled for
-// AVX2 and used only when the CPU has it (the default build stays portable x86-64). The loop's
+// AVX2 and used when active_isa() allows it (the default build stays portable x86-64). The loop's
 // source (march8_body.hpp) is compiled twice: for AVX2 and for AVX-512 (EVEX, 32 registers),
 // both with fp-contract=off, since GCC would otherwise fuse multiplies and adds into FMA there.
-
-bool detail::have_avx2() {
-#if STRATA_RENDER_AVX2
-  static const bool yes = __builtin_cpu_supports("avx2");
-  return yes;
-#else
-  return false;
-#endif
-}
-
-bool detail::have_avx512() {
-#if STRATA_RENDER_AVX2
-  static const bool yes = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("avx512f") &&
-                          __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx512bw") &&
-                          __builtin_cpu_supports("avx512dq");
-  return yes;
-#else
-  return false;
-#endif
-}
 
 namespace {
 
@@ -97,7 +78,7 @@ namespace {
 // a[l] = data[idx[l]], b[l] = data[idx[l] + 1] for 8 lanes: two 4-lane gathers of float pairs
 // (half the gathered elements of two 8-lane float gathers), deinterleaved. Lanes outside
 // `mask` (all bits set or clear per lane) load nothing and hold zeros.
-[[gnu::target("avx2")]] inline void gather_pairs(const float* data, __m256i idx, __m256i mask, __m256& a, __m256& b) {
+STRATA_TARGET_AVX2 inline void gather_pairs(const float* data, __m256i idx, __m256i mask, __m256& a, __m256& b) {
   const double* base = reinterpret_cast<const double*>(data);
   const __m256d zero = _mm256_setzero_pd();
   const __m256d m0 = _mm256_castsi256_pd(_mm256_cvtepi32_epi64(_mm256_castsi256_si128(mask)));
@@ -109,7 +90,7 @@ namespace {
 }
 
 // Linear interpolation along x between data[idx + off] and its +x neighbour (masked lanes).
-[[gnu::target("avx2")]] inline __m256 lin_pair(const float* data, __m256i idx, int off, __m256i mask, __m256 fx) {
+STRATA_TARGET_AVX2 inline __m256 lin_pair(const float* data, __m256i idx, int off, __m256i mask, __m256 fx) {
   __m256 a, b;
   gather_pairs(data, _mm256_add_epi32(idx, _mm256_set1_epi32(off)), mask, a, b);
   return _mm256_add_ps(a, _mm256_mul_ps(fx, _mm256_sub_ps(b, a)));
@@ -117,13 +98,13 @@ namespace {
 
 // (c - a) + fx * ((e - b) - (c - a)) for a row a, b, c, e along x (GridSampler::gradient's row):
 // each tap gathered once.
-[[gnu::target("avx2")]] inline __m256 row_diff(__m256 a, __m256 b, __m256 c, __m256 e, __m256 fx) {
+STRATA_TARGET_AVX2 inline __m256 row_diff(__m256 a, __m256 b, __m256 c, __m256 e, __m256 fx) {
   const __m256 ca = _mm256_sub_ps(c, a);
   return _mm256_add_ps(ca, _mm256_mul_ps(fx, _mm256_sub_ps(_mm256_sub_ps(e, b), ca)));
 }
 
 // Four-channel colours of 8 lanes (one SSE vector each) as one 8-lane vector per channel.
-[[gnu::target("avx2")]] inline void transpose_rgba(const __m128 c[8], __m256& r, __m256& g, __m256& b, __m256& a) {
+STRATA_TARGET_AVX2 inline void transpose_rgba(const __m128 c[8], __m256& r, __m256& g, __m256& b, __m256& a) {
   const __m256 t0 = _mm256_insertf128_ps(_mm256_castps128_ps256(c[0]), c[4], 1);
   const __m256 t1 = _mm256_insertf128_ps(_mm256_castps128_ps256(c[1]), c[5], 1);
   const __m256 t2 = _mm256_insertf128_ps(_mm256_castps128_ps256(c[2]), c[6], 1);
@@ -138,7 +119,7 @@ namespace {
 
 // x shifted up by `Lanes` lanes, ones shifted in at the bottom.
 template <int Lanes>
-[[gnu::target("avx2")]] inline __m256 shift_up_ones(__m256 x) {
+STRATA_TARGET_AVX2 inline __m256 shift_up_ones(__m256 x) {
   static_assert(Lanes == 1 || Lanes == 2 || Lanes == 4);
   const __m256i from = _mm256_setr_epi32(0 - Lanes, 1 - Lanes, 2 - Lanes, 3 - Lanes, 4 - Lanes, 5 - Lanes, 6 - Lanes, 7 - Lanes);
   const __m256 moved = _mm256_permutevar8x32_ps(x, _mm256_max_epi32(from, _mm256_setzero_si256()));
@@ -146,7 +127,7 @@ template <int Lanes>
 }
 
 // Exclusive prefix product of the 8 lanes (lane 0: 1), by three doubling steps.
-[[gnu::target("avx2")]] inline __m256 exclusive_transmittance(__m256 keep) {
+STRATA_TARGET_AVX2 inline __m256 exclusive_transmittance(__m256 keep) {
   __m256 p = _mm256_mul_ps(keep, shift_up_ones<1>(keep));
   p = _mm256_mul_ps(p, shift_up_ones<2>(p));
   p = _mm256_mul_ps(p, shift_up_ones<4>(p));
@@ -155,7 +136,7 @@ template <int Lanes>
 
 // acc + (1 - acc.a) * sum over lanes of through * (r, g, b, a): 8 premultiplied segments
 // composited under `acc`, each weighted by the transmittance in front of it.
-[[gnu::target("avx2")]] inline __m128 composite_chunk(__m128 acc, __m256 r, __m256 g, __m256 b, __m256 a, __m256 through) {
+STRATA_TARGET_AVX2 inline __m128 composite_chunk(__m128 acc, __m256 r, __m256 g, __m256 b, __m256 a, __m256 through) {
   const __m256 rg = _mm256_hadd_ps(_mm256_mul_ps(through, r), _mm256_mul_ps(through, g));
   const __m256 ba = _mm256_hadd_ps(_mm256_mul_ps(through, b), _mm256_mul_ps(through, a));
   const __m256 rgba = _mm256_hadd_ps(rg, ba);  // r0123 g0123 b0123 a0123 | r4567 ...
@@ -168,13 +149,12 @@ template <int Lanes>
 // and step). `front` holds the value at `last` (== k - 1 on entry). Returns where it stopped
 // (k1, or one past the sample that terminated the ray).
 #define STRATA_MARCH8_NAME march8
-#define STRATA_MARCH8_ATTRS [[gnu::target("avx2"), gnu::optimize("fp-contract=off")]]
+#define STRATA_MARCH8_ATTRS [[gnu::optimize("fp-contract=off")]] STRATA_TARGET_AVX2
 #include "render/march8_body.hpp"
 #undef STRATA_MARCH8_NAME
 #undef STRATA_MARCH8_ATTRS
 #define STRATA_MARCH8_NAME march8_avx512
-#define STRATA_MARCH8_ATTRS \
-  [[gnu::target("avx2,avx512f,avx512vl,avx512bw,avx512dq"), gnu::optimize("fp-contract=off")]]
+#define STRATA_MARCH8_ATTRS [[gnu::optimize("fp-contract=off")]] STRATA_TARGET_AVX512
 #include "render/march8_body.hpp"
 #undef STRATA_MARCH8_NAME
 #undef STRATA_MARCH8_ATTRS

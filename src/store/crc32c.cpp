@@ -3,6 +3,8 @@
 #include <array>
 #include <cstring>
 
+#include "strata/core/isa.hpp"
+
 namespace strata::store {
 
 namespace {
@@ -38,8 +40,7 @@ std::uint32_t crc32c_table(const unsigned char* p, std::size_t n, std::uint32_t 
 }
 
 #if defined(__x86_64__)
-__attribute__((target("sse4.2"))) std::uint32_t crc32c_sse42(const unsigned char* p, std::size_t n,
-                                                              std::uint32_t crc) {
+STRATA_TARGET_SSE42 std::uint32_t crc32c_sse42(const unsigned char* p, std::size_t n, std::uint32_t crc) {
   std::uint64_t c = crc;
   while (n >= 8) {
     std::uint64_t word;
@@ -60,8 +61,7 @@ std::uint32_t crc32c(const void* data, std::size_t size, std::uint32_t crc) {
   const auto* p = static_cast<const unsigned char*>(data);
   crc = ~crc;
 #if defined(__x86_64__)
-  static const bool has_sse42 = __builtin_cpu_supports("sse4.2");
-  crc = has_sse42 ? crc32c_sse42(p, size, crc) : crc32c_table(p, size, crc);
+  crc = active_isa() >= Isa::sse42 ? crc32c_sse42(p, size, crc) : crc32c_table(p, size, crc);
 #else
   crc = crc32c_table(p, size, crc);
 #endif

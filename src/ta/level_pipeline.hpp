@@ -14,16 +14,13 @@
 #include "strata/store/container.hpp"
 #include "strata/ta/brick_codec.hpp"
 #include "strata/ta/octree.hpp"
+#include "ta/brick_stats.hpp"
 
 namespace strata::ta {
 
 // Called for every encoded brick (from worker threads; must be thread-safe).
 using BrickSink = std::function<void(const store::BrickKey&, const EncodedBrick&, float min, float max,
                                      std::uint64_t histogram)>;
-
-struct HistogramRange {
-  double lo = 0, hi = 1;  // the volume's value range: 64 equal bins
-};
 
 class LevelPipeline {
  public:

@@ -786,7 +786,6 @@ bool leading_eigen_generic(double* a, std::int64_t n, std::int64_t r, double* u,
 }
 void gram_generic(const DGramArgs& a) { gram_dot<2, 3>(a); }
 
-#define STRATA_TARGET_AVX2 __attribute__((target("avx2,fma")))
 STRATA_TARGET_AVX2 void gemm_avx2(const DGemmArgs& g) {
   if (g.m >= 256) gemm_batch<4, 3, 4>(g);
   else gemm_batch<4, 2, 6>(g);
@@ -796,7 +795,6 @@ STRATA_TARGET_AVX2 bool leading_eigen_avx2(double* a, std::int64_t n, std::int64
 }
 STRATA_TARGET_AVX2 void gram_avx2(const DGramArgs& a) { gram_dot<4, 3>(a); }
 
-#define STRATA_TARGET_AVX512 __attribute__((target("avx512f,avx512vl,avx2,fma,prefer-vector-width=512")))
 STRATA_TARGET_AVX512 void gemm_avx512(const DGemmArgs& g) {
   if (g.m >= 24) gemm_batch<8, 3, 8>(g);
   else gemm_batch<8, 2, 12>(g);
@@ -815,41 +813,27 @@ STRATA_TARGET_AVX512 double sum_squares_f_avx512(const float* x, std::int64_t n)
   return sum_squares_impl<8>(x, n);
 }
 
-const DecomposeKernels kGeneric{KernelIsa::generic, gemm_generic, gram_generic, leading_eigen_generic,
+const DecomposeKernels kGeneric{Isa::generic, gemm_generic, gram_generic, leading_eigen_generic,
                                 sum_squares_generic, sum_squares_f_generic};
-const DecomposeKernels kAvx2{KernelIsa::avx2, gemm_avx2, gram_avx2, leading_eigen_avx2, sum_squares_avx2,
+const DecomposeKernels kAvx2{Isa::avx2, gemm_avx2, gram_avx2, leading_eigen_avx2, sum_squares_avx2,
                              sum_squares_f_avx2};
-const DecomposeKernels kAvx512{KernelIsa::avx512, gemm_avx512, gram_avx512, leading_eigen_avx512, sum_squares_avx512,
+const DecomposeKernels kAvx512{Isa::avx512, gemm_avx512, gram_avx512, leading_eigen_avx512, sum_squares_avx512,
                                sum_squares_f_avx512};
-
-KernelIsa isa_from_environment() {
-  const char* forced = std::getenv("STRATA_DECOMPOSE_ISA");
-  if (!forced || !*forced) return KernelIsa::automatic;
-  const std::string name(forced);
-  for (KernelIsa isa : {KernelIsa::automatic, KernelIsa::generic, KernelIsa::avx2, KernelIsa::avx512})
-    if (kernel_isa_name(isa) == name) return isa;
-  throw Error("STRATA_DECOMPOSE_ISA: unknown instruction set '" + name +
-              "', expected automatic, generic, avx2 or avx512");
-}
 
 }  // namespace
 
 std::int64_t leading_eigen_work(std::int64_t n) { return n * n + (8 + 4 * 16) * n; }
 
-const DecomposeKernels& decompose_kernels(KernelIsa isa) {
-  if (isa == KernelIsa::automatic) isa = best_kernel_isa();
-  if (!kernel_isa_supported(isa))
-    throw Error("decomposition kernels: this CPU does not support " + std::string(kernel_isa_name(isa)));
+const DecomposeKernels& decompose_kernels(Isa isa) {
+  if (!isa_supported(isa))
+    throw Error("decomposition kernels: this CPU does not support " + std::string(isa_name(isa)));
   switch (isa) {
-    case KernelIsa::avx512: return kAvx512;
-    case KernelIsa::avx2: return kAvx2;
+    case Isa::avx512: return kAvx512;
+    case Isa::avx2: return kAvx2;
     default: return kGeneric;
   }
 }
 
-const DecomposeKernels& decompose_kernels() {
-  static const DecomposeKernels& chosen = decompose_kernels(isa_from_environment());
-  return chosen;
-}
+const DecomposeKernels& decompose_kernels() { return decompose_kernels(active_isa()); }
 
 }  // namespace strata::detail

@@ -2,14 +2,12 @@
 // Double-precision kernels of the Tucker decompositions (tucker.cpp): small GEMMs for the n-mode
 // products, Gram matrices of mode unfoldings (never formed) and a symmetric eigen-solver. Private
 // to src/tensor. Like the reconstruction kernel (reconstruct_kernel.cpp) each is written once with
-// GCC vector extensions and compiled for AVX-512, AVX2+FMA and baseline x86-64; the best variant
-// the CPU runs is picked at run time, so the portable build needs no -march=native.
-//
-// Setting the environment variable STRATA_DECOMPOSE_ISA to generic, avx2 or avx512 forces a
-// variant (tests and benchmarks of the fallbacks); an unsupported or unknown value is an Error.
+// GCC vector extensions and compiled for AVX-512, AVX2+FMA and baseline x86-64; the widest variant
+// active_isa() allows (strata/core/isa.hpp) is picked at run time, so the portable build needs no
+// -march=native.
 #include <cstdint>
 
-#include "strata/tensor/reconstruct.hpp"  // KernelIsa
+#include "strata/core/isa.hpp"
 
 namespace strata::detail {
 
@@ -20,7 +18,9 @@ namespace strata::detail {
 // With `lower`, only Out(i, j) with i >= j is needed: tiles wholly above the diagonal are skipped
 // and the entries there are left unspecified (symmetric products, e.g. X X^T).
 // Setting l_f (r_f) reads that operand as float instead (the decompositions' float input tensor,
-// widened exactly on the fly: the result is the same as from a double copy).
+// widened exactly on the fly): vector tiles give the bits of a double copy; the scalar tail rows
+// (m not a multiple of the vector width) agree to rounding, since the compiler may contract
+// their multiply-adds into FMA differently in the float and double instantiations.
 struct DGemmArgs {
   std::int64_t m = 0, n = 0, k = 0;
   const double* l = nullptr;
@@ -49,7 +49,7 @@ struct DGramArgs {
 };
 
 struct DecomposeKernels {
-  KernelIsa isa = KernelIsa::generic;
+  Isa isa = Isa::generic;  // the level this variant is compiled for
   void (*gemm)(const DGemmArgs&) = nullptr;
   void (*gram)(const DGramArgs&) = nullptr;
   // The r eigenvectors of the r largest eigenvalues of the symmetric n x n matrix `a` (both
@@ -65,9 +65,9 @@ struct DecomposeKernels {
 
 std::int64_t leading_eigen_work(std::int64_t n);
 
-// The variants for the best ISA (or STRATA_DECOMPOSE_ISA), chosen once.
+// The widest variants active_isa() allows.
 const DecomposeKernels& decompose_kernels();
-// A given variant; throws Error if this CPU lacks it (`automatic` = the best).
-const DecomposeKernels& decompose_kernels(KernelIsa isa);
+// The widest variants at or below `isa`; throws Error if this CPU does not support `isa`.
+const DecomposeKernels& decompose_kernels(Isa isa);
 
 }  // namespace strata::detail

@@ -4,6 +4,7 @@
 #include <new>
 #include <string>
 
+#include "strata/core/isa.hpp"
 #include "tensor/reconstruct_kernel.hpp"
 
 namespace strata {
@@ -23,43 +24,15 @@ TuckerView view_of(const Tucker& model) {
   return v;
 }
 
-std::string_view kernel_isa_name(KernelIsa isa) {
-  switch (isa) {
-    case KernelIsa::automatic: return "automatic";
-    case KernelIsa::generic: return "generic";
-    case KernelIsa::avx2: return "avx2";
-    case KernelIsa::avx512: return "avx512";
-  }
-  return "unknown";
-}
-
-bool kernel_isa_supported(KernelIsa isa) {
-  switch (isa) {
-    case KernelIsa::automatic:
-    case KernelIsa::generic: return true;
-    case KernelIsa::avx2: return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-    case KernelIsa::avx512:
-      return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") &&
-             kernel_isa_supported(KernelIsa::avx2);
-  }
-  return false;
-}
-
-KernelIsa best_kernel_isa() {
-  static const KernelIsa best = kernel_isa_supported(KernelIsa::avx512) ? KernelIsa::avx512
-                                : kernel_isa_supported(KernelIsa::avx2) ? KernelIsa::avx2
-                                                                        : KernelIsa::generic;
-  return best;
-}
-
 namespace {
 
 using KernelFn = void (*)(const detail::ReconstructArgs&);
 
-KernelFn kernel_for(KernelIsa isa) {
+// The widest variant active_isa() allows.
+KernelFn kernel_for(Isa isa) {
   switch (isa) {
-    case KernelIsa::avx512: return detail::reconstruct_avx512;
-    case KernelIsa::avx2: return detail::reconstruct_avx2;
+    case Isa::avx512: return detail::reconstruct_avx512;
+    case Isa::avx2: return detail::reconstruct_avx2;
     default: return detail::reconstruct_generic;
   }
 }
@@ -122,12 +95,7 @@ struct BrickReconstructor::Scratch {
   AlignedFloats core, t1, t2;
 };
 
-BrickReconstructor::BrickReconstructor(KernelIsa isa)
-    : isa_(isa == KernelIsa::automatic ? best_kernel_isa() : isa), scratch_(std::make_unique<Scratch>()) {
-  if (!kernel_isa_supported(isa_)) {
-    throw Error("BrickReconstructor: this CPU does not support the " + std::string(kernel_isa_name(isa_)) + " kernel");
-  }
-}
+BrickReconstructor::BrickReconstructor() : scratch_(std::make_unique<Scratch>()) {}
 BrickReconstructor::~BrickReconstructor() = default;
 BrickReconstructor::BrickReconstructor(BrickReconstructor&&) noexcept = default;
 BrickReconstructor& BrickReconstructor::operator=(BrickReconstructor&&) noexcept = default;
@@ -151,7 +119,7 @@ void BrickReconstructor::reconstruct(const TuckerView& model, const Ranks3& k, s
   a.t1 = scratch_->t1.reserve(std::size_t(d[0]) * k[1] * k[2]);
   a.t2 = scratch_->t2.reserve(std::size_t(d[0] * d[1]) * k[2]);
   a.out = out.data();
-  kernel_for(isa_)(a);
+  kernel_for(active_isa())(a);
 }
 
 void BrickReconstructor::reconstruct(const TuckerView& model, std::span<float> out) {

@@ -5,6 +5,7 @@
 // register files differ (16 xmm/ymm vs 32 zmm): the accumulators plus the loaded column of L
 // must fit, or the compiler spills and throughput halves.
 #include "reconstruct_kernel.hpp"
+#include "strata/core/isa.hpp"
 
 namespace strata::detail {
 namespace {
@@ -84,13 +85,11 @@ void reconstruct_generic(const ReconstructArgs& a) {
   reconstruct_with(a, gemm_sse, gemm_sse);
 }
 
-#define STRATA_TARGET_AVX2 __attribute__((target("avx2,fma")))
 STRATA_TARGET_AVX2 void reconstruct_avx2(const ReconstructArgs& a) {
   auto gemm_avx2 = [](const GemmArgs& g) STRATA_TARGET_AVX2 { gemm<8, 2, 6>(g); };
   reconstruct_with(a, gemm_avx2, gemm_avx2);
 }
 
-#define STRATA_TARGET_AVX512 __attribute__((target("avx512f,avx512vl,avx2,fma,prefer-vector-width=512")))
 STRATA_TARGET_AVX512 void reconstruct_avx512(const ReconstructArgs& a) {
   reconstruct_with(
       a, [](const GemmArgs& g) STRATA_TARGET_AVX512 { gemm<16, 2, 12>(g); },

@@ -14,6 +14,7 @@
 #include "strata/gen/generators.hpp"
 #include "strata/render/raycaster.hpp"
 #include "strata/ta/ta_volume.hpp"
+#include "support/isa_test.hpp"
 #include "support/test_support.hpp"
 #include "ta/ta_test_util.hpp"
 
@@ -312,7 +313,6 @@ TEST(RayCaster, ThreadCountDoesNotChangeTheImage) {
   EXPECT_EQ(a.pixels(), c.pixels());
 }
 
-// Timing only (run with --gtest_also_run_disabled_tests): 512x512 of a 128^3 volume.
 // ---- Empty-space skipping inside bricks ------------------------------------------------------
 
 
@@ -385,39 +385,67 @@ TEST(RayCaster, SkippingEmptyCellsDoesNotChangeTheImage) {
       }
 }
 
-TEST(RayCaster, VectorisedMarchMatchesTheScalarMarch) {
+// The 8-lane march, per instruction-set level it is compiled for.
+class RayMarchPerIsa : public test::IsaTest {};
+
+TEST_P(RayMarchPerIsa, MatchesTheScalarMarch) {
   // The AVX2 inner loop and its AVX-512 build repeat the scalar per-sample arithmetic operation
   // for operation (no FMA), but composite each 8-sample chunk at once: the transmittance in
   // front of each sample is a prefix product taken in another order, and the colours are summed
   // before they meet the accumulated opacity. That reassociation moves a pixel by a few float
   // ulps, so images agree within one level (as does a front re-sampled after skipped cells).
-  // The two SIMD builds agree exactly. On CPUs without AVX-512 the AVX-512 render takes the
-  // AVX2 path, without AVX2 the scalar path.
+  // The two SIMD builds run the same operations: their images are identical.
   const Volume v = prisms_volume();
   const BrickedVolume b(v, 16, 2);
+  const Camera cam = perspective_camera(v.dims(), 57, 12);
+  auto render_with = [&](Isa isa, const RenderOptions& o, const char* tf_name, bool bricked) {
+    const ScopedIsaLimit limit(isa);
+    RayCaster rc(TransferFunction::preset(tf_name), o);
+    return bricked ? rc.render(cam, b.frame(v, 0, 65535)) : rc.render(cam, v, 0, 65535);
+  };
   for (const char* tf_name : {"ct", "mri", "grayscale"})
     for (bool shading : {true, false})
-      for (bool skip : {true, false}) {
-        RenderOptions vec = options(0.5, true, shading), scalar = vec;
-        vec.skip_cells = scalar.skip_cells = skip;
-        scalar.simd = false;
-        RenderOptions vec2 = vec;
-        vec.avx512 = true;
-        vec2.avx512 = false;
-        const Camera cam = perspective_camera(v.dims(), 57, 12);
-        RayCaster a(TransferFunction::preset(tf_name), vec), a2(TransferFunction::preset(tf_name), vec2),
-            c(TransferFunction::preset(tf_name), scalar);
-        SCOPED_TRACE(std::string(tf_name) + (shading ? " shaded" : " unshaded") + (skip ? " skip" : ""));
-        const Image bricks_512 = a.render(cam, b.frame(v, 0, 65535)), single_512 = a.render(cam, v, 0, 65535);
-        const Diff bricks = max_diff(bricks_512, c.render(cam, b.frame(v, 0, 65535)));
-        const Diff single = max_diff(single_512, c.render(cam, v, 0, 65535));
-        EXPECT_LE(bricks.max, 1) << bricks.x << "," << bricks.y;
-        EXPECT_LE(single.max, 1) << single.x << "," << single.y;
-        EXPECT_EQ(bricks_512.pixels(), a2.render(cam, b.frame(v, 0, 65535)).pixels());
-        EXPECT_EQ(single_512.pixels(), a2.render(cam, v, 0, 65535).pixels());
-      }
+      for (bool skip : {true, false})
+        for (bool bricked : {true, false}) {
+          RenderOptions o = options(0.5, true, shading);
+          o.skip_cells = skip;
+          SCOPED_TRACE(std::string(tf_name) + (shading ? " shaded" : " unshaded") + (skip ? " skip" : "") +
+                       (bricked ? " bricks" : " single"));
+          const Image vec = render_with(isa(), o, tf_name, bricked);
+          const Diff d = max_diff(vec, render_with(Isa::generic, o, tf_name, bricked));
+          EXPECT_LE(d.max, 1) << d.x << "," << d.y;
+          if (isa() > Isa::avx2) {  // the two SIMD builds
+            EXPECT_EQ(vec.pixels(), render_with(Isa::avx2, o, tf_name, bricked).pixels());
+          }
+        }
 }
 
+TEST_P(RayMarchPerIsa, MatchesTheScalarMarchForAnyExponent) {
+  // The 8-lane march unrolls the default exponent (24) and loops over others; both must agree
+  // with the scalar march (within the one level of chunked compositing, see above), and
+  // shininess must matter.
+  const Volume v = prisms_volume();
+  const BrickedVolume b(v, 16, 2);
+  const Camera cam = perspective_camera(v.dims(), 57, 12);
+  Image first;
+  for (int shininess : {24, 13, 1}) {
+    RenderOptions o = options(0.5, true, true);
+    o.skip_cells = false;
+    o.light.shininess = shininess;
+    SCOPED_TRACE(shininess);
+    auto render_with = [&](Isa isa) {
+      const ScopedIsaLimit limit(isa);
+      return RayCaster(TransferFunction::preset("ct"), o).render(cam, b.frame(v, 0, 65535));
+    };
+    const Image a = render_with(isa());
+    const Diff d = max_diff(a, render_with(Isa::generic));
+    EXPECT_LE(d.max, 1) << d.x << "," << d.y;
+    if (shininess == 24) first = a;
+    else EXPECT_GT(max_diff(a, first).max, 1) << "shininess " << shininess << " looks like 24";
+  }
+}
+
+STRATA_INSTANTIATE_PER_ISA(RayMarchPerIsa, Isa::avx2, Isa::avx512);
 
 TEST(RayCaster, FixedSpecularExponentEqualsTheGenericLoop) {
   // The unrolled power takes the generic loop's products in the same order: same bits.
@@ -434,29 +462,6 @@ TEST(RayCaster, FixedSpecularExponentEqualsTheGenericLoop) {
     ASSERT_EQ(std::bit_cast<std::uint32_t>(detail::power_fixed<13>(x)), std::bit_cast<std::uint32_t>(detail::power(x, 13)));
     ASSERT_EQ(std::bit_cast<std::uint32_t>(detail::power_fixed<64>(x)), std::bit_cast<std::uint32_t>(detail::power(x, 64)));
     ASSERT_EQ(std::bit_cast<std::uint32_t>(detail::specular_power(x, 13)), std::bit_cast<std::uint32_t>(detail::power(x, 13)));
-  }
-}
-
-TEST(RayCaster, VectorisedMarchMatchesTheScalarMarchForAnyExponent) {
-  // The 8-lane march unrolls the default exponent (24) and loops over others; both must agree
-  // with the scalar march (within the one level of chunked compositing, see above), and
-  // shininess must matter.
-  const Volume v = prisms_volume();
-  const BrickedVolume b(v, 16, 2);
-  const Camera cam = perspective_camera(v.dims(), 57, 12);
-  Image first;
-  for (int shininess : {24, 13, 1}) {
-    RenderOptions vec = options(0.5, true, true), scalar = vec;
-    vec.skip_cells = scalar.skip_cells = false;
-    vec.light.shininess = scalar.light.shininess = shininess;
-    scalar.simd = false;
-    SCOPED_TRACE(shininess);
-    const Image a = RayCaster(TransferFunction::preset("ct"), vec).render(cam, b.frame(v, 0, 65535));
-    const Image c = RayCaster(TransferFunction::preset("ct"), scalar).render(cam, b.frame(v, 0, 65535));
-    const Diff d = max_diff(a, c);
-    EXPECT_LE(d.max, 1) << d.x << "," << d.y;
-    if (shininess == 24) first = a;
-    else EXPECT_GT(max_diff(a, first).max, 1) << "shininess " << shininess << " looks like 24";
   }
 }
 

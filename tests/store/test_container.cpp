@@ -25,16 +25,6 @@ using strata::test::error_of;
 
 }  // namespace
 
-TEST(Crc32c, KnownVectors) {
-  EXPECT_EQ(crc32c("123456789", 9), 0xE3069283u);  // the standard CRC-32C check value
-  EXPECT_EQ(crc32c("", 0), 0u);
-  std::vector<unsigned char> zeros(32, 0);
-  EXPECT_EQ(crc32c(zeros.data(), zeros.size()), 0x8A9136AAu);  // RFC 3720 B.4
-  // Incremental use equals one call.
-  auto data = random_bytes(1000, 1);
-  EXPECT_EQ(crc32c(data.data() + 300, 700, crc32c(data.data(), 300)), crc32c(data.data(), 1000));
-}
-
 TEST(Container, RoundTripsBricksSectionsAndMetadata) {
   test::TempDir dir;
   auto path = dir / "a.strata";

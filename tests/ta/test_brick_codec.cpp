@@ -153,7 +153,9 @@ TEST(TaBrickCodec, ZstdStageIsLosslessAndItsPartsAddUp) {
     // zstd frames carry no checksum by default: a flipped byte in the middle may inflate to
     // other valid-looking bytes. The container's CRC-32C catches those; here only a clean
     // outcome is required: either an error with the context or a successful decode.
-    if (!msg.empty()) EXPECT_TRUE(contains(msg, "brick (level 1, 0,0,0)")) << at << ": " << msg;
+    if (!msg.empty()) {
+      EXPECT_TRUE(contains(msg, "brick (level 1, 0,0,0)")) << at << ": " << msg;
+    }
   }
   const std::span<const std::byte> cut(packed.payload.data(), packed.payload.size() / 2);
   EXPECT_TRUE(contains(error_of([&] { plain_payload(packed.kind, cut, zstd_params.quant, s, "ctx9"); }), "ctx9"));

@@ -1,6 +1,15 @@
 #pragma once
-// One brick <-> one payload: rank-reduced Tucker decomposition (HOOI) plus the tensor-specific
-// quantization of paper 1 §4, or a single value for constant bricks.
+/// @file
+/// @brief One brick <-> one payload: a quantized Tucker model, or a single value for constant bricks.
+///
+/// Implements the brick codec of paper 1 §4: a rank-reduced Tucker decomposition (truncated
+/// HOSVD refined by HOOI sweeps), the tensor-specific quantization of core and factors, and an
+/// optional lossless zstd stage (payload kind tucker_zstd). Byte layouts: docs/format.md
+/// ("Tucker brick payload"); effect of the defaults:
+/// docs/benchmarks.md#codec-defaults-hooi-sweeps-and-the-zstd-stage.
+///
+/// Thread safety: the functions keep no shared state. They may run concurrently as long as each
+/// thread passes its own DecodeScratch, BrickReconstructor and output buffers.
 #include <cstddef>
 #include <span>
 #include <string>
@@ -14,17 +23,18 @@
 
 namespace strata::ta {
 
+/// @brief Encoder settings (the `compress` options --rank, --quant, --hooi and --zstd).
 struct CodecParams {
-  int rank = 16;                 // R: stored rank per mode (<= brick width)
+  int rank = 16;                 // R: stored rank per mode, in [1, brick width]
   quant::QuantScheme quant;      // how cores and factors are stored
-  int hooi_iterations = 1;       // HOOI sweeps after HOSVD; 0 = HOSVD only (one sweep gets
-                                 // all of the gain on ch2better: 25.90 -> 26.00 dB)
-  double hooi_tolerance = 1e-4;
-  // Lossless zstd stage over each quantized brick (0 = off). Decoding a 7 KB brick costs a few
-  // microseconds next to its reconstruction, and saves 10-20% of the file.
+  int hooi_iterations = 1;       // most HOOI sweeps after the truncated HOSVD; 0 = HOSVD only
+  double hooi_tolerance = 1e-4;  // HOOI stops when the fit changes by less than this per sweep
+  // Lossless zstd stage over each quantized brick (0 = off); kept only where it makes the
+  // payload smaller.
   int zstd_level = 3;
 };
 
+/// @brief One encoded brick: payload kind and bytes, constant value, size breakdown.
 struct EncodedBrick {
   store::PayloadKind kind = store::PayloadKind::constant;
   std::vector<std::byte> payload;
@@ -33,39 +43,52 @@ struct EncodedBrick {
   std::size_t core_bytes = 0, factor_bytes = 0, header_bytes = 0;
 };
 
-// Encodes a brick of samples (B x B x B, first index fastest).
+/// @brief Encodes a brick of samples (B x B x B, first index fastest).
+/// A brick whose samples are all equal becomes a constant brick (no payload). Otherwise returns
+/// a tucker payload, or tucker_zstd when params.zstd_level > 0 and compression makes it
+/// smaller. Throws Error when params.rank is not in [1, B], params.quant is inconsistent, the
+/// decomposition fails or the model holds non-finite values (quantization rejects them).
 EncodedBrick encode_brick(const Tensor3& samples, const CodecParams& params);
 
-// Buffers reused across decodes, one per thread.
+/// @brief Buffers reused across decodes, one per thread.
 struct DecodeScratch {
   quant::DequantizedModel model;
   std::vector<std::byte> inflated, unshuffled;  // tucker_zstd payloads, reused across bricks
 };
 
-// The plain quantized-brick bytes of a tucker or tucker_zstd payload (inflated into `scratch`).
+/// @brief The plain quantized-brick bytes of a tucker or tucker_zstd payload.
+/// For tucker returns `payload` itself; for tucker_zstd inflates into `scratch` and returns a
+/// view of it, valid until `scratch` is used again. Throws Error for any other kind (or, with
+/// 16-bit factors, inflated bytes that are not a quantized brick of `scheme`), and
+/// FormatError(context, "zstd payload", ...) when the zstd frame is corrupt or inflates to more
+/// than 64 MiB.
 std::span<const std::byte> plain_payload(store::PayloadKind kind, std::span<const std::byte> payload,
                                          const quant::QuantScheme& scheme, DecodeScratch& scratch,
                                          const std::string& context);
 
-// The shared front of decode_brick and the LOD loader (lod::dequantize_payload): the plain
-// bytes of a tucker or tucker_zstd payload, checked to be `brick_width` wide along every axis
-// and dequantized at the leading ranks min(rank, R_n) into `model` (a rank of at least the
-// stored one keeps the full stored rank). Throws Error prefixed with `context`.
+/// @brief The shared front of decode_brick and the LOD loader (lod::dequantize_payload).
+/// Takes the plain bytes of a tucker or tucker_zstd payload, checks that the brick is
+/// `brick_width` wide along every axis and dequantizes it at the leading ranks min(rank, R_n)
+/// into `model` (a rank of at least the stored one keeps the full stored rank). Throws Error
+/// prefixed with `context` for a malformed payload, a wrong width or rank < 1.
 void dequantize_brick(store::PayloadKind kind, std::span<const std::byte> payload, const quant::QuantScheme& scheme,
                       int brick_width, int rank, DecodeScratch& scratch, quant::DequantizedModel& model,
                       const std::string& context);
 
-// Splits a tucker payload's size into header, core and factor bytes (for `strata eval`).
+/// @brief A tucker payload's size split into header, core and factor bytes (for `strata eval`).
 struct PayloadParts {
   std::size_t header_bytes = 0, core_bytes = 0, factor_bytes = 0;
 };
-// `payload` is the plain (inflated) quantized brick.
+/// @brief The parts of `payload`, the plain (inflated) quantized brick. Throws Error prefixed
+/// with `context` when it is not a valid quantized brick of `scheme`.
 PayloadParts payload_parts(std::span<const std::byte> payload, const quant::QuantScheme& scheme,
                            const std::string& context);
 
-// Decodes a payload at reconstruction rank K (1 <= K <= stored rank; larger K is clamped)
-// into `out` (B^3 floats). Constant bricks fill `out` with their value. Reuses the scratch of
-// `reconstructor` and `scratch` so a loop over bricks does not allocate.
+/// @brief Decodes a payload at reconstruction rank K (1 <= K <= stored rank; larger K is
+/// clamped) into `out` (B^3 floats). Constant bricks fill `out` with their value. Reuses the
+/// scratch of `reconstructor` and `scratch` so a loop over bricks does not allocate. Throws
+/// Error prefixed with `context` when `out` does not hold B^3 floats, K < 1 or the payload is
+/// malformed.
 void decode_brick(store::PayloadKind kind, std::span<const std::byte> payload, float constant_value,
                   const quant::QuantScheme& scheme, int brick_width, int rank, BrickReconstructor& reconstructor,
                   DecodeScratch& scratch, std::span<float> out, const std::string& context);

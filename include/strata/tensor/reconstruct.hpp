@@ -1,8 +1,9 @@
 #pragma once
 // The renderer's hot path: reconstructing a brick from its Tucker model (paper §5.2) as three
 // successive n-mode products B ×1 U1 ×2 U2 ×3 U3, each a small GEMM run by a register-tiled
-// kernel compiled for AVX-512, AVX2+FMA and baseline x86-64 and picked at run time, so the
-// portable build is as fast as a -march=native one. Work per voxel grows linearly with the rank.
+// kernel compiled for AVX-512, AVX2+FMA and baseline x86-64 and picked at run time by the
+// active instruction-set level (strata/core/isa.hpp), so the portable build is as fast as a
+// -march=native one. Work per voxel grows linearly with the rank.
 #include <cstddef>
 #include <memory>
 #include <span>
@@ -22,20 +23,13 @@ struct TuckerView {
 
 TuckerView view_of(const Tucker& model);
 
-// Instruction-set variants of the reconstruction kernel.
-enum class KernelIsa { automatic, generic, avx2, avx512 };
-std::string_view kernel_isa_name(KernelIsa isa);
-// The best variant this CPU runs (never `automatic`).
-KernelIsa best_kernel_isa();
-bool kernel_isa_supported(KernelIsa isa);
-
 // Reconstructs bricks into caller-provided buffers. Holds the scratch tensors between the three
 // products (I1 x K2 x K3 and I1 x I2 x K3) and grows them only when a larger brick arrives, so a
 // loop over equally sized bricks allocates nothing. One instance per thread (not thread-safe).
 class BrickReconstructor {
  public:
-  // `isa` forces a kernel variant (tests and benchmarks); throws Error if this CPU lacks it.
-  explicit BrickReconstructor(KernelIsa isa = KernelIsa::automatic);
+  // Each call runs the kernel variant active_isa() allows (strata/core/isa.hpp).
+  BrickReconstructor();
   ~BrickReconstructor();
   BrickReconstructor(BrickReconstructor&&) noexcept;
   BrickReconstructor& operator=(BrickReconstructor&&) noexcept;
@@ -48,11 +42,8 @@ class BrickReconstructor {
   // Convenience for owning models; `leading_ranks` as above.
   Tensor3 reconstruct(const Tucker& model, const Ranks3& leading_ranks);
 
-  KernelIsa isa() const { return isa_; }
-
  private:
   struct Scratch;
-  KernelIsa isa_;
   std::unique_ptr<Scratch> scratch_;
 };
 
