@@ -29,13 +29,17 @@ run_both() {  # run_both <command line with @OUT@ for the output dir>
 scalar_inputs=("$work/in/prisms.nrrd")
 label_inputs=("$work/in/sp.nrrd")
 [[ -f "$shared/vtkjs_headsq_mri.nrrd" ]] && scalar_inputs+=("$shared/vtkjs_headsq_mri.nrrd")
+mricron=/usr/share/mricron/templates
+[[ -f "$mricron/ch2better.nii.gz" ]] && scalar_inputs+=("$mricron/ch2better.nii.gz")
 [[ -f "$shared/fibsem_medulla_250_ws.nrrd" ]] && label_inputs+=("$shared/fibsem_medulla_250_ws.nrrd")
 
 for input in "${scalar_inputs[@]}"; do
   name=$(basename "$input" .nrrd)
+  name=${name%.nii.gz}
   run_both "compress '$input' -o @OUT@/$name.strata --rank 12"
   run_both "compress '$input' -o @OUT@/$name.b12.strata --rank 16 --quant u16,b12log+ --brick 16"
   run_both "decompress @OUT@/$name.strata -o @OUT@/$name.decoded.nrrd"
+  run_both "decompress @OUT@/$name.strata -o @OUT@/$name.decoded.nii"
   run_both "decompress @OUT@/$name.strata --level 1 --rank 6 -o @OUT@/$name.l1r6.nrrd"
   run_both "render @OUT@/$name.strata -o @OUT@/$name.png --size 160x120 --azimuth 30 --exact"
   run_both "render @OUT@/$name.strata -o @OUT@/$name.unshaded.png --size 160x120 --shading off --tf mri --exact"

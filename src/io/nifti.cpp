@@ -12,6 +12,7 @@
 #include <fmt/format.h>
 
 #include "io/io_detail.hpp"
+#include "strata/core/bytes.hpp"
 
 namespace strata::io::detail {
 
@@ -72,21 +73,14 @@ struct NiftiHeader {
   std::optional<Scaling> scaling;
 };
 
-// Reads header fields of either byte order.
-class HeaderBytes {
- public:
-  HeaderBytes(const std::byte* data, bool swap) : data_(data), swap_(swap) {}
+// The 348 header bytes, in the file's byte order.
+struct HeaderBytes {
+  std::span<const std::byte> bytes;
+  std::endian order;
   template <class T>
   T get(std::size_t offset) const {
-    T value;
-    std::memcpy(&value, data_ + offset, sizeof(T));
-    if (swap_) byte_swap(reinterpret_cast<std::byte*>(&value), 1, sizeof(T));
-    return value;
+    return load_field<T>(bytes, offset, order);
   }
-
- private:
-  const std::byte* data_;
-  bool swap_;
 };
 
 // NIfTI has no byte-order flag: sizeof_hdr is 348 when read in the file's order, so reading
@@ -95,8 +89,9 @@ bool detect_big_endian(const std::byte* data, std::uint64_t size, const std::str
   if (size < kHeaderBytes)
     throw FormatError(file, "sizeof_hdr",
                       fmt::format("file has {} bytes, shorter than the 348-byte NIfTI-1 header", size));
-  const auto as_little = HeaderBytes(data, std::endian::native == std::endian::big).get<std::int32_t>(field_at::sizeof_hdr);
-  const auto as_big = HeaderBytes(data, std::endian::native == std::endian::little).get<std::int32_t>(field_at::sizeof_hdr);
+  const std::span<const std::byte> header(data, kHeaderBytes);
+  const auto as_little = load_field<std::int32_t>(header, field_at::sizeof_hdr, std::endian::little);
+  const auto as_big = load_field<std::int32_t>(header, field_at::sizeof_hdr, std::endian::big);
   if (as_little == std::int32_t(kHeaderBytes)) return false;
   if (as_big == std::int32_t(kHeaderBytes)) return true;
   throw FormatError(file, "sizeof_hdr",
@@ -176,7 +171,7 @@ std::optional<Scaling> read_scaling(const HeaderBytes& h) {
 NiftiHeader parse_header(const std::byte* data, std::uint64_t size, const std::string& file) {
   NiftiHeader header;
   header.big_endian = detect_big_endian(data, size, file);
-  const HeaderBytes h(data, header.big_endian != (std::endian::native == std::endian::big));
+  const HeaderBytes h{{data, kHeaderBytes}, header.big_endian ? std::endian::big : std::endian::little};
   check_magic(data, file);
   header.stored.dims = read_dims(h, file);
   header.stored.dtype = read_dtype(h, file);
@@ -248,7 +243,7 @@ std::unique_ptr<VolumeSource> open_gzipped(const fs::path& path, const MappedFil
 // Writes the 352-byte prefix (header + empty extension flag) for `info`, little endian.
 std::array<std::byte, kDataOffset> make_header(const VolumeInfo& info) {
   std::array<std::byte, kDataOffset> bytes{};
-  auto put = [&](std::size_t offset, auto value) { std::memcpy(bytes.data() + offset, &value, sizeof(value)); };
+  auto put = [&](std::size_t offset, auto value) { store_field(bytes, offset, value); };
   put(field_at::sizeof_hdr, std::int32_t(kHeaderBytes));
   const std::array<std::int16_t, 8> dim{3, std::int16_t(info.dims.x), std::int16_t(info.dims.y),
                                         std::int16_t(info.dims.z), 1, 1, 1, 1};

@@ -65,7 +65,7 @@ std::uint32_t FixedRateIds::at(std::int64_t x, std::int64_t y, std::int64_t z) c
 }
 
 std::vector<std::byte> FixedRateIds::serialize() const {
-  ByteWriter w;
+  ByteWriter w(byte_size());
   w.put(kFixedTag);
   w.put(dims_.x);
   w.put(dims_.y);
@@ -189,7 +189,7 @@ std::size_t BlockPaletteIds::byte_size() const {
 }
 
 std::vector<std::byte> BlockPaletteIds::serialize() const {
-  ByteWriter w;
+  ByteWriter w(byte_size());
   w.put(kBlockTag);
   w.put(dims_.x);
   w.put(dims_.y);

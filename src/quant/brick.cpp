@@ -6,7 +6,9 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <utility>
 
+#include "strata/core/bytes.hpp"
 #include "strata/core/error.hpp"
 #include "strata/quant/bitpack.hpp"
 #include "strata/quant/quantizers.hpp"
@@ -156,28 +158,6 @@ void quantize_core(const Tucker& model, const QuantScheme& s, QuantizedBrick& q)
   }
 }
 
-// ---- little-endian fields -------------------------------------------------------------------
-
-void put_u16(std::byte*& p, std::uint16_t v) {
-  *p++ = std::byte(v & 0xFF);
-  *p++ = std::byte(v >> 8);
-}
-void put_f32(std::byte*& p, float v) {
-  const std::uint32_t u = std::bit_cast<std::uint32_t>(v);
-  for (int b = 0; b < 4; ++b) *p++ = std::byte((u >> (8 * b)) & 0xFF);
-}
-std::uint16_t get_u16(const std::byte*& p) {
-  const std::uint16_t v = std::uint16_t(std::uint16_t(p[0]) | std::uint16_t(p[1]) << 8);
-  p += 2;
-  return v;
-}
-float get_f32(const std::byte*& p) {
-  std::uint32_t u = 0;
-  for (int b = 0; b < 4; ++b) u |= std::uint32_t(p[b]) << (8 * b);
-  p += 4;
-  return std::bit_cast<float>(u);
-}
-
 // ---- validation of stored parameters (they come from a file) -------------------------------
 
 void check_params(const QuantScheme& s, const BrickParams& p) {
@@ -219,10 +199,11 @@ std::vector<std::byte> serialize(const QuantizedBrick& brick, const QuantScheme&
     throw Error("serialize: code counts do not match the extents and ranks");
   }
   std::vector<std::byte> out(serialized_size(scheme, brick.dims, brick.ranks));
-  std::byte* p = out.data();
-  for (auto v : brick.dims) put_u16(p, std::uint16_t(v));
-  for (auto v : brick.ranks) put_u16(p, std::uint16_t(v));
-  for (auto field : stored_params(scheme)) put_f32(p, brick.params.*field);
+  std::size_t at = 0;
+  for (auto v : brick.dims) store_field(out, std::exchange(at, at + 2), std::uint16_t(v));
+  for (auto v : brick.ranks) store_field(out, std::exchange(at, at + 2), std::uint16_t(v));
+  for (auto field : stored_params(scheme)) store_field(out, std::exchange(at, at + 4), brick.params.*field);
+  std::byte* p = out.data() + at;
   const std::size_t core_bytes = packed_size(brick.core_codes.size(), scheme.core_bits);
   pack_codes(brick.core_codes, scheme.core_bits, {p, core_bytes});
   p += core_bytes;
@@ -235,9 +216,9 @@ BrickView::BrickView(std::span<const std::byte> bytes, const QuantScheme& scheme
   if (bytes.size() < kHeaderBytes) {
     throw FormatError("quantized brick", "header", "needs 12 bytes, got " + std::to_string(bytes.size()));
   }
-  const std::byte* p = bytes.data();
-  for (auto& v : dims_) v = get_u16(p);
-  for (auto& v : ranks_) v = get_u16(p);
+  ByteReader header(bytes, "quantized brick");
+  for (auto& v : dims_) v = header.get<std::uint16_t>("dims");
+  for (auto& v : ranks_) v = header.get<std::uint16_t>("ranks");
   check_shape(dims_, ranks_, "quantized brick header");
   const std::size_t expected = serialized_size(scheme, dims_, ranks_);
   if (bytes.size() != expected) {
@@ -245,10 +226,10 @@ BrickView::BrickView(std::span<const std::byte> bytes, const QuantScheme& scheme
                       "scheme " + scheme.to_string() + " with extents " + to_string(dims_) + " needs " +
                           std::to_string(expected) + " bytes, got " + std::to_string(bytes.size()));
   }
-  for (auto field : stored_params(scheme)) params_.*field = get_f32(p);
+  for (auto field : stored_params(scheme)) params_.*field = header.get<float>("parameters");
   check_params(scheme, params_);
-  core_ = p;
-  factors_ = p + packed_size(core_count(ranks_), scheme.core_bits);
+  core_ = bytes.data() + header.position();
+  factors_ = core_ + packed_size(core_count(ranks_), scheme.core_bits);
 }
 
 void BrickView::dequantize_core(const Ranks3& k, std::span<float> out) const {

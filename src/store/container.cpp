@@ -1,11 +1,13 @@
 #include "strata/store/container.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cstring>
 #include <fstream>
 
 #include <fmt/format.h>
 
+#include "strata/core/bytes.hpp"
 #include "strata/core/error.hpp"
 #include "strata/store/crc32c.hpp"
 
@@ -17,15 +19,6 @@ namespace {
 // line-ending conversion (the trick PNG uses).
 constexpr std::array<unsigned char, 8> kMagic{0x89, 'S', 'T', 'R', 'A', 'T', 'A', '\n'};
 
-// Little-endian field access into fixed-size records (x86 and ARM are little endian; the
-// static_assert keeps a big-endian port honest).
-static_assert(std::endian::native == std::endian::little, "the .strata layout assumes a little-endian host");
-template <class T> void put(std::byte* base, std::size_t at, T v) { std::memcpy(base + at, &v, sizeof(T)); }
-template <class T> T get(const std::byte* base, std::size_t at) {
-  T v;
-  std::memcpy(&v, base + at, sizeof(T));
-  return v;
-}
 
 struct Header {
   std::uint16_t version_major = kFormatVersionMajor, version_minor = kFormatVersionMinor;
@@ -37,48 +30,48 @@ struct Header {
 std::array<std::byte, kHeaderSize> encode_header(const Header& h) {
   std::array<std::byte, kHeaderSize> b{};
   std::memcpy(b.data(), kMagic.data(), kMagic.size());
-  put(b.data(), 8, h.version_major);
-  put(b.data(), 10, h.version_minor);
-  put(b.data(), 12, h.flags);
-  put(b.data(), 16, h.index_offset);
-  put(b.data(), 24, h.index_count);
-  put(b.data(), 32, h.metadata_offset);
-  put(b.data(), 40, h.metadata_size);
-  put(b.data(), 48, h.index_entry_size);
-  put(b.data(), 52, h.metadata_crc);
-  put(b.data(), 56, h.index_crc);
-  put(b.data(), 60, crc32c(b.data(), 60));
+  store_field(b, 8, h.version_major);
+  store_field(b, 10, h.version_minor);
+  store_field(b, 12, h.flags);
+  store_field(b, 16, h.index_offset);
+  store_field(b, 24, h.index_count);
+  store_field(b, 32, h.metadata_offset);
+  store_field(b, 40, h.metadata_size);
+  store_field(b, 48, h.index_entry_size);
+  store_field(b, 52, h.metadata_crc);
+  store_field(b, 56, h.index_crc);
+  store_field(b, 60, crc32c(b.data(), 60));
   return b;
 }
 
-void encode_entry(const BrickEntry& e, std::byte* b) {
-  std::memset(b, 0, kIndexEntrySize);
-  put(b, 0, e.key.level);
-  put(b, 1, std::uint8_t(e.kind));
-  put(b, 4, e.crc32c);
-  put(b, 8, e.key.x);
-  put(b, 12, e.key.y);
-  put(b, 16, e.key.z);
-  put(b, 24, e.offset);
-  put(b, 32, e.size);
-  put(b, 40, e.min);
-  put(b, 44, e.max);
-  put(b, 48, e.histogram);
+void encode_entry(const BrickEntry& e, std::span<std::byte, kIndexEntrySize> b) {
+  std::fill(b.begin(), b.end(), std::byte{0});
+  store_field(b, 0, e.key.level);
+  store_field(b, 1, std::uint8_t(e.kind));
+  store_field(b, 4, e.crc32c);
+  store_field(b, 8, e.key.x);
+  store_field(b, 12, e.key.y);
+  store_field(b, 16, e.key.z);
+  store_field(b, 24, e.offset);
+  store_field(b, 32, e.size);
+  store_field(b, 40, e.min);
+  store_field(b, 44, e.max);
+  store_field(b, 48, e.histogram);
 }
 
-BrickEntry decode_entry(const std::byte* b) {
+BrickEntry decode_entry(std::span<const std::byte, kIndexEntrySize> b) {
   BrickEntry e;
-  e.key.level = get<std::uint8_t>(b, 0);
-  e.kind = PayloadKind(get<std::uint8_t>(b, 1));
-  e.crc32c = get<std::uint32_t>(b, 4);
-  e.key.x = get<std::int32_t>(b, 8);
-  e.key.y = get<std::int32_t>(b, 12);
-  e.key.z = get<std::int32_t>(b, 16);
-  e.offset = get<std::uint64_t>(b, 24);
-  e.size = get<std::uint64_t>(b, 32);
-  e.min = get<float>(b, 40);
-  e.max = get<float>(b, 44);
-  e.histogram = get<std::uint64_t>(b, 48);
+  e.key.level = load_field<std::uint8_t>(b, 0);
+  e.kind = PayloadKind(load_field<std::uint8_t>(b, 1));
+  e.crc32c = load_field<std::uint32_t>(b, 4);
+  e.key.x = load_field<std::int32_t>(b, 8);
+  e.key.y = load_field<std::int32_t>(b, 12);
+  e.key.z = load_field<std::int32_t>(b, 16);
+  e.offset = load_field<std::uint64_t>(b, 24);
+  e.size = load_field<std::uint64_t>(b, 32);
+  e.min = load_field<float>(b, 40);
+  e.max = load_field<float>(b, 44);
+  e.histogram = load_field<std::uint64_t>(b, 48);
   return e;
 }
 
@@ -153,7 +146,7 @@ std::uint64_t ContainerWriter::finish(nlohmann::json metadata) {
   h.metadata_offset = append_aligned(std::as_bytes(std::span(text)));
 
   std::vector<std::byte> index(entries_.size() * kIndexEntrySize);
-  for (std::size_t i = 0; i < entries_.size(); ++i) encode_entry(entries_[i], index.data() + i * kIndexEntrySize);
+  for (std::size_t i = 0; i < entries_.size(); ++i) encode_entry(entries_[i], std::span(index).subspan(i * kIndexEntrySize).first<kIndexEntrySize>());
   h.index_count = entries_.size();
   h.index_crc = crc32c(index.data(), index.size());
   h.index_offset = append_aligned(index);
@@ -182,17 +175,17 @@ ContainerReader::ContainerReader(const std::filesystem::path& path)
   const std::string file = path.string();
   if (file_->size() < kHeaderSize || std::memcmp(file_->data(), kMagic.data(), kMagic.size()) != 0)
     throw FormatError(file, "magic", "not a .strata file");
-  const std::byte* h = file_->data();
-  if (get<std::uint32_t>(h, 60) != crc32c(h, 60)) throw FormatError(file, "header", "checksum mismatch");
-  const auto major = get<std::uint16_t>(h, 8);
+  const std::span<const std::byte> h(file_->data(), kHeaderSize);
+  if (load_field<std::uint32_t>(h, 60) != crc32c(h.data(), 60)) throw FormatError(file, "header", "checksum mismatch");
+  const auto major = load_field<std::uint16_t>(h, 8);
   if (major != kFormatVersionMajor)
     throw FormatError(file, "version", fmt::format("format version {} is not supported (expected {})", major, kFormatVersionMajor));
-  if (get<std::uint32_t>(h, 48) != kIndexEntrySize)
+  if (load_field<std::uint32_t>(h, 48) != kIndexEntrySize)
     throw FormatError(file, "index_entry_size", fmt::format("expected {}", kIndexEntrySize));
 
-  metadata_size_ = get<std::uint64_t>(h, 40);
-  auto meta = checked_range(get<std::uint64_t>(h, 32), metadata_size_, "metadata");
-  if (crc32c(meta.data(), meta.size()) != get<std::uint32_t>(h, 52)) throw FormatError(file, "metadata", "checksum mismatch");
+  metadata_size_ = load_field<std::uint64_t>(h, 40);
+  auto meta = checked_range(load_field<std::uint64_t>(h, 32), metadata_size_, "metadata");
+  if (crc32c(meta.data(), meta.size()) != load_field<std::uint32_t>(h, 52)) throw FormatError(file, "metadata", "checksum mismatch");
   try {
     metadata_ = nlohmann::json::parse(reinterpret_cast<const char*>(meta.data()),
                                       reinterpret_cast<const char*>(meta.data()) + meta.size());
@@ -200,13 +193,13 @@ ContainerReader::ContainerReader(const std::filesystem::path& path)
     throw FormatError(file, "metadata", std::string("invalid JSON: ") + e.what());
   }
 
-  const auto count = get<std::uint64_t>(h, 24);
+  const auto count = load_field<std::uint64_t>(h, 24);
   if (count > file_->size() / kIndexEntrySize) throw FormatError(file, "index_count", "larger than the file");
-  auto index = checked_range(get<std::uint64_t>(h, 16), count * kIndexEntrySize, "index");
-  if (crc32c(index.data(), index.size()) != get<std::uint32_t>(h, 56)) throw FormatError(file, "index", "checksum mismatch");
+  auto index = checked_range(load_field<std::uint64_t>(h, 16), count * kIndexEntrySize, "index");
+  if (crc32c(index.data(), index.size()) != load_field<std::uint32_t>(h, 56)) throw FormatError(file, "index", "checksum mismatch");
   entries_.reserve(count);
   for (std::uint64_t i = 0; i < count; ++i) {
-    BrickEntry e = decode_entry(index.data() + i * kIndexEntrySize);
+    BrickEntry e = decode_entry(index.subspan(i * kIndexEntrySize).first<kIndexEntrySize>());
     if (!known_kind(e.kind))
       throw FormatError(file, "index", fmt::format("{} has unknown payload kind {}", brick_name(e.key), int(e.kind)));
     checked_range(e.offset, e.size, brick_name(e.key));
