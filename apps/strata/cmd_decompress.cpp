@@ -23,9 +23,7 @@ Volume to_output_type(Volume decoded, const ta::TaVolume& volume, const Decompre
 
 void run_decompress(const DecompressArgs& args, const GlobalOptions&) {
   ta::TaVolume volume(args.input);
-  if (args.level < 0 || args.level >= volume.geometry().level_count())
-    throw Error("--level: " + std::to_string(args.level) + " is not in 0.." +
-                std::to_string(volume.geometry().level_count() - 1) + " for " + args.input);
+  volume.check_level(args.level);
   const Extent dims = volume.geometry().level(args.level).dims;
   const Box box = args.box.empty() ? Box::whole(dims) : parse_box(args.box);
   if (args.rank < 0) throw Error("--rank: must be positive, got " + std::to_string(args.rank));

@@ -6,6 +6,7 @@
 #include <memory>
 #include <string>
 
+#include "strata/core/error.hpp"
 #include "strata/core/progress.hpp"
 
 namespace strata::cli {
@@ -28,5 +29,10 @@ void register_eval(CLI::App& app, const GlobalOptions& global);
 void register_labels(CLI::App& app, const GlobalOptions& global);
 void register_demo(CLI::App& app, const GlobalOptions& global);
 void register_render(CLI::App& app, const GlobalOptions& global);
+
+// The message of a library ParameterError in command-line terms: its parameter name replaced
+// by the flag that sets it in the running subcommand (or the app), when there is one
+// (parameter_flags.cpp holds the table); otherwise e.what() unchanged.
+std::string cli_message(const ParameterError& e, const CLI::App& app);
 
 }  // namespace strata::cli

@@ -63,6 +63,9 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     app.exit(e);
     return 2;
+  } catch (const ParameterError& e) {
+    std::fprintf(stderr, "error: %s\n", cli::cli_message(e, app).c_str());
+    return 1;
   } catch (const Error& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
     return 1;

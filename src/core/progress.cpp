@@ -145,12 +145,12 @@ std::unique_ptr<ProgressSink> make_progress_sink(ProgressMode mode) {
   }
 }
 
-ProgressMode parse_progress_mode(std::string_view text) {
-  if (text == "auto") return ProgressMode::automatic;
-  if (text == "bar") return ProgressMode::bar;
-  if (text == "json") return ProgressMode::json;
-  if (text == "none" || text == "off") return ProgressMode::silent;
-  throw Error("--progress: expected auto, bar, json or none, got '" + std::string(text) + "'");
+ProgressMode parse_progress_mode(std::string_view progress_mode) {
+  if (progress_mode == "auto") return ProgressMode::automatic;
+  if (progress_mode == "bar") return ProgressMode::bar;
+  if (progress_mode == "json") return ProgressMode::json;
+  if (progress_mode == "none" || progress_mode == "off") return ProgressMode::silent;
+  throw ParameterError("progress_mode", "expected auto, bar, json or none, got '" + std::string(progress_mode) + "'");
 }
 
 }  // namespace strata

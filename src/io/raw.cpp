@@ -96,12 +96,12 @@ RawLayout resolve_layout(const std::filesystem::path& path, const ReadOptions& o
   if (options.raw_dims) d.dims = options.raw_dims;
   if (options.raw_dtype) d.dtype = options.raw_dtype;
   if (options.raw_spacing) d.spacing = options.raw_spacing;
-  if (!d.dims || !d.dtype)
-    throw FormatError(path.string(), "dims/dtype",
-                      fmt::format("a raw file needs its dims and dtype: pass them as options (e.g. --dims 256,256,128 "
-                                  "--dtype u16) or write a sidecar {}.json like "
-                                  "{{\"dims\":[256,256,128],\"dtype\":\"u16\",\"spacing\":[1,1,1]}}",
-                                  path.filename().string()));
+  if (!d.dims || !d.dtype)  // names the first missing one
+    throw ParameterError(d.dims ? "ReadOptions::raw_dtype" : "ReadOptions::raw_dims",
+                         fmt::format("{}: a raw file needs its dims and dtype (e.g. 256,256,128 and u16): set them "
+                                     "or write a sidecar {}.json like "
+                                     "{{\"dims\":[256,256,128],\"dtype\":\"u16\",\"spacing\":[1,1,1]}}",
+                                     path.string(), path.filename().string()));
   if (d.dims->x <= 0 || d.dims->y <= 0 || d.dims->z <= 0)
     throw FormatError(path.string(), "dims", fmt::format("{} must all be positive", d.dims->to_string()));
   RawLayout layout;

@@ -1,19 +1,14 @@
-// Mixture Graph storage in a .strata container: graph bitstream (paper Table 1), label map,
-// per-level node ids. Layout: docs/format.md, "Codec mixture-graph".
+// Reading a Mixture Graph label file: EncodedLabels validates the metadata, the graph bitstream,
+// the label map and every level's node ids, then serves node ids, labels and label fractions.
+// Layout: docs/format.md, "Codec mixture-graph"; the writer is encode_labels.cpp.
 #include "strata/mixture/encoded_labels.hpp"
 
 #include <algorithm>
-#include <bit>
-#include <chrono>
 #include <cmath>
-#include <cstring>
-#include <limits>
 
-
-#include "strata/core/bitstream.hpp"
+#include "mixture/encoded_labels_format.hpp"
 #include "strata/core/bytes.hpp"
 #include "strata/core/error.hpp"
-#include "strata/io/volume_io.hpp"
 #include "strata/mixture/histogram_mipmap.hpp"
 #include "strata/mixture/palette.hpp"
 #include "strata/store/container.hpp"
@@ -22,21 +17,6 @@
 namespace strata::mixture {
 
 namespace {
-
-constexpr int kCodeBits = 20;
-constexpr std::uint32_t kCodeMax = (1u << kCodeBits) - 1u;
-const double kCodeRoundingVariance = std::ldexp(1.0, -2 * (kCodeBits + 1)) / 3.0;
-constexpr int kFormatVersion = 1;
-
-int ceil_log2(std::uint64_t n) {  // bits for values 0..n-1, at least 1
-  int b = 1;
-  while (b < 64 && (std::uint64_t(1) << b) < n) ++b;
-  return b;
-}
-
-std::string level_section(int level) { return "ids_L" + std::to_string(level); }
-
-nlohmann::json extent_json(const Extent& e) { return nlohmann::json::array({e.x, e.y, e.z}); }
 
 template <class T>
 T field(const nlohmann::json& j, const char* key, const std::string& file, const std::string& where = "") {
@@ -71,234 +51,6 @@ IdsMode parse_ids_mode(std::string_view name) {
   throw Error("ids mode: expected blocks or fixed, got '" + std::string(name) + "'");
 }
 
-// ---------------------------------------------------------------------------------------------
-// Graph bitstream
-
-std::vector<std::byte> write_graph_bitstream(const MixtureGraph& g, bool fractional, Extent resolution) {
-  const std::uint64_t nodes = g.node_count();
-  if (nodes > std::numeric_limits<std::uint32_t>::max()) throw Error("mixture graph: more than 2^32 - 1 nodes");
-  const int bpn = ceil_log2(nodes);
-  const int qb = g.codebook.bits;
-  if (qb < 1 || qb > 16) throw Error("mixture graph: codebook bits must be 1..16");
-  if (g.codebook.value.size() != (std::size_t(1) << qb) || g.codebook.sigma.size() != g.codebook.value.size())
-    throw Error("mixture graph: codebook must have 2^bits values and sigmas");
-  double smax = 0.0;
-  for (double s : g.codebook.sigma) smax = std::max(smax, std::isfinite(s) ? s : 0.0);
-  const float sigma_max = float(smax);
-  BitWriter w;
-  w.put(g.num_sources, 32);                                    // (1)
-  w.put(fractional ? 1 : 0, 1);                                // (2)
-  w.put(std::uint64_t(bpn - 1), 6);                            // (3) bits per node - 1
-  w.put(std::bit_cast<std::uint32_t>(sigma_max), 32);          // (4) IEEE float
-  w.put(std::uint64_t(resolution.x), 32);                      // (5)
-  w.put(std::uint64_t(resolution.y), 32);
-  w.put(std::uint64_t(resolution.z), 32);
-  w.put(std::uint64_t(qb - 1), 4);                             // (6) bitrate - 1
-  w.put(g.codebook.layout == WeightBins::uniform ? 1 : 0, 1);  // (6b) deviation: bin layout
-  w.put(g.nodes.size(), bpn);                                  // (7)
-  for (const InternalNode& n : g.nodes) {                      // (B)
-    w.put(n.a, bpn);
-    w.put(n.b, bpn);
-    w.put(n.bin, qb);
-  }
-  for (std::size_t i = 0; i < g.codebook.value.size(); ++i) {  // (C)
-    const double v = std::clamp(g.codebook.value[i], 0.0, 1.0);
-    w.put(std::min<std::uint64_t>(kCodeMax, std::uint64_t(std::llround(v * double(1u << kCodeBits)))), kCodeBits);
-    const double s = std::isfinite(g.codebook.sigma[i]) ? g.codebook.sigma[i] : 0.0;
-    // Rounded up: a decoded sigma never claims more precision than the encoder measured.
-    const std::uint64_t qs =
-        sigma_max > 0.0f ? std::min<std::uint64_t>(kCodeMax, std::uint64_t(std::ceil(s / double(sigma_max) * kCodeMax))) : 0;
-    w.put(qs, kCodeBits);
-  }
-  return w.take();
-}
-
-MixtureGraph read_graph_bitstream(std::span<const std::byte> bytes, const std::string& file, GraphHeader* out_header) {
-  BitReader r(bytes, file, "mixture_graph ");
-  GraphHeader h;
-  h.num_sources = std::uint32_t(r.get(32, "#sources"));
-  h.fractional = r.get(1, "fractional flag") != 0;
-  h.bits_per_node = int(r.get(6, "bits per node")) + 1;
-  h.sigma_max = std::bit_cast<float>(std::uint32_t(r.get(32, "sigma max")));
-  h.resolution.x = std::int64_t(r.get(32, "resolution"));
-  h.resolution.y = std::int64_t(r.get(32, "resolution"));
-  h.resolution.z = std::int64_t(r.get(32, "resolution"));
-  h.quant_bits = int(r.get(4, "quantization bitrate")) + 1;
-  h.layout = r.get(1, "bin layout") ? WeightBins::uniform : WeightBins::symmetric;
-  if (h.num_sources == 0) throw FormatError(file, "mixture_graph #sources", "must be at least 1");
-  if (h.bits_per_node > 32) throw FormatError(file, "mixture_graph bits per node", "must be at most 32, got " + std::to_string(h.bits_per_node));
-  if (!std::isfinite(h.sigma_max) || h.sigma_max < 0.0f) throw FormatError(file, "mixture_graph sigma max", "must be finite and >= 0");
-  if (h.resolution.x < 1 || h.resolution.y < 1 || h.resolution.z < 1)
-    throw FormatError(file, "mixture_graph resolution", "dimensions must be positive");
-  h.internal_nodes = r.get(h.bits_per_node, "#internal nodes");
-  const std::uint64_t nodes = std::uint64_t(h.num_sources) + h.internal_nodes;
-  if (nodes > (std::uint64_t(1) << h.bits_per_node) || nodes > std::numeric_limits<std::uint32_t>::max())
-    throw FormatError(file, "mixture_graph #internal nodes",
-                      std::to_string(nodes) + " nodes do not fit " + std::to_string(h.bits_per_node) + " bits per node");
-  const std::uint64_t bins = std::uint64_t(1) << h.quant_bits;
-  const std::uint64_t need = r.position() + h.internal_nodes * std::uint64_t(2 * h.bits_per_node + h.quant_bits) +
-                             bins * 2 * kCodeBits;
-  if ((need + 7) / 8 != bytes.size())
-    throw FormatError(file, "mixture_graph size",
-                      "expected " + std::to_string((need + 7) / 8) + " bytes for " + std::to_string(h.internal_nodes) +
-                          " internal nodes, found " + std::to_string(bytes.size()));
-  MixtureGraph g;
-  g.num_sources = h.num_sources;
-  g.nodes.resize(std::size_t(h.internal_nodes));
-  for (std::uint64_t i = 0; i < h.internal_nodes; ++i) {
-    InternalNode& n = g.nodes[std::size_t(i)];
-    n.a = std::uint32_t(r.get(h.bits_per_node, "node a"));
-    n.b = std::uint32_t(r.get(h.bits_per_node, "node b"));
-    n.bin = std::uint32_t(r.get(h.quant_bits, "node bin"));
-    const std::uint64_t id = h.num_sources + i;
-    if (n.a >= id || n.b >= id || n.a == n.b)
-      throw FormatError(file, "mixture_graph node " + std::to_string(id),
-                        "predecessors (" + std::to_string(n.a) + ", " + std::to_string(n.b) +
-                            ") must be distinct earlier nodes");
-  }
-  g.codebook.bits = h.quant_bits;
-  g.codebook.layout = h.layout;
-  g.codebook.value.resize(std::size_t(bins));
-  g.codebook.sigma.resize(std::size_t(bins));
-  g.codebook.uses.assign(std::size_t(bins), 0);
-  for (std::uint64_t i = 0; i < bins; ++i) {
-    const std::uint64_t qv = r.get(kCodeBits, "codebook value");
-    const std::uint64_t qs = r.get(kCodeBits, "codebook sigma");
-    g.codebook.value[std::size_t(i)] = double(qv) / double(1u << kCodeBits);
-    // The stored value is the code rounded to 2^-20: a weight error of up to 2^-21 that even a
-    // bin of exact weights (sigma 0) carries, taken as uniform, variance (2^-21)^2 / 3.
-    const double stored_sigma = double(qs) / double(kCodeMax) * double(h.sigma_max);
-    g.codebook.sigma[std::size_t(i)] = std::sqrt(stored_sigma * stored_sigma + kCodeRoundingVariance);
-  }
-  if (out_header) *out_header = h;
-  return g;
-}
-
-// ---------------------------------------------------------------------------------------------
-// Encoding
-
-namespace {
-
-// Share of level-0 voxels whose original label is 0 (Table 2's "background"); 0 when absent.
-double background_fraction(const MipLevel& level0, const LabelMap& map) {
-  const std::optional<std::uint32_t> zero = map.id_of(0);
-  if (!zero || level0.ids.empty()) return 0.0;
-  const auto n = std::count(level0.ids.begin(), level0.ids.end(), *zero);
-  return double(n) / double(level0.ids.size());
-}
-
-}  // namespace
-
-EncodeReport encode_labels(const Volume& labels, const std::filesystem::path& out, const EncodeOptions& options,
-                           ProgressSink& progress) {
-  using clock = std::chrono::steady_clock;
-  const auto t0 = clock::now();
-  if (options.ids_zstd < 0 || options.ids_zstd > 22)
-    throw Error("ids zstd level: must be 0..22, got " + std::to_string(options.ids_zstd));
-  if (options.bits < 1 || options.bits > 16) throw Error("bits: must be 1..16, got " + std::to_string(options.bits));
-  LabelMap map;
-  HistogramMipmap h = HistogramMipmap::from_labels(labels, &map, progress);
-  const MipmapStats ms = h.stats();
-  const int mip_levels = h.level_count();
-  const double background = background_fraction(h.level(0), map);
-  FactorOptions fo;
-  fo.score = options.strategy;
-  fo.bits = options.bits;
-  fo.bins = options.bins;
-  fo.tau = options.tau;
-  // Consumes the mipmap's id arrays (the largest buffers) instead of copying them; only its
-  // table is needed afterwards.
-  Factorization f = factorize(std::move(h), fo, progress);
-
-  EncodeReport rep;
-  rep.nodes = f.stats.nodes;
-  rep.internal_nodes = f.stats.internal_nodes;
-  rep.sources = f.graph.num_sources;
-  rep.depth = f.stats.depth;
-  rep.distinct_mixtures = ms.distinct_mixtures;
-  rep.input_pairs = ms.input_pairs;
-  rep.mip_levels = mip_levels;
-  rep.mip_voxels = ms.voxels;
-  rep.nnz_per_voxel = ms.nnz_per_voxel;
-  rep.raw_histogram_bytes = ms.nnz_total * 8;
-  rep.background_fraction = background;
-  rep.factor_seconds = f.stats.seconds;
-  rep.level0_voxels = std::uint64_t(labels.dims().voxel_count());
-
-  std::vector<std::byte> graph_bytes = write_graph_bitstream(f.graph, h.fractional(), labels.dims());
-  if (options.measure_error) {
-    // Measured on the graph as stored (20-bit codebook), i.e. what a reader reconstructs.
-    f.graph = read_graph_bitstream(graph_bytes, out.string());
-    const Schedule s = make_schedule(f.graph);
-    const MixtureLookup lut = MixtureLookup::build(f.graph, s);
-    rep.max_l1 = measure_error(h, f, lut).max_l1;
-  }
-
-  store::ContainerWriter writer(out);
-  writer.add_section("mixture_graph", graph_bytes);
-  rep.graph_bytes = graph_bytes.size();
-  ByteWriter lm;
-  lm.put(std::uint32_t(map.size()));
-  for (std::int64_t v : map.values()) lm.put(v);
-  const std::vector<std::byte> label_map_bytes = lm.take();
-  writer.add_section("label_map", label_map_bytes);
-  rep.label_map_bytes = label_map_bytes.size();
-
-  nlohmann::json levels = nlohmann::json::array();
-  {
-    ProgressTask task(progress, "store ids", f.levels.size(), "levels");
-    for (std::size_t l = 0; l < f.levels.size(); ++l) {
-      const MipLevel& lv = f.levels[l];
-      std::vector<std::byte> bytes = options.ids == IdsMode::fixed ? FixedRateIds(lv.ids, lv.dims).serialize()
-                                                                   : BlockPaletteIds(lv.ids, lv.dims).serialize();
-      if (options.ids_zstd > 0) bytes = store::zstd_compress(bytes, options.ids_zstd);
-      writer.add_section(level_section(int(l)), bytes);
-      rep.ids_bytes.push_back(bytes.size());
-      levels.push_back({{"dims", extent_json(lv.dims)}, {"ids_bytes", bytes.size()}});
-      task.advance(1);
-    }
-  }
-
-  const Spacing sp = labels.spacing();
-  nlohmann::json stats{{"nodes", rep.nodes},
-                       {"internal_nodes", rep.internal_nodes},
-                       {"sources", rep.sources},
-                       {"depth", rep.depth},
-                       {"distinct_mixtures", rep.distinct_mixtures},
-                       {"input_pairs", rep.input_pairs},
-                       {"factor_seconds", rep.factor_seconds}};
-  if (rep.max_l1) stats["max_l1_error"] = *rep.max_l1;
-  nlohmann::json meta{{"codec", kMixtureCodecName},
-                      {"mixture_graph_version", kFormatVersion},
-                      {"source",
-                       {{"dims", extent_json(labels.dims())},
-                        {"dtype", std::string(dtype_name(labels.dtype()))},
-                        {"spacing", {sp.x, sp.y, sp.z}}}},
-                      {"levels", levels},
-                      {"ids", std::string(ids_mode_name(options.ids))},
-                      {"ids_compression", options.ids_zstd > 0 ? "zstd" : "none"},
-                      {"bits", options.bits},
-                      {"bins", std::string(weight_bins_name(options.bins))},
-                      {"strategy", std::string(strategy_name(options.strategy))},
-                      {"tau", options.tau},
-                      {"fractional", h.fractional()},
-                      {"stats", stats}};
-  rep.file_bytes = writer.finish(meta);
-  rep.bits_per_voxel = 8.0 * double(rep.file_bytes) / double(std::max<std::uint64_t>(1, rep.level0_voxels));
-  rep.seconds = std::chrono::duration<double>(clock::now() - t0).count();
-  return rep;
-}
-
-EncodeReport encode_labels(io::VolumeSource& labels, const std::filesystem::path& out, const EncodeOptions& options,
-                           ProgressSink& progress) {
-  // The histogram mipmap needs every level-0 id in memory anyway (one u32 per voxel).
-  const Volume v = labels.read_all();
-  return encode_labels(v, out, options, progress);
-}
-
-// ---------------------------------------------------------------------------------------------
-// Reading
-
 EncodedLabels::~EncodedLabels() = default;
 
 EncodedLabels::EncodedLabels(const std::filesystem::path& path)
@@ -312,7 +64,7 @@ EncodedLabels::EncodedLabels(std::unique_ptr<store::ContainerReader> reader)
   if (codec != kMixtureCodecName)
     throw FormatError(file, "metadata codec", "expected \"mixture-graph\" (a label file from `strata labels encode`), got \"" + codec + "\"");
   const int version = field<int>(m, "mixture_graph_version", file);
-  if (version != kFormatVersion)
+  if (version != detail::kFormatVersion)
     throw FormatError(file, "metadata mixture_graph_version", "unsupported version " + std::to_string(version));
   const nlohmann::json& src = m.contains("source") ? m["source"] : nlohmann::json();
   if (!src.is_object()) throw FormatError(file, "metadata source", "missing");
@@ -372,12 +124,12 @@ EncodedLabels::EncodedLabels(std::unique_ptr<store::ContainerReader> reader)
   const std::vector<Extent> expect = mip_level_dims(dims);
   const auto& lv = m.contains("levels") ? m["levels"] : nlohmann::json();
   if (!lv.is_array() || lv.size() != expect.size())
-    throw FormatError(file, "metadata levels", "expected " + std::to_string(expect.size()) + " levels for dims " + extent_json(dims).dump());
+    throw FormatError(file, "metadata levels", "expected " + std::to_string(expect.size()) + " levels for dims " + detail::extent_json(dims).dump());
   for (std::size_t l = 0; l < expect.size(); ++l) {
     const std::string name = "levels[" + std::to_string(l) + "].dims";
     if (meta_extent(lv[l].value("dims", nlohmann::json()), file, name) != expect[l])
-      throw FormatError(file, "metadata " + name, "expected " + extent_json(expect[l]).dump());
-    const std::string sec = level_section(int(l));
+      throw FormatError(file, "metadata " + name, "expected " + detail::extent_json(expect[l]).dump());
+    const std::string sec = detail::level_section(int(l));
     std::span<const std::byte> bytes = reader_->section(sec);
     std::vector<std::byte> inflated;
     if (ids_zstd_) {
@@ -400,7 +152,7 @@ EncodedLabels::EncodedLabels(std::unique_ptr<store::ContainerReader> reader)
     } catch (const Error& e) {
       throw FormatError(file, "section " + sec, e.what());
     }
-    if (got != expect[l]) throw FormatError(file, "section " + sec, "dims do not match the level's " + extent_json(expect[l]).dump());
+    if (got != expect[l]) throw FormatError(file, "section " + sec, "dims do not match the level's " + detail::extent_json(expect[l]).dump());
   }
   level_dims_ = expect;
   // Every stored id must name a node (level 0: a source), so node_at() results can index the
@@ -415,7 +167,7 @@ EncodedLabels::EncodedLabels(std::unique_ptr<store::ContainerReader> reader)
       decode_box(l, box, ids);
       const std::uint32_t hi = *std::max_element(ids.begin(), ids.end());
       if (hi >= limit)
-        throw FormatError(file, "section " + level_section(l),
+        throw FormatError(file, "section " + detail::level_section(l),
                           "node id " + std::to_string(hi) + " is not below " + std::to_string(limit) +
                               (l == 0 ? " (the number of sources)" : " (the number of nodes)"));
     }
@@ -504,5 +256,6 @@ Volume EncodedLabels::label_fraction(int level, std::int64_t label_value) const 
   for (std::size_t i = 0; i < ids.size(); ++i) s[i] = frac[ids[i]];
   return out;
 }
+
 
 }  // namespace strata::mixture

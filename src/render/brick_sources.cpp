@@ -11,9 +11,8 @@
 namespace strata::render {
 
 lod::FrameBricks level_bricks(const ta::TaVolume& volume, int level, int rank, std::uint64_t visible_mask) {
+  volume.check_level(level);
   const ta::OctreeGeometry& g = volume.geometry();
-  if (level < 0 || level >= g.level_count())
-    throw Error("--level: " + std::to_string(level) + " is not in 0.." + std::to_string(g.level_count() - 1));
   const Extent grid = g.level(level).bricks;
   const std::size_t width = std::size_t(g.layout().brick);
   const std::int64_t count = grid.voxel_count();

@@ -13,6 +13,8 @@
 #endif
 #include <type_traits>
 #include <limits>
+
+#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include "render/frame_index.hpp"
@@ -356,12 +358,16 @@ MarchFns detail::march_function(const Block& b, bool preint, bool shade) {
 namespace {
 
 void validate(const RenderOptions& o) {
-  if (!(o.step > 0)) throw Error("render: --step must be positive");
-  if (o.table_size < 2 || o.table_size > 4096) throw Error("render: table size must lie in 2..4096");
-  if (o.tile < 1) throw Error("render: tile size must be positive");
-  if (!(o.termination_alpha > 0 && o.termination_alpha <= 1)) throw Error("render: termination alpha must lie in (0, 1]");
+  if (!(o.step > 0)) throw ParameterError("RenderOptions::step", fmt::format("must be positive, got {}", o.step));
+  if (o.table_size < 2 || o.table_size > 4096)
+    throw ParameterError("RenderOptions::table_size", "must lie in 2..4096, got " + std::to_string(o.table_size));
+  if (o.tile < 1) throw ParameterError("RenderOptions::tile", "must be positive, got " + std::to_string(o.tile));
+  if (!(o.termination_alpha > 0 && o.termination_alpha <= 1))
+    throw ParameterError("RenderOptions::termination_alpha",
+                         fmt::format("must lie in (0, 1], got {}", o.termination_alpha));
   for (float c : o.background)
-    if (!(c >= 0 && c <= 1)) throw Error("render: background components must lie in [0, 1]");
+    if (!(c >= 0 && c <= 1))
+      throw ParameterError("RenderOptions::background", fmt::format("components must lie in [0, 1], got {}", c));
 }
 
 // Tells PreparedVolume which caster's empty-space cells it holds.

@@ -165,8 +165,8 @@ TransferFunction TransferFunction::from_argument(const std::string& preset_or_pa
   for (std::string_view n : kPresetNames)
     if (n == preset_or_path) return preset(n);
   if (std::filesystem::exists(preset_or_path)) return load(preset_or_path);
-  throw Error("--tf: \"" + preset_or_path + "\" is neither a preset (" + joined_preset_names() +
-              ") nor an existing JSON file");
+  throw ParameterError("preset_or_path", "\"" + preset_or_path + "\" is neither a preset (" + joined_preset_names() +
+                                            ") nor an existing JSON file");
 }
 
 nlohmann::json TransferFunction::to_json() const {

@@ -83,8 +83,10 @@ std::uint64_t input_slab_bytes(const OctreeGeometry& geometry, const VolumeInfo&
   const double per_source_byte = 1.0 + double(sizeof(float)) / double(dtype_size(source.dtype));
   const std::uint64_t slice = source.bytes_per_slice();
   if (params.memory_limit < fixed + std::uint64_t(double(slice) * per_source_byte))
-    throw Error("--memory-limit: compressing " + source.dims.to_string() + " with brick " + std::to_string(params.layout.brick) +
-                " needs at least " + std::to_string((fixed + std::uint64_t(double(slice) * per_source_byte)) >> 20) + " MiB");
+    throw ParameterError("CompressParams::memory_limit",
+                         "compressing " + source.dims.to_string() + " with brick " + std::to_string(params.layout.brick) +
+                             " needs at least " +
+                             std::to_string((fixed + std::uint64_t(double(slice) * per_source_byte)) >> 20) + " MiB");
   const auto budget = std::uint64_t(double(params.memory_limit - fixed) / per_source_byte);
   return std::min<std::uint64_t>(io::kDefaultSlabBytes, std::max(budget, slice));
 }
@@ -94,8 +96,8 @@ CompressReport compress_volume(io::VolumeSource& source, const std::filesystem::
   const auto start = Clock::now();
   const VolumeInfo& info = source.info();
   if (params.codec.rank < 1 || params.codec.rank > params.layout.brick)
-    throw Error("--rank: must be between 1 and the brick width " + std::to_string(params.layout.brick) + ", got " +
-                std::to_string(params.codec.rank));
+    throw ParameterError("CodecParams::rank", "must be between 1 and the brick width " + std::to_string(params.layout.brick) +
+                                                  ", got " + std::to_string(params.codec.rank));
   const OctreeGeometry geometry(info.dims, params.layout);
   CompressReport report;
   report.input_voxels = std::uint64_t(info.dims.voxel_count());

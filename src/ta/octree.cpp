@@ -8,9 +8,11 @@
 namespace strata::ta {
 
 void BrickLayout::validate() const {
-  if (overlap < 0 || brick < 2 || core() < 1 || brick > 256)
-    throw Error("brick layout: need brick width 2..256 with 2*overlap < width, got --brick " + std::to_string(brick) +
-                " --overlap " + std::to_string(overlap));
+  if (brick < 2 || brick > 256)
+    throw ParameterError("BrickLayout::brick", "must be in 2..256, got " + std::to_string(brick));
+  if (overlap < 0 || core() < 1)
+    throw ParameterError("BrickLayout::overlap", "must be >= 0 and leave a core in the brick width " + std::to_string(brick) +
+                                                     " (2*overlap < width), got " + std::to_string(overlap));
 }
 
 Extent half_extent(const Extent& d) { return {(d.x + 1) / 2, (d.y + 1) / 2, (d.z + 1) / 2}; }

@@ -89,13 +89,18 @@ void TaVolume::decode_brick(const store::BrickKey& key, int k, std::span<float> 
                    std::clamp(k, 1, rank_), reconstructor, scratch, out, container_->path().string());
 }
 
-Volume TaVolume::decode_box(int level, const Box& box, int k) const {
+void TaVolume::check_level(int level) const {
   if (level < 0 || level >= geometry_->level_count())
-    throw Error("--level: " + std::to_string(level) + " is not in 0.." + std::to_string(geometry_->level_count() - 1));
+    throw ParameterError("level", std::to_string(level) + " is not in 0.." + std::to_string(geometry_->level_count() - 1) +
+                                      " for " + container_->path().string());
+}
+
+Volume TaVolume::decode_box(int level, const Box& box, int k) const {
+  check_level(level);
   const LevelGeometry& g = geometry_->level(level);
   if (box.empty() || !Box::whole(g.dims).contains(box))
-    throw Error("--box: " + box.to_string() + " is not inside level " + std::to_string(level) + " (" +
-                g.dims.to_string() + ")");
+    throw ParameterError("box", box.to_string() + " is not inside level " + std::to_string(level) + " (" +
+                                    g.dims.to_string() + ")");
   const double scale = std::ldexp(1.0, level);
   Volume out(box.size(), DType::f32, {source_.spacing.x * scale, source_.spacing.y * scale, source_.spacing.z * scale});
   const BrickLayout& l = geometry_->layout();

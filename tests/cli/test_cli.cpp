@@ -47,6 +47,22 @@ TEST(Cli, RuntimeErrorsExitWithOneAndNameTheFile) {
   EXPECT_NE(out.find("prisms"), std::string::npos) << out;  // lists the valid kinds
 }
 
+// A raw file without a sidecar: the library names ReadOptions::raw_dims / raw_dtype, the CLI
+// the flags that set them.
+TEST(Cli, RawInputWithoutDimsOrDtypeNamesTheFlag) {
+  TempDir dir;
+  const std::string raw = "'" + (dir / "lonely.raw").string() + "'";
+  std::ofstream(dir / "lonely.raw") << std::string(64, 'x');
+  std::string out;
+  EXPECT_EQ(run_command(strata_cmd("info " + raw), &out), 1);
+  EXPECT_NE(out.find("error: --dims: "), std::string::npos) << out;
+  EXPECT_NE(out.find("lonely.raw.json"), std::string::npos) << out;
+  EXPECT_EQ(run_command(strata_cmd("info " + raw + " --dims 4,4,4"), &out), 1);
+  EXPECT_NE(out.find("error: --dtype: "), std::string::npos) << out;
+  EXPECT_EQ(out.find("ReadOptions"), std::string::npos) << out;
+  EXPECT_EQ(run_command(strata_cmd("info " + raw + " --dims 4,4,4 --dtype u8"), &out), 0) << out;
+}
+
 TEST(Cli, GenerateConvertCompareRoundTrip) {
   TempDir dir;
   const std::string nrrd = (dir / "p.nrrd").string(), nii = (dir / "p.nii.gz").string(),

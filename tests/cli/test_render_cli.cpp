@@ -169,6 +169,9 @@ TEST_F(RenderCli, BadArgumentsAreReported) {
                         &out),
             1);
   EXPECT_NE(out.find("--size"), std::string::npos) << out;
+  EXPECT_EQ(run_command(strata_cmd("render " + file.string() + " -o " + (dir / "x.png").string() + " --tf nosuch"), &out),
+            1);
+  EXPECT_NE(out.find("error: --tf: \"nosuch\" is neither a preset"), std::string::npos) << out;
   EXPECT_EQ(run_command(strata_cmd("render " + (dir / "missing.strata").string() + " -o x.png"), &out), 2);
   EXPECT_FALSE(fs::exists(dir / "x.png"));
 }

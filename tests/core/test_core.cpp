@@ -5,9 +5,11 @@
 #include "strata/core/dtype.hpp"
 #include "strata/core/extent.hpp"
 #include "strata/core/metrics.hpp"
+#include "strata/core/progress.hpp"
 #include "strata/core/statistics.hpp"
 #include "strata/core/threads.hpp"
 #include "strata/core/volume.hpp"
+#include "support/test_support.hpp"
 
 using namespace strata;
 
@@ -142,4 +144,12 @@ TEST(Statistics, DistinctOverflowKeepsTheHistogram) {
     total += b;
   }
   EXPECT_NEAR(double(total), double(n), 1e-3 * double(n));
+}
+
+TEST(Progress, ModeNamesParseAndOthersNameTheParameter) {
+  EXPECT_EQ(parse_progress_mode("json"), ProgressMode::json);
+  EXPECT_EQ(parse_progress_mode("none"), ProgressMode::silent);
+  EXPECT_EQ(test::error_of([] { parse_progress_mode("loud"); }),
+            "progress_mode: expected auto, bar, json or none, got 'loud'");
+  EXPECT_EQ(test::parameter_of([] { parse_progress_mode("loud"); }), "progress_mode");
 }

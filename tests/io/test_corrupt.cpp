@@ -134,10 +134,10 @@ TEST(Corrupt, DetachedHeaderProblems) {
 TEST(Corrupt, RawWithoutSidecarOrOptions) {
   test::TempDir dir;
   write_text(dir / "lonely.raw", std::string(64, 'x'));
-  expect_open_error(dir / "lonely.raw", {"dims", "dtype", "sidecar"});
+  expect_open_error(dir / "lonely.raw", {"ReadOptions::raw_dims: ", "dims", "dtype", "sidecar"});
   ReadOptions only_dims;
   only_dims.raw_dims = Extent{4, 4, 4};
-  expect_open_error(dir / "lonely.raw", {"dims/dtype"}, only_dims);
+  expect_open_error(dir / "lonely.raw", {"ReadOptions::raw_dtype: ", "sidecar"}, only_dims);
 }
 
 TEST(Corrupt, BadSidecars) {

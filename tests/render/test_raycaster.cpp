@@ -292,6 +292,16 @@ TEST(RayCaster, EmptyFrameAndMissingCellsShowTheBackground) {
   EXPECT_TRUE(j.contains("render") && j.contains("load"));
 }
 
+TEST(RayCaster, RejectsBadOptionsNamingTheField) {
+  RenderOptions o;
+  o.step = 0;
+  EXPECT_EQ(test::error_of([&] { RayCaster(TransferFunction::preset("grayscale"), o); }),
+            "RenderOptions::step: must be positive, got 0");
+  o = {};
+  o.background[1] = 2;
+  EXPECT_EQ(test::parameter_of([&] { RayCaster(TransferFunction::preset("grayscale"), o); }), "RenderOptions::background");
+}
+
 TEST(RayCaster, RejectsBricksOutsideTheGeometry) {
   const ta::OctreeGeometry g({32, 32, 32}, {16, 2});
   lod::FrameBricks f;

@@ -68,13 +68,27 @@ int run_command(const std::string& command, std::string* output) {
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
-std::string error_of(const std::function<void()>& f) {
+namespace {
+
+// `describe` applied to the E that `f` throws; "" when it throws none.
+template <class E, class Describe>
+std::string described_error(const std::function<void()>& f, Describe describe) {
   try {
     f();
-  } catch (const Error& e) {
-    return e.what();
+  } catch (const E& e) {
+    return describe(e);
   }
   return "";
+}
+
+}  // namespace
+
+std::string error_of(const std::function<void()>& f) {
+  return described_error<Error>(f, [](const Error& e) { return std::string(e.what()); });
+}
+
+std::string parameter_of(const std::function<void()>& f) {
+  return described_error<ParameterError>(f, [](const ParameterError& e) { return e.parameter(); });
 }
 
 }  // namespace strata::test

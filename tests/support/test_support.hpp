@@ -31,6 +31,9 @@ void flip_byte(const std::filesystem::path& path, std::uint64_t offset);
 
 // The message of the strata::Error that `f` throws; "" when it throws none.
 std::string error_of(const std::function<void()>& f);
+// The parameter() of the strata::ParameterError that `f` throws; "" when it throws none
+// (any other exception propagates).
+std::string parameter_of(const std::function<void()>& f);
 
 // Runs a shell command, capturing stdout+stderr; returns the exit code.
 int run_command(const std::string& command, std::string* output = nullptr);

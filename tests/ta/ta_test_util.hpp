@@ -123,6 +123,7 @@ inline std::vector<char> file_bytes(const std::filesystem::path& p) {
 }
 
 using strata::test::error_of;
+using strata::test::parameter_of;
 
 inline bool contains(const std::string& haystack, const std::string& needle) {
   return haystack.find(needle) != std::string::npos;

@@ -4,6 +4,7 @@
 
 #include "strata/core/error.hpp"
 #include "strata/ta/octree.hpp"
+#include "support/test_support.hpp"
 
 using namespace strata;
 using namespace strata::ta;
@@ -94,10 +95,16 @@ TEST(TaOctree, ValidationRejectsBadLayoutsAndEmptyVolumes) {
   try {
     BrickLayout{8, 4}.validate();
     FAIL() << "no error";
-  } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("--brick 8"), std::string::npos) << e.what();
-    EXPECT_NE(std::string(e.what()).find("--overlap 4"), std::string::npos) << e.what();
+  } catch (const ParameterError& e) {
+    EXPECT_EQ(e.parameter(), "BrickLayout::overlap");
+    EXPECT_EQ(std::string(e.what()).rfind("BrickLayout::overlap: ", 0), 0u) << e.what();
+    EXPECT_NE(e.problem().find("width 8"), std::string::npos) << e.what();
+    EXPECT_NE(e.problem().find("got 4"), std::string::npos) << e.what();
   }
+  EXPECT_EQ(test::error_of([] { BrickLayout{257, 2}.validate(); }), "BrickLayout::brick: must be in 2..256, got 257");
+  EXPECT_EQ(test::parameter_of([] { BrickLayout{1, 0}.validate(); }), "BrickLayout::brick");
+  EXPECT_EQ(test::parameter_of([] { BrickLayout{32, -1}.validate(); }), "BrickLayout::overlap");
+  EXPECT_EQ(test::parameter_of([] { BrickLayout{4, 2}.validate(); }), "BrickLayout::overlap");
   EXPECT_THROW(OctreeGeometry({0, 10, 10}, {32, 2}), Error);
   EXPECT_THROW(OctreeGeometry({10, 10, -1}, {32, 2}), Error);
   // Two negative extents make a positive voxel count: each extent must be checked on its own.

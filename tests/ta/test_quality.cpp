@@ -186,12 +186,16 @@ TEST_F(TaQuality, DecodeBoxRejectsBadLevelsAndBoxes) {
   const TaVolume t(path("u16,b8log+"));
   EXPECT_EQ(t.geometry().level_count(), 3);
   const std::string level = error_of([&] { t.decode_box(3, {{0, 0, 0}, {1, 1, 1}}, 16); });
-  EXPECT_TRUE(contains(level, "--level")) << level;
-  EXPECT_TRUE(contains(error_of([&] { t.decode_box(-1, {{0, 0, 0}, {1, 1, 1}}, 16); }), "--level"));
+  EXPECT_TRUE(contains(level, "level: 3 is not in 0..2")) << level;
+  EXPECT_EQ(parameter_of([&] { t.decode_box(3, {{0, 0, 0}, {1, 1, 1}}, 16); }), "level");
+  EXPECT_EQ(parameter_of([&] { t.decode_box(-1, {{0, 0, 0}, {1, 1, 1}}, 16); }), "level");
+  EXPECT_EQ(parameter_of([&] { t.check_level(3); }), "level");
+  EXPECT_NO_THROW(t.check_level(2));
   const std::string box = error_of([&] { t.decode_box(1, {{0, 0, 0}, {33, 1, 1}}, 16); });
-  EXPECT_TRUE(contains(box, "--box")) << box;
-  EXPECT_TRUE(contains(error_of([&] { t.decode_box(0, {{-1, 0, 0}, {1, 1, 1}}, 16); }), "--box"));
-  EXPECT_TRUE(contains(error_of([&] { t.decode_box(0, {{5, 0, 0}, {5, 1, 1}}, 16); }), "--box"));  // empty
+  EXPECT_TRUE(contains(box, "box: ")) << box;
+  EXPECT_EQ(parameter_of([&] { t.decode_box(1, {{0, 0, 0}, {33, 1, 1}}, 16); }), "box");
+  EXPECT_EQ(parameter_of([&] { t.decode_box(0, {{-1, 0, 0}, {1, 1, 1}}, 16); }), "box");
+  EXPECT_EQ(parameter_of([&] { t.decode_box(0, {{5, 0, 0}, {5, 1, 1}}, 16); }), "box");  // empty
 }
 
 TEST_F(TaQuality, IndexMinMaxAndHistogramCoverEveryDecodedVoxel) {

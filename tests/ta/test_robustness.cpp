@@ -193,15 +193,20 @@ TEST(TaCompressErrors, RankOutsideOneToBrickWidthIsRejectedBeforeWriting) {
   test::TempDir dir;
   const Volume v = prisms({20, 20, 20}, 1);
   for (int rank : {0, -3, 17}) {
-    const std::string msg = error_of([&] { compress(v, dir / "r.strata", params(16, 2, rank, "u16,b8log+")); });
-    EXPECT_TRUE(contains(msg, "--rank")) << msg;
+    const auto run = [&] { compress(v, dir / "r.strata", params(16, 2, rank, "u16,b8log+")); };
+    EXPECT_EQ(parameter_of(run), "CodecParams::rank");
+    const std::string msg = error_of(run);
+    EXPECT_TRUE(contains(msg, "CodecParams::rank: ")) << msg;
     EXPECT_TRUE(contains(msg, "16")) << msg;
+    EXPECT_FALSE(contains(msg, "--")) << msg;
   }
   EXPECT_EQ(error_of([&] { compress(v, dir / "ok.strata", params(16, 2, 16, "u16,b8log+", 1)); }), "");
   EXPECT_FALSE(fs::exists(dir / "r.strata"));
   EXPECT_FALSE(fs::exists(dir / "r.strata.tmp"));
-  const std::string layout = error_of([&] { compress(v, dir / "l.strata", params(16, 8, 4, "u16,b8log+")); });
-  EXPECT_TRUE(contains(layout, "--overlap 8")) << layout;
+  const auto bad_layout = [&] { compress(v, dir / "l.strata", params(16, 8, 4, "u16,b8log+")); };
+  EXPECT_EQ(parameter_of(bad_layout), "BrickLayout::overlap");
+  const std::string layout = error_of(bad_layout);
+  EXPECT_TRUE(contains(layout, "got 8")) << layout;
   EXPECT_FALSE(fs::exists(dir / "l.strata.tmp"));
 }
 

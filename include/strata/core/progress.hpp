@@ -21,7 +21,8 @@ enum class ProgressMode { automatic, bar, json, silent };
 
 // automatic: a bar when stderr is a terminal, otherwise silent.
 std::unique_ptr<ProgressSink> make_progress_sink(ProgressMode mode);
-ProgressMode parse_progress_mode(std::string_view text);  // "auto" | "bar" | "json" | "none"
+// "auto" | "bar" | "json" | "none"; throws ParameterError("progress_mode") otherwise.
+ProgressMode parse_progress_mode(std::string_view progress_mode);
 
 // A sink that discards everything; the default argument of long operations.
 ProgressSink& silent_progress();

@@ -17,7 +17,8 @@ FileFormat detect_format(const std::filesystem::path& path);
 const char* format_name(FileFormat f);
 
 // Options for reading. Raw files need dims and dtype, from these fields or from a JSON
-// sidecar `<file>.json` ({"dims":[x,y,z],"dtype":"u16","spacing":[sx,sy,sz]}).
+// sidecar `<file>.json` ({"dims":[x,y,z],"dtype":"u16","spacing":[sx,sy,sz]}); without
+// either, opening throws ParameterError("ReadOptions::raw_dims" or "ReadOptions::raw_dtype").
 struct ReadOptions {
   std::optional<Extent> raw_dims;
   std::optional<DType> raw_dtype;

@@ -23,6 +23,7 @@
 #include "strata/core/progress.hpp"
 #include "strata/core/volume.hpp"
 #include "strata/mixture/factorize.hpp"
+#include "strata/mixture/graph_bitstream.hpp"
 #include "strata/mixture/id_storage.hpp"
 #include "strata/mixture/label_map.hpp"
 #include "strata/mixture/lookup.hpp"
@@ -78,22 +79,6 @@ EncodeReport encode_labels(const Volume& labels, const std::filesystem::path& ou
                            ProgressSink& progress = silent_progress());
 EncodeReport encode_labels(io::VolumeSource& labels, const std::filesystem::path& out,
                            const EncodeOptions& options = {}, ProgressSink& progress = silent_progress());
-
-// The graph bitstream (paper Table 1 header, node triples, 20-bit codebook). `name` names the
-// input in errors. Decoded codebook values are the 20-bit quantised ones (uses are not stored).
-struct GraphHeader {
-  std::uint32_t num_sources = 0;
-  bool fractional = false;
-  int bits_per_node = 1;
-  float sigma_max = 0.0f;
-  Extent resolution;
-  int quant_bits = 9;
-  WeightBins layout = WeightBins::symmetric;
-  std::uint64_t internal_nodes = 0;
-};
-std::vector<std::byte> write_graph_bitstream(const MixtureGraph& g, bool fractional, Extent resolution);
-MixtureGraph read_graph_bitstream(std::span<const std::byte> bytes, const std::string& name,
-                                  GraphHeader* header = nullptr);
 
 class EncodedLabels final : public NodeGrid {
  public:

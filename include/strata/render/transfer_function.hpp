@@ -70,14 +70,15 @@ class TransferFunction {
   // Throws Error when points are empty, unsorted or out of [0, 1], or range is not lo < hi.
   explicit TransferFunction(std::vector<TfPoint> points, std::optional<std::pair<double, double>> range = {});
 
-  // `source` names the document in error messages (a file path, "--tf", ...); errors are
+  // `source` names the document in error messages (usually a file path); errors are
   // FormatError(source, field, problem) with fields like "points[2].rgba".
   static TransferFunction from_json(const nlohmann::json& j, const std::string& source);
   static TransferFunction load(const std::filesystem::path& path);  // JSON file; errors name the file
   // "grayscale", "ct" (alias "bone"), "mri", "fire"; throws Error listing the names otherwise.
   static TransferFunction preset(std::string_view name);
   static std::span<const std::string_view> preset_names();
-  // A preset name or a JSON file path (the CLI's --tf argument).
+  // A preset name or a JSON file path (the CLI's --tf argument); throws
+  // ParameterError("preset_or_path") when it is neither.
   static TransferFunction from_argument(const std::string& preset_or_path);
   nlohmann::json to_json() const;
 

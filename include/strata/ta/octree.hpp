@@ -16,7 +16,9 @@ struct BrickLayout {
   int overlap = 2;  // voxels shared with each neighbour, per side
 
   int core() const { return brick - 2 * overlap; }
-  void validate() const;  // throws Error unless 1 <= core and 0 <= overlap
+  // Throws ParameterError("BrickLayout::brick") unless 2 <= brick <= 256, and
+  // ParameterError("BrickLayout::overlap") unless 0 <= overlap and 1 <= core.
+  void validate() const;
 };
 
 struct LevelGeometry {

@@ -30,12 +30,15 @@ class TaVolume {
   // The index entry of `key`; throws FormatError ("brick (level l, x,y,z) is missing") when
   // the index lacks it.
   const store::BrickEntry& entry(const store::BrickKey& key) const;
+  // Throws ParameterError("level"), naming the file, unless 0 <= level < geometry().level_count().
+  void check_level(int level) const;
 
   // B^3 floats of one brick (overlap included) reconstructed at rank K (clamped to 1..rank()).
   void decode_brick(const store::BrickKey& key, int k, std::span<float> out, BrickReconstructor& reconstructor,
                     DecodeScratch& scratch) const;
   // The voxels of `box` (in `level` coordinates, inside the level) as an f32 volume, decoded
   // brick by brick in parallel at rank K. Spacing is the source spacing scaled by 2^level.
+  // Throws ParameterError("level") or ParameterError("box") when they are out of range.
   Volume decode_box(int level, const Box& box, int k) const;
 
  private:

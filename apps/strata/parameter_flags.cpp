@@ -1,0 +1,52 @@
+// Library errors name the parameter (ParameterError::parameter); the command line names the
+// flag that sets it. This file is the one place that maps one to the other.
+#include <string_view>
+
+#include "commands.hpp"
+
+namespace strata::cli {
+
+namespace {
+
+struct ParameterFlag {
+  std::string_view parameter, flag;
+};
+
+// Library parameter name -> the flag that sets it, in whichever subcommand has that flag.
+constexpr ParameterFlag kParameterFlags[] = {
+    {"BrickLayout::brick", "--brick"},
+    {"BrickLayout::overlap", "--overlap"},
+    {"CodecParams::rank", "--rank"},
+    {"CompressParams::memory_limit", "--memory-limit"},
+    {"ReadOptions::raw_dims", "--dims"},
+    {"ReadOptions::raw_dtype", "--dtype"},
+    {"RenderOptions::step", "--step"},
+    {"RenderOptions::background", "--background"},
+    {"box", "--box"},
+    {"level", "--level"},
+    {"preset_or_path", "--tf"},
+    {"progress_mode", "--progress"},
+};
+
+// Whether `flag` is an option of the app or of one of the subcommands this run parsed.
+bool running_command_has(const CLI::App& app, const std::string& flag) {
+  for (const CLI::App* cmd = &app; cmd != nullptr;) {
+    if (cmd->get_option_no_throw(flag) != nullptr) return true;
+    const std::vector<CLI::App*> parsed = cmd->get_subcommands();
+    cmd = parsed.empty() ? nullptr : parsed.front();
+  }
+  return false;
+}
+
+}  // namespace
+
+std::string cli_message(const ParameterError& e, const CLI::App& app) {
+  for (const ParameterFlag& p : kParameterFlags) {
+    if (p.parameter != e.parameter()) continue;
+    const std::string flag(p.flag);
+    if (running_command_has(app, flag)) return flag + ": " + e.problem();
+  }
+  return e.what();
+}
+
+}  // namespace strata::cli
