@@ -7,7 +7,11 @@
 namespace {
 
 void run(benchmark::State& state, strata::gen::Kind kind, strata::Extent dims, std::int64_t count, std::int64_t slab) {
-  strata::gen::Params p{kind, dims, 1, count};
+  strata::gen::Params p;
+  p.kind = kind;
+  p.dims = dims;
+  p.seed = 1;
+  p.count = count;
   for (auto _ : state) {
     auto g = strata::gen::make_generator(p);
     for (std::int64_t z0 = 0; z0 < dims.z; z0 += slab) benchmark::DoNotOptimize(g->slab(z0, std::min(dims.z, z0 + slab)));

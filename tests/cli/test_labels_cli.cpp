@@ -90,8 +90,9 @@ TEST(LabelsCli, ExitCodes) {
   // Float input is not a label volume.
   const std::string f = (dir / "f.nrrd").string();
   ASSERT_EQ(run_command(strata_cmd("generate marschner-lobb --size 8 -o " + f), &out), 0) << out;
-  if (run_command(strata_cmd("info --json " + f), &out) == 0 && nlohmann::json::parse(out)["dtype"] == "f32")
-    EXPECT_EQ(run_command(strata_cmd("labels encode " + f + " -o " + enc), &out), 1) << out;
+  ASSERT_EQ(run_command(strata_cmd("info --json " + f), &out), 0) << out;
+  ASSERT_EQ(nlohmann::json::parse(out)["dtype"], "f32");
+  EXPECT_EQ(run_command(strata_cmd("labels encode " + f + " -o " + enc), &out), 1) << out;
 
   ASSERT_EQ(run_command(strata_cmd("labels encode " + in + " -o " + enc), &out), 0) << out;
   EXPECT_EQ(run_command(strata_cmd("labels decode " + enc + " --level 9 -o x.nrrd"), &out), 1);
