@@ -76,11 +76,11 @@ BENCHMARK(BM_CompressPrisms128)->ArgName("threads")->Arg(1)->Arg(2)->Unit(benchm
 void BM_EncodeBrick(benchmark::State& state) {
   const Volume& volume = prisms128();
   const ta::CodecParams codec = default_params().codec;
-  std::vector<Tensor3> bricks;
+  std::vector<tensor::Tensor3> bricks;
   for (std::int64_t z = 0; z + 32 <= 128; z += 48)
     for (std::int64_t y = 0; y + 32 <= 128; y += 48)
       for (std::int64_t x = 0; x + 32 <= 128; x += 48) {
-        Tensor3 t(32, 32, 32);
+        tensor::Tensor3 t(32, 32, 32);
         const auto samples = volume.samples<std::uint16_t>();
         for (std::int64_t k = 0; k < 32; ++k)
           for (std::int64_t j = 0; j < 32; ++j)

@@ -18,7 +18,7 @@
 #include "strata/tensor/ttm.hpp"
 #include "strata/tensor/tucker.hpp"
 
-namespace strata {
+namespace strata::tensor {
 namespace {
 
 constexpr int kBrick = 32;  // B, paper §3
@@ -345,7 +345,7 @@ void BM_SchemeQuality(benchmark::State& state) {
 BENCHMARK(BM_SchemeQuality)->ArgName("scheme")->DenseRange(0, 7)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
-}  // namespace strata
+}  // namespace strata::tensor
 
 // Per-core numbers: Eigen would otherwise spread the decomposition's small GEMMs over OpenMP
 // threads when called outside a parallel region (the compressor calls it inside one, where

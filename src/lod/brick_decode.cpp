@@ -25,10 +25,10 @@ BrickModel fetch_model(const ta::TaVolume& volume, const store::BrickEntry& entr
                             brick_context(volume, entry.key));
 }
 
-void reconstruct_at_rank(const quant::DequantizedModel& model, int k, BrickReconstructor& reconstructor,
+void reconstruct_at_rank(const quant::DequantizedModel& model, int k, tensor::BrickReconstructor& reconstructor,
                          std::span<float> out) {
   const int kk = std::max(k, 1);
-  const Ranks3 leading{std::min(kk, model.ranks[0]), std::min(kk, model.ranks[1]), std::min(kk, model.ranks[2])};
+  const tensor::Ranks3 leading{std::min(kk, model.ranks[0]), std::min(kk, model.ranks[1]), std::min(kk, model.ranks[2])};
   reconstructor.reconstruct(model.view(), leading, out);
 }
 

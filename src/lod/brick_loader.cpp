@@ -59,7 +59,7 @@ bool BrickLoader::pop(LoadRequest& out) {
   return true;
 }
 
-void BrickLoader::run(const LoadRequest& request, BrickReconstructor& reconstructor, ta::DecodeScratch& scratch) {
+void BrickLoader::run(const LoadRequest& request, tensor::BrickReconstructor& reconstructor, ta::DecodeScratch& scratch) {
   std::exception_ptr error;
   try {
     job_(request, reconstructor, scratch);
@@ -75,7 +75,7 @@ void BrickLoader::run(const LoadRequest& request, BrickReconstructor& reconstruc
 }
 
 void BrickLoader::work(std::stop_token stop) {
-  BrickReconstructor reconstructor;
+  tensor::BrickReconstructor reconstructor;
   ta::DecodeScratch scratch;
   while (true) {
     LoadRequest request;
@@ -88,7 +88,7 @@ void BrickLoader::work(std::stop_token stop) {
   }
 }
 
-void BrickLoader::drain(BrickReconstructor& reconstructor, ta::DecodeScratch& scratch) {
+void BrickLoader::drain(tensor::BrickReconstructor& reconstructor, ta::DecodeScratch& scratch) {
   while (true) {
     LoadRequest request;
     {

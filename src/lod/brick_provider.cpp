@@ -21,7 +21,7 @@ BrickProvider::BrickProvider(const ta::TaVolume& volume, const ProviderOptions& 
     : volume_(volume),
       cache_(options.cache_bytes),
       models_(options.model_cache_bytes),
-      loader_([this](const LoadRequest& r, BrickReconstructor& rec, ta::DecodeScratch& s) { decode(r.key, rec, s); },
+      loader_([this](const LoadRequest& r, tensor::BrickReconstructor& rec, ta::DecodeScratch& s) { decode(r.key, rec, s); },
               options.loader_threads) {}
 
 int BrickProvider::clamp_rank(int k) const { return std::clamp(k, 1, volume_.rank()); }
@@ -34,7 +34,7 @@ ResidentBrick BrickProvider::constant_brick(const store::BrickEntry& entry, int 
   return r;
 }
 
-BrickSamples BrickProvider::decode(const RankedKey& key, BrickReconstructor& reconstructor, ta::DecodeScratch& scratch) {
+BrickSamples BrickProvider::decode(const RankedKey& key, tensor::BrickReconstructor& reconstructor, ta::DecodeScratch& scratch) {
   const auto start = std::chrono::steady_clock::now();
   BrickModel model = models_.find(key.brick);
   if (!model) {

@@ -58,22 +58,22 @@ ParamList stored_params(const QuantScheme& s) {
   return list;
 }
 
-std::size_t core_count(const Ranks3& r) { return std::size_t(r[0]) * std::size_t(r[1]) * std::size_t(r[2]); }
-std::size_t factor_count(const Dims3& d, const Ranks3& r) {
+std::size_t core_count(const tensor::Ranks3& r) { return std::size_t(r[0]) * std::size_t(r[1]) * std::size_t(r[2]); }
+std::size_t factor_count(const tensor::Dims3& d, const tensor::Ranks3& r) {
   return std::size_t(d[0] * r[0] + d[1] * r[1] + d[2] * r[2]);
 }
 // Index of U^(mode)'s first code in the concatenated factor stream.
-std::size_t factor_offset(const Dims3& d, const Ranks3& r, int mode) {
+std::size_t factor_offset(const tensor::Dims3& d, const tensor::Ranks3& r, int mode) {
   std::size_t offset = 0;
   for (int n = 0; n < mode - 1; ++n) offset += std::size_t(d[std::size_t(n)] * r[std::size_t(n)]);
   return offset;
 }
 
-void check_shape(const Dims3& d, const Ranks3& r, const char* context) {
+void check_shape(const tensor::Dims3& d, const tensor::Ranks3& r, const char* context) {
   for (std::size_t n = 0; n < 3; ++n) {
     if (d[n] < 1 || d[n] > kMaxExtent || r[n] < 1 || r[n] > d[n]) {
       throw Error(std::string(context) + ": extents must be in [1, 65535] and ranks in [1, extent], got " +
-                  to_string(d) + " with ranks " + std::to_string(r[0]) + "," + std::to_string(r[1]) + "," +
+                  tensor::to_string(d) + " with ranks " + std::to_string(r[0]) + "," + std::to_string(r[1]) + "," +
                   std::to_string(r[2]));
     }
   }
@@ -95,7 +95,7 @@ void encode_floats(std::span<const float> values, std::uint32_t* codes) {
   for (std::size_t i = 0; i < values.size(); ++i) codes[i] = std::bit_cast<std::uint32_t>(values[i]);
 }
 
-void quantize_factors(const Tucker& model, const QuantScheme& s, QuantizedBrick& q) {
+void quantize_factors(const tensor::Tucker& model, const QuantScheme& s, QuantizedBrick& q) {
   q.factor_codes.resize(factor_count(q.dims, q.ranks));
   for (const auto& u : model.factors) check_finite({u.data(), std::size_t(u.size())}, "factor matrices");
   std::uint32_t* codes = q.factor_codes.data();
@@ -129,7 +129,7 @@ void core_range(std::span<const float> coded, float& lo, float& hi, float& max_a
   max_abs = std::max(std::abs(lo), std::abs(hi));
 }
 
-void quantize_core(const Tucker& model, const QuantScheme& s, QuantizedBrick& q) {
+void quantize_core(const tensor::Tucker& model, const QuantScheme& s, QuantizedBrick& q) {
   const std::span<const float> values = model.core.values();
   check_finite(values, "core");
   q.core_codes.resize(values.size());
@@ -173,7 +173,7 @@ void check_params(const QuantScheme& s, const BrickParams& p) {
 
 }  // namespace
 
-QuantizedBrick quantize(const Tucker& model, const QuantScheme& scheme) {
+QuantizedBrick quantize(const tensor::Tucker& model, const QuantScheme& scheme) {
   check_scheme(scheme);
   QuantizedBrick q;
   q.dims = model.dims();
@@ -187,7 +187,7 @@ QuantizedBrick quantize(const Tucker& model, const QuantScheme& scheme) {
   return q;
 }
 
-std::size_t serialized_size(const QuantScheme& scheme, const Dims3& dims, const Ranks3& ranks) {
+std::size_t serialized_size(const QuantScheme& scheme, const tensor::Dims3& dims, const tensor::Ranks3& ranks) {
   check_scheme(scheme);
   return kHeaderBytes + stored_params(scheme).size() * sizeof(float) + packed_size(core_count(ranks), scheme.core_bits) +
          packed_size(factor_count(dims, ranks), scheme.factor_bits);
@@ -223,7 +223,7 @@ BrickView::BrickView(std::span<const std::byte> bytes, const QuantScheme& scheme
   const std::size_t expected = serialized_size(scheme, dims_, ranks_);
   if (bytes.size() != expected) {
     throw FormatError("quantized brick", "size",
-                      "scheme " + scheme.to_string() + " with extents " + to_string(dims_) + " needs " +
+                      "scheme " + scheme.to_string() + " with extents " + tensor::to_string(dims_) + " needs " +
                           std::to_string(expected) + " bytes, got " + std::to_string(bytes.size()));
   }
   for (auto field : stored_params(scheme)) params_.*field = header.get<float>("parameters");
@@ -232,7 +232,7 @@ BrickView::BrickView(std::span<const std::byte> bytes, const QuantScheme& scheme
   factors_ = core_ + packed_size(core_count(ranks_), scheme.core_bits);
 }
 
-void BrickView::dequantize_core(const Ranks3& k, std::span<float> out) const {
+void BrickView::dequantize_core(const tensor::Ranks3& k, std::span<float> out) const {
   for (std::size_t n = 0; n < 3; ++n) {
     if (k[n] < 1 || k[n] > ranks_[n]) throw Error("dequantize_core: leading ranks must be in [1, R]");
   }
@@ -254,7 +254,7 @@ void BrickView::dequantize_core(const Ranks3& k, std::span<float> out) const {
 }
 
 void BrickView::dequantize_factor(int mode, int leading, std::span<float> out) const {
-  check_mode(mode, "dequantize_factor");
+  tensor::check_mode(mode, "dequantize_factor");
   const std::size_t n = std::size_t(mode - 1);
   if (leading < 1 || leading > ranks_[n]) throw Error("dequantize_factor: leading rank must be in [1, R]");
   const std::size_t count = std::size_t(dims_[n]) * std::size_t(leading);  // the first columns are contiguous
@@ -270,8 +270,8 @@ void BrickView::dequantize_factor(int mode, int leading, std::span<float> out) c
   detail::decode_codes(job);
 }
 
-TuckerView DequantizedModel::view() const {
-  TuckerView v;
+tensor::TuckerView DequantizedModel::view() const {
+  tensor::TuckerView v;
   v.core = core.data();
   v.ranks = ranks;
   for (std::size_t n = 0; n < 3; ++n) v.factors[n] = factors[n].data();
@@ -279,7 +279,7 @@ TuckerView DequantizedModel::view() const {
   return v;
 }
 
-void dequantize(const BrickView& brick, const Ranks3& leading, DequantizedModel& out) {
+void dequantize(const BrickView& brick, const tensor::Ranks3& leading, DequantizedModel& out) {
   out.dims = brick.dims();
   out.ranks = leading;
   out.core.resize(core_count(leading));
@@ -291,11 +291,11 @@ void dequantize(const BrickView& brick, const Ranks3& leading, DequantizedModel&
   }
 }
 
-Tucker dequantize(const QuantizedBrick& brick, const QuantScheme& scheme) {
+tensor::Tucker dequantize(const QuantizedBrick& brick, const QuantScheme& scheme) {
   const std::vector<std::byte> bytes = serialize(brick, scheme);
   const BrickView view(bytes, scheme);
-  Tucker t;
-  t.core = Tensor3(brick.ranks[0], brick.ranks[1], brick.ranks[2]);
+  tensor::Tucker t;
+  t.core = tensor::Tensor3(brick.ranks[0], brick.ranks[1], brick.ranks[2]);
   view.dequantize_core(brick.ranks, t.core.values());
   for (int mode = 1; mode <= 3; ++mode) {
     const std::size_t n = std::size_t(mode - 1);

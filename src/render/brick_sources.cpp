@@ -21,7 +21,7 @@ lod::FrameBricks level_bricks(const ta::TaVolume& volume, int level, int rank, s
   std::exception_ptr failure;
 #pragma omp parallel num_threads(thread_count())
   {
-    BrickReconstructor reconstructor;
+    tensor::BrickReconstructor reconstructor;
     ta::DecodeScratch scratch;
 #pragma omp for schedule(dynamic)
     for (std::int64_t i = 0; i < count; ++i) {

@@ -22,7 +22,7 @@ decltype(auto) in_context(const std::string& context, F&& f) {
   }
 }
 
-bool is_constant(const Tensor3& samples) {
+bool is_constant(const tensor::Tensor3& samples) {
   auto v = samples.values();
   return std::all_of(v.begin(), v.end(), [first = v[0]](float x) { return x == first; });
 }
@@ -80,7 +80,7 @@ std::span<const std::byte> plain_payload(store::PayloadKind kind, std::span<cons
   return scratch.unshuffled;
 }
 
-EncodedBrick encode_brick(const Tensor3& samples, const CodecParams& params) {
+EncodedBrick encode_brick(const tensor::Tensor3& samples, const CodecParams& params) {
   EncodedBrick out;
   if (is_constant(samples)) {
     // Empty background is common (44% of ch2better's bricks): one value, no tensor.
@@ -89,10 +89,10 @@ EncodedBrick encode_brick(const Tensor3& samples, const CodecParams& params) {
     return out;
   }
   const int r = params.rank;
-  const Ranks3 ranks{r, r, r};
-  Tucker model = params.hooi_iterations > 0
-                     ? hooi(samples, ranks, HooiOptions{params.hooi_tolerance, params.hooi_iterations, true})
-                     : hosvd(samples, ranks);
+  const tensor::Ranks3 ranks{r, r, r};
+  tensor::Tucker model = params.hooi_iterations > 0
+                     ? tensor::hooi(samples, ranks, tensor::HooiOptions{params.hooi_tolerance, params.hooi_iterations, true})
+                     : tensor::hosvd(samples, ranks);
   out.kind = store::PayloadKind::tucker;
   out.payload = quant::serialize(quant::quantize(model, params.quant), params.quant);
   const PayloadParts parts = payload_parts(out.payload, params.quant, "encode");
@@ -119,8 +119,8 @@ PayloadParts payload_parts(std::span<const std::byte> payload, const quant::Quan
   return in_context(context, [&] {
     const quant::BrickView view(payload, scheme);
     PayloadParts p;
-    const Ranks3& r = view.ranks();
-    const Dims3& d = view.dims();
+    const tensor::Ranks3& r = view.ranks();
+    const tensor::Dims3& d = view.dims();
     p.core_bytes = quant::packed_size(std::size_t(r[0]) * r[1] * r[2], scheme.core_bits);
     p.factor_bytes = quant::packed_size(std::size_t(d[0] * r[0] + d[1] * r[1] + d[2] * r[2]), scheme.factor_bits);
     p.header_bytes = payload.size() - p.core_bytes - p.factor_bytes;
@@ -134,16 +134,16 @@ void dequantize_brick(store::PayloadKind kind, std::span<const std::byte> payloa
   in_context(context, [&] {
     // plain_payload's own errors already name `context`; they get it once more here.
     const quant::BrickView view(plain_payload(kind, payload, scheme, scratch, context), scheme);
-    const Dims3& d = view.dims();
+    const tensor::Dims3& d = view.dims();
     if (d[0] != brick_width || d[1] != brick_width || d[2] != brick_width)
-      throw Error("brick extents " + to_string(d) + " differ from the brick width " + std::to_string(brick_width));
-    const Ranks3& r = view.ranks();
+      throw Error("brick extents " + tensor::to_string(d) + " differ from the brick width " + std::to_string(brick_width));
+    const tensor::Ranks3& r = view.ranks();
     quant::dequantize(view, {std::min(rank, r[0]), std::min(rank, r[1]), std::min(rank, r[2])}, model);
   });
 }
 
 void decode_brick(store::PayloadKind kind, std::span<const std::byte> payload, float constant_value,
-                  const quant::QuantScheme& scheme, int brick_width, int rank, BrickReconstructor& reconstructor,
+                  const quant::QuantScheme& scheme, int brick_width, int rank, tensor::BrickReconstructor& reconstructor,
                   DecodeScratch& scratch, std::span<float> out, const std::string& context) {
   const std::size_t voxels = std::size_t(brick_width) * brick_width * brick_width;
   if (out.size() != voxels) throw Error(context + ": decode buffer holds " + std::to_string(out.size()) + " floats, brick needs " + std::to_string(voxels));

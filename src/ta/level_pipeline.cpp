@@ -82,7 +82,7 @@ void LevelPipeline::drop_unneeded_slices(std::int64_t next_row) {
   }
 }
 
-void LevelPipeline::gather_samples(std::int64_t bx, std::int64_t by, std::int64_t bz, Tensor3& out) const {
+void LevelPipeline::gather_samples(std::int64_t bx, std::int64_t by, std::int64_t bz, tensor::Tensor3& out) const {
   const Box box = geometry_.brick_sample_box(level_, bx, by, bz);
   const Extent& d = dims_.dims;
   const std::int64_t b = geometry_.layout().brick;
@@ -183,9 +183,9 @@ void LevelPipeline::encode_row(std::int64_t row) {
 
 #pragma omp parallel num_threads(thread_count())
   {
-    Tensor3 samples(l.brick, l.brick, l.brick);
+    tensor::Tensor3 samples(l.brick, l.brick, l.brick);
     std::vector<float> decoded(std::size_t(samples.size()));
-    BrickReconstructor reconstructor;
+    tensor::BrickReconstructor reconstructor;
     DecodeScratch scratch;
 #pragma omp for schedule(dynamic)
     for (std::int64_t i = 0; i < bricks_in_row; ++i) {

@@ -35,7 +35,7 @@ class LevelPipeline {
  private:
   bool row_ready(std::int64_t row) const;
   void encode_row(std::int64_t row);
-  void gather_samples(std::int64_t bx, std::int64_t by, std::int64_t bz, Tensor3& out) const;
+  void gather_samples(std::int64_t bx, std::int64_t by, std::int64_t bz, tensor::Tensor3& out) const;
   // Feeds decoded slices [z0, z1) (in decoded_row_) to `next` as 2x2x2 averages.
   void emit_decoded_slices(std::int64_t z0, std::int64_t z1);
   // With an even core width every 2x2x2 block lies in one brick core: the brick writes its share

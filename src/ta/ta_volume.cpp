@@ -82,7 +82,7 @@ const store::BrickEntry& TaVolume::entry(const store::BrickKey& key) const {
   return *e;
 }
 
-void TaVolume::decode_brick(const store::BrickKey& key, int k, std::span<float> out, BrickReconstructor& reconstructor,
+void TaVolume::decode_brick(const store::BrickKey& key, int k, std::span<float> out, tensor::BrickReconstructor& reconstructor,
                             DecodeScratch& scratch) const {
   const store::BrickEntry& e = entry(key);
   ta::decode_brick(e.kind, container_->payload(e), e.min, scheme_, geometry_->layout().brick,
@@ -112,7 +112,7 @@ Volume TaVolume::decode_box(int level, const Box& box, int k) const {
   std::exception_ptr failure;
 #pragma omp parallel num_threads(thread_count())
   {
-    BrickReconstructor reconstructor;
+    tensor::BrickReconstructor reconstructor;
     DecodeScratch scratch;
     std::vector<float> brick(std::size_t(l.brick) * l.brick * l.brick);
 #pragma omp for schedule(dynamic)

@@ -23,7 +23,7 @@
 // instantiated, so a push/pop around the helpers does not reach it.
 #pragma GCC diagnostic ignored "-Wpsabi"
 
-namespace strata::detail {
+namespace strata::tensor::detail {
 namespace {
 
 template <int VW>
@@ -836,4 +836,4 @@ const DecomposeKernels& decompose_kernels(Isa isa) {
 
 const DecomposeKernels& decompose_kernels() { return decompose_kernels(active_isa()); }
 
-}  // namespace strata::detail
+}  // namespace strata::tensor::detail

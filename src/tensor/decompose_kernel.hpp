@@ -9,7 +9,7 @@
 
 #include "strata/core/isa.hpp"
 
-namespace strata::detail {
+namespace strata::tensor::detail {
 
 // Out(M x N) = L(M x K) · R(K x N) for `batch` independent products.
 // L and Out are column-major with leading dimensions ld_l and ld_out; R is read one scalar at a
@@ -70,4 +70,4 @@ const DecomposeKernels& decompose_kernels();
 // The widest variants at or below `isa`; throws Error if this CPU does not support `isa`.
 const DecomposeKernels& decompose_kernels(Isa isa);
 
-}  // namespace strata::detail
+}  // namespace strata::tensor::detail

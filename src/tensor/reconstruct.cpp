@@ -7,7 +7,7 @@
 #include "strata/core/isa.hpp"
 #include "tensor/reconstruct_kernel.hpp"
 
-namespace strata {
+namespace strata::tensor {
 
 TuckerView view_of(const Tucker& model) {
   TuckerView v;
@@ -132,4 +132,4 @@ Tensor3 BrickReconstructor::reconstruct(const Tucker& model, const Ranks3& leadi
   return out;
 }
 
-}  // namespace strata
+}  // namespace strata::tensor

@@ -7,7 +7,7 @@
 #include "reconstruct_kernel.hpp"
 #include "strata/core/isa.hpp"
 
-namespace strata::detail {
+namespace strata::tensor::detail {
 namespace {
 
 template <int VW>
@@ -96,4 +96,4 @@ STRATA_TARGET_AVX512 void reconstruct_avx512(const ReconstructArgs& a) {
       [](const GemmArgs& g) STRATA_TARGET_AVX512 { gemm<16, 4, 6>(g); });
 }
 
-}  // namespace strata::detail
+}  // namespace strata::tensor::detail

@@ -3,7 +3,7 @@
 // src/tensor: reconstruct_kernel.cpp instantiates it once per instruction set.
 #include <cstdint>
 
-namespace strata::detail {
+namespace strata::tensor::detail {
 
 // Out(M x N) = L(M x K) · R(K x N).
 // L and Out are column-major with leading dimensions ld_l and ld_out (contiguous rows within a
@@ -54,4 +54,4 @@ void reconstruct_generic(const ReconstructArgs& a);
 void reconstruct_avx2(const ReconstructArgs& a);
 void reconstruct_avx512(const ReconstructArgs& a);
 
-}  // namespace strata::detail
+}  // namespace strata::tensor::detail

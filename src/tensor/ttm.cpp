@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <string>
 
-namespace strata {
+namespace strata::tensor {
 
 std::string to_string(const Dims3& d) {
   return std::to_string(d[0]) + "x" + std::to_string(d[1]) + "x" + std::to_string(d[2]);
@@ -136,4 +136,4 @@ STRATA_TTM_INSTANTIATE(float)
 STRATA_TTM_INSTANTIATE(double)
 #undef STRATA_TTM_INSTANTIATE
 
-}  // namespace strata
+}  // namespace strata::tensor

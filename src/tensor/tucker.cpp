@@ -11,7 +11,7 @@
 #include "strata/tensor/ttm.hpp"
 #include "tensor/decompose_kernel.hpp"
 
-namespace strata {
+namespace strata::tensor {
 
 void check_ranks(const Dims3& dims, const Ranks3& ranks, const char* context) {
   for (std::size_t n = 0; n < 3; ++n) {
@@ -374,4 +374,4 @@ Tensor3 reconstruct_voxelwise(const Tucker& model) {
   return out;
 }
 
-}  // namespace strata
+}  // namespace strata::tensor

@@ -54,7 +54,7 @@ LoadRequest request(int level, int x, double depth) { return {{{std::uint8_t(lev
 
 TEST(LodBrickLoader, RunsCoarseFirstThenNearestAndDropsStaleRequests) {
   GatedJob job;
-  BrickLoader loader([&job](const LoadRequest& r, BrickReconstructor&, ta::DecodeScratch&) { job(r); }, 1);
+  BrickLoader loader([&job](const LoadRequest& r, tensor::BrickReconstructor&, ta::DecodeScratch&) { job(r); }, 1);
   loader.submit({{{{0, 99, 0, 0}, 0}, 0}});  // rank 0 = the gate
   job.wait_until_gated();
   loader.submit({request(0, 50, 1.0), request(0, 51, 2.0)});  // a frame the user has left
@@ -72,7 +72,7 @@ TEST(LodBrickLoader, RunsCoarseFirstThenNearestAndDropsStaleRequests) {
 }
 
 TEST(LodBrickLoader, FailuresReachTheCaller) {
-  BrickLoader loader([](const LoadRequest& r, BrickReconstructor&, ta::DecodeScratch&) {
+  BrickLoader loader([](const LoadRequest& r, tensor::BrickReconstructor&, ta::DecodeScratch&) {
     if (r.key.brick.x == 3) throw Error("corrupt brick 3");
   }, 2);
   loader.submit({request(0, 1, 1), request(0, 3, 1), request(0, 4, 1)});
@@ -82,11 +82,11 @@ TEST(LodBrickLoader, FailuresReachTheCaller) {
 
 TEST(LodBrickLoader, DrainRunsRequestsOnTheCallingThread) {
   std::atomic<int> done{0};
-  BrickLoader loader([&done](const LoadRequest&, BrickReconstructor&, ta::DecodeScratch&) { ++done; }, 1);
+  BrickLoader loader([&done](const LoadRequest&, tensor::BrickReconstructor&, ta::DecodeScratch&) { ++done; }, 1);
   std::vector<LoadRequest> many;
   for (int i = 0; i < 200; ++i) many.push_back(request(0, i, i));
   loader.submit(many);
-  BrickReconstructor reconstructor;
+  tensor::BrickReconstructor reconstructor;
   ta::DecodeScratch scratch;
   loader.drain(reconstructor, scratch);
   loader.wait_idle();

@@ -18,7 +18,7 @@ using KeyTuple = std::tuple<int, int, int, int>;
 KeyTuple tuple_of(const store::BrickKey& k) { return {k.level, k.x, k.y, k.z}; }
 
 std::vector<float> reference(const ta::TaVolume& t, const store::BrickKey& key, int k) {
-  BrickReconstructor r;
+  tensor::BrickReconstructor r;
   ta::DecodeScratch s;
   std::vector<float> out(16 * 16 * 16);
   t.decode_brick(key, k, out, r, s);

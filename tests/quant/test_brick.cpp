@@ -16,10 +16,10 @@ const char* const kSchemes[] = {"f32",        "u16,b8log+", "u16,b8log", "u8,b8l
                                 "u16,b12log+", "u16,b8mu+",  "u8,b12mu1000", "u16,b16log", "f32,b8lin+"};
 
 // A scan-like brick (positive, smooth, some texture) and its rank-R HOOI model.
-Tucker brick_model(int b, int r, unsigned seed) {
+tensor::Tucker brick_model(int b, int r, unsigned seed) {
   std::mt19937 rng(seed);
   std::normal_distribution<float> noise(0.0f, 2.0f);
-  Tensor3 a(b, b, b);
+  tensor::Tensor3 a(b, b, b);
   for (int k = 0; k < b; ++k)
     for (int j = 0; j < b; ++j)
       for (int i = 0; i < b; ++i) {
@@ -27,7 +27,7 @@ Tucker brick_model(int b, int r, unsigned seed) {
         a(i, j, k) = float(900.0 + 600.0 * std::exp(-r2 / (0.1 * b * b)) + 80.0 * std::sin(0.5 * i - 0.3 * j + 0.2 * k)) +
                      noise(rng);
       }
-  return hooi(a, {r, r, r});
+  return tensor::hooi(a, {r, r, r});
 }
 
 double max_abs(std::span<const float> v) {
@@ -47,7 +47,7 @@ TEST(QuantizedBrick, SerializedSizeFollowsPaperSection42) {
 }
 
 TEST(QuantizedBrick, SerializationRoundTripsForEveryScheme) {
-  const Tucker model = brick_model(16, 8, 1);
+  const tensor::Tucker model = brick_model(16, 8, 1);
   for (const char* text : kSchemes) {
     SCOPED_TRACE(text);
     const QuantScheme s = QuantScheme::parse(text);
@@ -59,15 +59,15 @@ TEST(QuantizedBrick, SerializationRoundTripsForEveryScheme) {
 }
 
 TEST(QuantizedBrick, FloatSchemeIsLossless) {
-  const Tucker model = brick_model(16, 8, 2);
+  const tensor::Tucker model = brick_model(16, 8, 2);
   const QuantScheme s = QuantScheme::parse("f32");
-  const Tucker back = dequantize(quantize(model, s), s);
+  const tensor::Tucker back = dequantize(quantize(model, s), s);
   EXPECT_EQ(back.core, model.core);
   for (std::size_t n = 0; n < 3; ++n) EXPECT_EQ(back.factors[n], model.factors[n]);
 }
 
 TEST(QuantizedBrick, HotCornerIsExactInPlusSchemes) {
-  const Tucker model = brick_model(16, 8, 3);
+  const tensor::Tucker model = brick_model(16, 8, 3);
   for (const char* text : {"u16,b8log+", "u16,b12log+", "u16,b8mu+", "u8,b8lin+"}) {
     const QuantScheme s = QuantScheme::parse(text);
     const QuantizedBrick q = quantize(model, s);
@@ -81,12 +81,12 @@ TEST(QuantizedBrick, HotCornerIsExactInPlusSchemes) {
 }
 
 TEST(QuantizedBrick, FactorErrorIsWithinHalfAStep) {
-  const Tucker model = brick_model(16, 8, 4);
+  const tensor::Tucker model = brick_model(16, 8, 4);
   for (const char* text : {"u8,b8log", "u16,b8log"}) {
     const QuantScheme s = QuantScheme::parse(text);
     const QuantizedBrick q = quantize(model, s);
     const LinearQuantizer lin(q.params.factor_lo, q.params.factor_hi, s.factor_bits);
-    const Tucker back = dequantize(q, s);
+    const tensor::Tucker back = dequantize(q, s);
     const double slack = 4 * 0x1p-23 * std::max(std::abs(q.params.factor_lo), std::abs(q.params.factor_hi));
     for (std::size_t n = 0; n < 3; ++n) {
       EXPECT_LE((back.factors[n] - model.factors[n]).cwiseAbs().maxCoeff(), lin.max_error() + slack) << text;
@@ -95,13 +95,13 @@ TEST(QuantizedBrick, FactorErrorIsWithinHalfAStep) {
 }
 
 TEST(QuantizedBrick, CoreErrorIsWithinEachCodingsBound) {
-  const Tucker model = brick_model(16, 8, 5);
+  const tensor::Tucker model = brick_model(16, 8, 5);
   const auto core = model.core.values();
   for (const char* text : {"u16,b8log+", "u16,b8log", "u16,b12log+", "u16,b16log", "u16,b8mu+", "u16,b16lin"}) {
     SCOPED_TRACE(text);
     const QuantScheme s = QuantScheme::parse(text);
     const QuantizedBrick q = quantize(model, s);
-    const Tucker back = dequantize(q, s);
+    const tensor::Tucker back = dequantize(q, s);
     const auto& p = q.params;
     for (std::size_t i = s.hot_corner_float ? 1 : 0; i < core.size(); ++i) {
       const double x = core[i], err = std::abs(double(back.core.data()[i]) - x);
@@ -128,10 +128,10 @@ TEST(QuantizedBrick, CoreErrorIsWithinEachCodingsBound) {
 // Orthonormal factors make the core error the reconstruction error (‖Ã - Ã'‖ = ‖B - B'‖), so the
 // hot corner's own resolution matters: taking it out of the log range must not hurt.
 TEST(QuantizedBrick, HotCornerVariantIsAtLeastAsAccurate) {
-  const Tucker model = brick_model(16, 8, 6);
+  const tensor::Tucker model = brick_model(16, 8, 6);
   auto core_error = [&](const char* text) {
     const QuantScheme s = QuantScheme::parse(text);
-    const Tucker back = dequantize(quantize(model, s), s);
+    const tensor::Tucker back = dequantize(quantize(model, s), s);
     double sum = 0;
     for (std::int64_t i = 0; i < model.core.size(); ++i) {
       const double d = double(back.core.data()[i]) - double(model.core.data()[i]);
@@ -145,14 +145,14 @@ TEST(QuantizedBrick, HotCornerVariantIsAtLeastAsAccurate) {
 }
 
 TEST(BrickView, LeadingRanksEqualTruncatedFullDequantization) {
-  const Tucker model = brick_model(16, 8, 7);
+  const tensor::Tucker model = brick_model(16, 8, 7);
   for (const char* text : {"u16,b8log+", "u16,b12log+", "u8,b8lin", "f32"}) {
     SCOPED_TRACE(text);
     const QuantScheme s = QuantScheme::parse(text);
     const QuantizedBrick q = quantize(model, s);
     const std::vector<std::byte> bytes = serialize(q, s);
-    const Tucker full = dequantize(q, s);
-    const Tucker expected = truncate(full, {5, 3, 7});
+    const tensor::Tucker full = dequantize(q, s);
+    const tensor::Tucker expected = truncate(full, {5, 3, 7});
     DequantizedModel out;
     dequantize(BrickView(bytes, s), {5, 3, 7}, out);
     EXPECT_TRUE(std::equal(out.core.begin(), out.core.end(), expected.core.values().begin()));
@@ -163,24 +163,24 @@ TEST(BrickView, LeadingRanksEqualTruncatedFullDequantization) {
 }
 
 TEST(BrickView, DecodesIntoBrickReconstructor) {
-  const Tucker model = brick_model(32, 16, 8);
+  const tensor::Tucker model = brick_model(32, 16, 8);
   const QuantScheme s = QuantScheme::parse("u16,b8log+");
   const QuantizedBrick q = quantize(model, s);
   const std::vector<std::byte> bytes = serialize(q, s);
   DequantizedModel decoded;
   dequantize(BrickView(bytes, s), {16, 16, 16}, decoded);
-  BrickReconstructor rec;
-  Tensor3 out(32, 32, 32);
+  tensor::BrickReconstructor rec;
+  tensor::Tensor3 out(32, 32, 32);
   rec.reconstruct(decoded.view(), out.values());
-  const Tucker full = dequantize(q, s);
-  const Tensor3 expected = reconstruct(full.core, full.factors);
+  const tensor::Tucker full = dequantize(q, s);
+  const tensor::Tensor3 expected = reconstruct(full.core, full.factors);
   double worst = 0;
   for (std::int64_t i = 0; i < out.size(); ++i) worst = std::max(worst, double(std::abs(out.data()[i] - expected.data()[i])));
   EXPECT_LT(worst, 1e-5 * full.core.norm());  // float rounding of two evaluation orders
 }
 
 TEST(BrickView, RejectsWrongSizesHeadersAndSchemes) {
-  const Tucker model = brick_model(8, 4, 9);
+  const tensor::Tucker model = brick_model(8, 4, 9);
   const QuantScheme s = QuantScheme::parse("u16,b8log+");
   std::vector<std::byte> bytes = serialize(quantize(model, s), s);
   EXPECT_NO_THROW(BrickView(bytes, s));
@@ -204,13 +204,13 @@ TEST(BrickView, RejectsWrongSizesHeadersAndSchemes) {
 }
 
 TEST(QuantizedBrick, RejectsNonFiniteCoefficients) {
-  Tucker model = brick_model(8, 4, 10);
+  tensor::Tucker model = brick_model(8, 4, 10);
   model.core(1, 0, 0) = std::numeric_limits<float>::infinity();
   EXPECT_THROW(quantize(model, QuantScheme{}), Error);
 }
 
 TEST(QuantizedBrick, RankOneCoreWithHotCornerHasNothingElseToCode) {
-  Tucker model = brick_model(8, 1, 11);
+  tensor::Tucker model = brick_model(8, 1, 11);
   const QuantScheme s = QuantScheme::parse("u16,b8log+");
   const QuantizedBrick q = quantize(model, s);
   EXPECT_EQ(q.params.core_max_abs, 0.0f);

@@ -20,15 +20,15 @@ const char* const kSchemes[] = {"f32",        "u16,b8log+",   "u16,b8log", "u8,b
                                 "u16,b12log+", "u16,b8mu+",    "u8,b12mu1000", "u16,b16log", "f32,b8lin+",
                                 "u16,b12lin"};
 
-Tucker signed_brick_model(int b, int r, unsigned seed) {
+tensor::Tucker signed_brick_model(int b, int r, unsigned seed) {
   std::mt19937 rng(seed);
   std::normal_distribution<float> noise(0.0f, 1.0f);
-  Tensor3 a(b, b, b);
+  tensor::Tensor3 a(b, b, b);
   for (int k = 0; k < b; ++k)
     for (int j = 0; j < b; ++j)
       for (int i = 0; i < b; ++i)
         a(i, j, k) = 50.0f * std::sin(0.4f * float(i) - 0.25f * float(j) + 0.3f * float(k)) + noise(rng);
-  return hooi(a, {r, r, r});
+  return tensor::hooi(a, {r, r, r});
 }
 
 struct Decoded {
@@ -36,7 +36,7 @@ struct Decoded {
   std::vector<std::vector<float>> factors;
 };
 
-Decoded decode_under(Isa isa, const BrickView& view, const Ranks3& leading) {
+Decoded decode_under(Isa isa, const BrickView& view, const tensor::Ranks3& leading) {
   const ScopedIsaLimit limit(isa);
   Decoded d;
   d.core.resize(std::size_t(leading[0]) * std::size_t(leading[1]) * std::size_t(leading[2]));
@@ -71,12 +71,12 @@ class QuantDecodePerIsa : public test::IsaTest {};
 TEST_P(QuantDecodePerIsa, AgreesWithTheGenericDecodeToRounding) {
   // The full ranks merge rows into one long run; leading ranks below them decode row by row
   // with vector tails (R = 13 is no multiple of any vector width).
-  const Tucker model = signed_brick_model(24, 13, 11);
+  const tensor::Tucker model = signed_brick_model(24, 13, 11);
   for (const char* text : kSchemes) {
     const QuantScheme scheme = QuantScheme::parse(text);
     const std::vector<std::byte> bytes = serialize(quantize(model, scheme), scheme);
     const BrickView view(bytes, scheme);
-    for (const Ranks3& leading : {Ranks3{13, 13, 13}, Ranks3{13, 13, 5}, Ranks3{7, 3, 11}, Ranks3{1, 1, 1}}) {
+    for (const tensor::Ranks3& leading : {tensor::Ranks3{13, 13, 13}, tensor::Ranks3{13, 13, 5}, tensor::Ranks3{7, 3, 11}, tensor::Ranks3{1, 1, 1}}) {
       SCOPED_TRACE(std::string(text) + " K=" + std::to_string(leading[0]) + "," + std::to_string(leading[1]) + "," +
                    std::to_string(leading[2]));
       const Decoded wide = decode_under(isa(), view, leading), generic = decode_under(Isa::generic, view, leading);

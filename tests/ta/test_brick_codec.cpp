@@ -15,10 +15,10 @@ using namespace strata::ta::testing;
 namespace {
 
 // A smooth field plus noise: full rank, dominated by a few components.
-Tensor3 smooth_brick(int b, unsigned seed) {
+tensor::Tensor3 smooth_brick(int b, unsigned seed) {
   std::mt19937 rng(seed);
   std::normal_distribution<float> noise(0.0f, 0.05f);
-  Tensor3 t(b, b, b);
+  tensor::Tensor3 t(b, b, b);
   for (int k = 0; k < b; ++k)
     for (int j = 0; j < b; ++j)
       for (int i = 0; i < b; ++i) t(i, j, k) = 3.0f + std::sin(0.4f * i) * std::cos(0.3f * j) + 0.1f * k + noise(rng);
@@ -35,7 +35,7 @@ CodecParams codec(int rank, const std::string& quant, int zstd = 0) {
 }
 
 std::vector<float> decode(const EncodedBrick& e, const CodecParams& p, int b, int k) {
-  BrickReconstructor r;
+  tensor::BrickReconstructor r;
   DecodeScratch s;
   std::vector<float> out(std::size_t(b) * b * b);
   decode_brick(e.kind, e.payload, e.constant_value, p.quant, b, k, r, s, out, "test");
@@ -45,7 +45,7 @@ std::vector<float> decode(const EncodedBrick& e, const CodecParams& p, int b, in
 }  // namespace
 
 TEST(TaBrickCodec, ConstantBrickHasNoPayloadAndDecodesToItsValue) {
-  Tensor3 t(8, 8, 8);
+  tensor::Tensor3 t(8, 8, 8);
   for (float& v : t.values()) v = -2.5f;
   const CodecParams p = codec(4, "u16,b8log+");
   const EncodedBrick e = encode_brick(t, p);
@@ -81,7 +81,7 @@ TEST(TaBrickCodec, PayloadPartsFollowThePaperStorageFormula) {
 }
 
 TEST(TaBrickCodec, FullRankFloatIsExactAndLowerRanksDegradeMonotonically) {
-  const Tensor3 t = smooth_brick(8, 2);
+  const tensor::Tensor3 t = smooth_brick(8, 2);
   const CodecParams p = codec(8, "f32");
   const EncodedBrick e = encode_brick(t, p);
   auto err = [&](int k) {
@@ -100,7 +100,7 @@ TEST(TaBrickCodec, FullRankFloatIsExactAndLowerRanksDegradeMonotonically) {
 TEST(TaBrickCodec, DecodeErrorsNameTheContext) {
   const CodecParams p = codec(4, "u16,b8log+");
   const EncodedBrick e = encode_brick(smooth_brick(8, 3), p);
-  BrickReconstructor r;
+  tensor::BrickReconstructor r;
   DecodeScratch s;
   std::vector<float> out(512), small(100), wide(10 * 10 * 10);
   auto msg = [&](store::PayloadKind kind, std::span<const std::byte> payload, int width, std::span<float> o) {
@@ -126,7 +126,7 @@ TEST(TaBrickCodec, DecodeErrorsNameTheContext) {
 }
 
 TEST(TaBrickCodec, ZstdStageIsLosslessAndItsPartsAddUp) {
-  const Tensor3 t = smooth_brick(16, 4);
+  const tensor::Tensor3 t = smooth_brick(16, 4);
   const CodecParams plain_params = codec(8, "u16,b8log+", 0), zstd_params = codec(8, "u16,b8log+", 3);
   const EncodedBrick plain = encode_brick(t, plain_params), packed = encode_brick(t, zstd_params);
   ASSERT_EQ(plain.kind, store::PayloadKind::tucker);
@@ -144,7 +144,7 @@ TEST(TaBrickCodec, ZstdStageIsLosslessAndItsPartsAddUp) {
   for (std::size_t at : {std::size_t(0), std::size_t(5), packed.payload.size() / 2, packed.payload.size() - 1}) {
     std::vector<std::byte> bad = packed.payload;
     bad[at] ^= std::byte{0xff};
-    BrickReconstructor r;
+    tensor::BrickReconstructor r;
     DecodeScratch s2;
     std::vector<float> out(16 * 16 * 16);
     const std::string msg = error_of([&] {

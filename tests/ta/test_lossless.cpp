@@ -81,7 +81,7 @@ TEST_F(TaLossless, EveryStoredBrickHoldsItsClampedSampleBox) {
   // The overlap region is stored too (the renderer interpolates across it): each brick's B^3
   // samples must be the input at its sample box with indices clamped to the volume.
   const OctreeGeometry& g = volume_->geometry();
-  BrickReconstructor reconstructor;
+  tensor::BrickReconstructor reconstructor;
   DecodeScratch scratch;
   std::vector<float> brick(16 * 16 * 16);
   const Extent d = input_->dims();

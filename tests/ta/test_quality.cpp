@@ -166,7 +166,7 @@ TEST_F(TaQuality, BoxesAcrossBrickSeamsEqualTheSameVoxelsOfAFullDecode) {
 TEST_F(TaQuality, OneBrickDecodedAloneEqualsTheSameRegionOfAFullDecode) {
   const TaVolume t(zstd_path());
   const Volume full = t.decode_box(0, Box::whole({64, 64, 64}), 16);
-  BrickReconstructor reconstructor;
+  tensor::BrickReconstructor reconstructor;
   DecodeScratch scratch;
   std::vector<float> brick(32 * 32 * 32);
   for (const auto& [bx, by, bz] : {std::array<int, 3>{1, 1, 1}, std::array<int, 3>{0, 2, 1}, std::array<int, 3>{2, 2, 2}}) {
@@ -202,7 +202,7 @@ TEST_F(TaQuality, IndexMinMaxAndHistogramCoverEveryDecodedVoxel) {
   const TaVolume t(path("u16,b8log+"));
   const double lo = t.value_min(), hi = t.value_max();
   const OctreeGeometry& g = t.geometry();
-  BrickReconstructor reconstructor;
+  tensor::BrickReconstructor reconstructor;
   DecodeScratch scratch;
   std::vector<float> brick(32 * 32 * 32);
   int checked = 0, partial_histograms = 0;

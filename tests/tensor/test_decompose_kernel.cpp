@@ -14,7 +14,7 @@
 #include "support/isa_test.hpp"
 #include "tensor/decompose_kernel.hpp"
 
-namespace strata {
+namespace strata::tensor {
 namespace {
 
 constexpr double kEps = std::numeric_limits<double>::epsilon();
@@ -181,4 +181,4 @@ TEST_P(DecomposeKernelsPerIsa, HooiUnderTheLimitFitsLikeTheGenericRun) {
 
 STRATA_INSTANTIATE_PER_ISA(DecomposeKernelsPerIsa, Isa::generic, Isa::avx2, Isa::avx512);
 
-}  // namespace strata
+}  // namespace strata::tensor

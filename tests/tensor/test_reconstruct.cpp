@@ -8,7 +8,7 @@
 #include "support/isa_test.hpp"
 #include "strata/tensor/ttm.hpp"
 
-namespace strata {
+namespace strata::tensor {
 namespace {
 
 // A random model with orthonormal factors and a core whose entries decay away from the hot
@@ -127,4 +127,4 @@ TEST(BrickReconstructor, RejectsBadRanksAndBufferSizes) {
 }
 
 }  // namespace
-}  // namespace strata
+}  // namespace strata::tensor

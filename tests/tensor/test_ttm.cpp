@@ -6,7 +6,7 @@
 
 #include "strata/tensor/ttm.hpp"
 
-namespace strata {
+namespace strata::tensor {
 namespace {
 
 Tensor3d random_tensor(std::int64_t i1, std::int64_t i2, std::int64_t i3, unsigned seed) {
@@ -118,4 +118,4 @@ TEST(Ttm, RejectsBadModeAndMismatchedMatrix) {
 }
 
 }  // namespace
-}  // namespace strata
+}  // namespace strata::tensor

@@ -6,7 +6,7 @@
 #include "strata/tensor/ttm.hpp"
 #include "strata/tensor/tucker.hpp"
 
-namespace strata {
+namespace strata::tensor {
 namespace {
 
 Tensor3 random_tensor(const Dims3& d, unsigned seed) {
@@ -218,4 +218,4 @@ TEST(Tucker, ZeroTensorHasPerfectFit) {
 }
 
 }  // namespace
-}  // namespace strata
+}  // namespace strata::tensor

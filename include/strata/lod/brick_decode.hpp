@@ -25,7 +25,7 @@ BrickModel fetch_model(const ta::TaVolume& volume, const store::BrickEntry& entr
                        std::uint64_t& bytes_read);
 
 // B^3 floats of the model truncated to ranks min(K, R_n) (K clamped to >= 1) into `out`.
-void reconstruct_at_rank(const quant::DequantizedModel& model, int k, BrickReconstructor& reconstructor,
+void reconstruct_at_rank(const quant::DequantizedModel& model, int k, tensor::BrickReconstructor& reconstructor,
                          std::span<float> out);
 
 // "file: brick (level l, x,y,z)" for error messages.

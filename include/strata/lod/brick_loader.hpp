@@ -31,7 +31,7 @@ int default_loader_threads();
 
 class BrickLoader {
  public:
-  using Job = std::function<void(const LoadRequest&, BrickReconstructor&, ta::DecodeScratch&)>;
+  using Job = std::function<void(const LoadRequest&, tensor::BrickReconstructor&, ta::DecodeScratch&)>;
 
   // threads = 0: default_loader_threads(). `job` must be thread-safe.
   BrickLoader(Job job, int threads = 0);
@@ -42,7 +42,7 @@ class BrickLoader {
   // Replaces the queue by `requests` (duplicates and requests already running are skipped).
   void submit(const std::vector<LoadRequest>& requests);
   // Runs queued requests on the calling thread too, until the queue is empty (exact frames).
-  void drain(BrickReconstructor& reconstructor, ta::DecodeScratch& scratch);
+  void drain(tensor::BrickReconstructor& reconstructor, ta::DecodeScratch& scratch);
   // Blocks until nothing is queued or running; rethrows the first failure of a job since the
   // last call (a corrupt brick), so errors reach the caller instead of dying in a thread.
   void wait_idle();
@@ -55,7 +55,7 @@ class BrickLoader {
  private:
   void work(std::stop_token stop);
   bool pop(LoadRequest& out);  // under mutex_
-  void run(const LoadRequest& request, BrickReconstructor& reconstructor, ta::DecodeScratch& scratch);
+  void run(const LoadRequest& request, tensor::BrickReconstructor& reconstructor, ta::DecodeScratch& scratch);
 
   Job job_;
   mutable std::mutex mutex_;

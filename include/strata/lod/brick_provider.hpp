@@ -49,7 +49,7 @@ class BrickProvider {
   const ModelCache& models() const { return models_; }
 
  private:
-  BrickSamples decode(const RankedKey& key, BrickReconstructor& reconstructor, ta::DecodeScratch& scratch);
+  BrickSamples decode(const RankedKey& key, tensor::BrickReconstructor& reconstructor, ta::DecodeScratch& scratch);
   ResidentBrick constant_brick(const store::BrickEntry& entry, int rank) const;
   // The nearest resident stand-in for a missing brick, if any; queues missing ancestors so the
   // next frames have coarse data early (BrickLoader::submit drops repeated requests).
@@ -61,7 +61,7 @@ class BrickProvider {
   BrickCache cache_;
   ModelCache models_;
   std::atomic<std::uint64_t> bytes_read_{0}, decode_ns_{0};  // since the last acquire
-  BrickReconstructor reconstructor_;  // the calling thread's, for exact frames
+  tensor::BrickReconstructor reconstructor_;  // the calling thread's, for exact frames
   ta::DecodeScratch scratch_;
   BrickLoader loader_;  // last: its threads stop before the caches go
 };

@@ -36,8 +36,8 @@ struct BrickParams {
 };
 
 struct QuantizedBrick {
-  Dims3 dims{0, 0, 0};
-  Ranks3 ranks{0, 0, 0};
+  tensor::Dims3 dims{0, 0, 0};
+  tensor::Ranks3 ranks{0, 0, 0};
   BrickParams params;
   std::vector<std::uint32_t> core_codes;    // R1 R2 R3, first index fastest
   std::vector<std::uint32_t> factor_codes;  // U1 | U2 | U3, each column-major
@@ -47,9 +47,9 @@ struct QuantizedBrick {
 // Quantizes a model. In "+" schemes B(0,0,0) is kept as a float and excluded from the core's
 // range (so the other coefficients get the resolution), and its slot is coded as 0.
 // Throws Error on non-finite coefficients or extents/ranks beyond 65535.
-QuantizedBrick quantize(const Tucker& model, const QuantScheme& scheme);
+QuantizedBrick quantize(const tensor::Tucker& model, const QuantScheme& scheme);
 
-std::size_t serialized_size(const QuantScheme& scheme, const Dims3& dims, const Ranks3& ranks);
+std::size_t serialized_size(const QuantScheme& scheme, const tensor::Dims3& dims, const tensor::Ranks3& ranks);
 std::vector<std::byte> serialize(const QuantizedBrick& brick, const QuantScheme& scheme);
 QuantizedBrick deserialize(std::span<const std::byte> bytes, const QuantScheme& scheme);
 
@@ -60,21 +60,21 @@ class BrickView {
  public:
   BrickView(std::span<const std::byte> bytes, const QuantScheme& scheme);
 
-  const Dims3& dims() const { return dims_; }
-  const Ranks3& ranks() const { return ranks_; }
+  const tensor::Dims3& dims() const { return dims_; }
+  const tensor::Ranks3& ranks() const { return ranks_; }
   const BrickParams& params() const { return params_; }
   const QuantScheme& scheme() const { return scheme_; }
 
   // The leading K1 x K2 x K3 block of the dequantized core, contiguous (first index fastest),
   // with the exact hot corner restored. `out` holds K1 K2 K3 floats; 1 <= K_n <= R_n.
-  void dequantize_core(const Ranks3& leading, std::span<float> out) const;
+  void dequantize_core(const tensor::Ranks3& leading, std::span<float> out) const;
   // The first `leading` columns of U^(mode) (mode 1..3), column-major I_n x leading.
   void dequantize_factor(int mode, int leading, std::span<float> out) const;
 
  private:
   QuantScheme scheme_;
-  Dims3 dims_{0, 0, 0};
-  Ranks3 ranks_{0, 0, 0};
+  tensor::Dims3 dims_{0, 0, 0};
+  tensor::Ranks3 ranks_{0, 0, 0};
   BrickParams params_;
   const std::byte* core_ = nullptr;
   const std::byte* factors_ = nullptr;
@@ -85,15 +85,15 @@ class BrickView {
 struct DequantizedModel {
   std::vector<float> core;                  // ranks[0] x ranks[1] x ranks[2]
   std::array<std::vector<float>, 3> factors;  // dims[n] x ranks[n], column-major
-  Dims3 dims{0, 0, 0};
-  Ranks3 ranks{0, 0, 0};                    // the leading ranks that were decoded
-  TuckerView view() const;
+  tensor::Dims3 dims{0, 0, 0};
+  tensor::Ranks3 ranks{0, 0, 0};                    // the leading ranks that were decoded
+  tensor::TuckerView view() const;
 };
 
 // Dequantizes the leading ranks of a brick into `out`.
-void dequantize(const BrickView& brick, const Ranks3& leading, DequantizedModel& out);
+void dequantize(const BrickView& brick, const tensor::Ranks3& leading, DequantizedModel& out);
 
 // Full-rank owning model (tests, evaluation tools).
-Tucker dequantize(const QuantizedBrick& brick, const QuantScheme& scheme);
+tensor::Tucker dequantize(const QuantizedBrick& brick, const QuantScheme& scheme);
 
 }  // namespace strata::quant

@@ -48,7 +48,7 @@ struct EncodedBrick {
 /// a tucker payload, or tucker_zstd when params.zstd_level > 0 and compression makes it
 /// smaller. Throws Error when params.rank is not in [1, B], params.quant is inconsistent, the
 /// decomposition fails or the model holds non-finite values (quantization rejects them).
-EncodedBrick encode_brick(const Tensor3& samples, const CodecParams& params);
+EncodedBrick encode_brick(const tensor::Tensor3& samples, const CodecParams& params);
 
 /// @brief Buffers reused across decodes, one per thread.
 struct DecodeScratch {
@@ -90,7 +90,7 @@ PayloadParts payload_parts(std::span<const std::byte> payload, const quant::Quan
 /// Error prefixed with `context` when `out` does not hold B^3 floats, K < 1 or the payload is
 /// malformed.
 void decode_brick(store::PayloadKind kind, std::span<const std::byte> payload, float constant_value,
-                  const quant::QuantScheme& scheme, int brick_width, int rank, BrickReconstructor& reconstructor,
+                  const quant::QuantScheme& scheme, int brick_width, int rank, tensor::BrickReconstructor& reconstructor,
                   DecodeScratch& scratch, std::span<float> out, const std::string& context);
 
 }  // namespace strata::ta

@@ -34,7 +34,7 @@ class TaVolume {
   void check_level(int level) const;
 
   // B^3 floats of one brick (overlap included) reconstructed at rank K (clamped to 1..rank()).
-  void decode_brick(const store::BrickKey& key, int k, std::span<float> out, BrickReconstructor& reconstructor,
+  void decode_brick(const store::BrickKey& key, int k, std::span<float> out, tensor::BrickReconstructor& reconstructor,
                     DecodeScratch& scratch) const;
   // The voxels of `box` (in `level` coordinates, inside the level) as an f32 volume, decoded
   // brick by brick in parallel at rank K. Spacing is the source spacing scaled by 2^level.

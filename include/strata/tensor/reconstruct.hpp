@@ -11,7 +11,7 @@
 
 #include "strata/tensor/tucker.hpp"
 
-namespace strata {
+namespace strata::tensor {
 
 // Non-owning float view of a Tucker model, as a decoder produces it from dequantized codes.
 struct TuckerView {
@@ -47,4 +47,4 @@ class BrickReconstructor {
   std::unique_ptr<Scratch> scratch_;
 };
 
-}  // namespace strata
+}  // namespace strata::tensor

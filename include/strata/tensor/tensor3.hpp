@@ -10,7 +10,7 @@
 
 #include "strata/core/error.hpp"
 
-namespace strata {
+namespace strata::tensor {
 
 // Extents of a 3-way tensor, (I1, I2, I3) in the paper's notation.
 using Dims3 = std::array<std::int64_t, 3>;
@@ -82,4 +82,4 @@ using Tensor3d = BasicTensor3<double>;
 
 std::string to_string(const Dims3& d);  // "I1xI2xI3"
 
-}  // namespace strata
+}  // namespace strata::tensor

@@ -5,7 +5,7 @@
 // the hand-tuned brick reconstruction in reconstruct.hpp. Modes are numbered 1..3 (paper, Eq. A.6).
 #include "strata/tensor/tensor3.hpp"
 
-namespace strata {
+namespace strata::tensor {
 
 // Y = X ×n U, i.e. Y_(n) = U X_(n). U is J x I_n; mode n of Y has extent J.
 template <class T>
@@ -36,4 +36,4 @@ Matrix<double> gram(const BasicTensor3<T>& x, int mode);
 // Throws Error unless mode is 1, 2 or 3.
 void check_mode(int mode, const char* context);
 
-}  // namespace strata
+}  // namespace strata::tensor

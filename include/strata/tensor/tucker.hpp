@@ -8,7 +8,7 @@
 // per-thread scratch, so a loop over bricks does not allocate beyond the returned model.
 #include "strata/tensor/tensor3.hpp"
 
-namespace strata {
+namespace strata::tensor {
 
 // A rank-(R1, R2, R3) Tucker model A ≈ core ×1 U1 ×2 U2 ×3 U3.
 struct Tucker {
@@ -67,4 +67,4 @@ Tensor3 reconstruct_voxelwise(const Tucker& model);
 // Throws Error unless 1 <= ranks[n] <= dims[n] for every mode.
 void check_ranks(const Dims3& dims, const Ranks3& ranks, const char* context);
 
-}  // namespace strata
+}  // namespace strata::tensor
