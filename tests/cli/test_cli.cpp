@@ -23,7 +23,7 @@ nlohmann::json info_json(const std::string& file) {
 
 }  // namespace
 
-TEST(Cli, UsageErrorsExitWithTwo) {
+TEST(CliProgram, UsageErrorsExitWithTwo) {
   std::string out;
   EXPECT_EQ(run_command(strata_cmd(""), &out), 2);
   EXPECT_EQ(run_command(strata_cmd("frobnicate"), &out), 2);
@@ -31,7 +31,7 @@ TEST(Cli, UsageErrorsExitWithTwo) {
   EXPECT_EQ(run_command(strata_cmd("info --help"), &out), 0);
 }
 
-TEST(Cli, RuntimeErrorsExitWithOneAndNameTheFile) {
+TEST(CliProgram, RuntimeErrorsExitWithOneAndNameTheFile) {
   TempDir dir;
   std::string out;
   EXPECT_EQ(run_command(strata_cmd("info '" + (dir / "missing.nrrd").string() + "'"), &out), 1);
@@ -49,7 +49,7 @@ TEST(Cli, RuntimeErrorsExitWithOneAndNameTheFile) {
 
 // A raw file without a sidecar: the library names ReadOptions::raw_dims / raw_dtype, the CLI
 // the flags that set them.
-TEST(Cli, RawInputWithoutDimsOrDtypeNamesTheFlag) {
+TEST(CliProgram, RawInputWithoutDimsOrDtypeNamesTheFlag) {
   TempDir dir;
   const std::string raw = "'" + (dir / "lonely.raw").string() + "'";
   std::ofstream(dir / "lonely.raw") << std::string(64, 'x');
@@ -63,7 +63,7 @@ TEST(Cli, RawInputWithoutDimsOrDtypeNamesTheFlag) {
   EXPECT_EQ(run_command(strata_cmd("info " + raw + " --dims 4,4,4 --dtype u8"), &out), 0) << out;
 }
 
-TEST(Cli, GenerateConvertCompareRoundTrip) {
+TEST(CliProgram, GenerateConvertCompareRoundTrip) {
   TempDir dir;
   const std::string nrrd = (dir / "p.nrrd").string(), nii = (dir / "p.nii.gz").string(),
                     tif = (dir / "p.tif").string(), raw = (dir / "p.raw").string();
@@ -90,7 +90,7 @@ TEST(Cli, GenerateConvertCompareRoundTrip) {
   EXPECT_GT(m2["max_abs_error"].get<double>(), 0.0);
 }
 
-TEST(Cli, InfoOnSampleLabelVolumes) {
+TEST(CliProgram, InfoOnSampleLabelVolumes) {
   if (auto gt = strata::test::shared_data("fibsem_medulla_250_gt.nrrd")) {
     auto j = info_json(gt->string());
     EXPECT_EQ(j["dims"], nlohmann::json({250, 250, 250}));
@@ -106,7 +106,7 @@ TEST(Cli, InfoOnSampleLabelVolumes) {
   }
 }
 
-TEST(Cli, InfoOnMricronData) {
+TEST(CliProgram, InfoOnMricronData) {
   if (auto ch2 = strata::test::mricron_data("ch2better.nii.gz")) {
     auto j = info_json(ch2->string());
     EXPECT_EQ(j["dims"], nlohmann::json({301, 370, 316}));
@@ -120,7 +120,7 @@ TEST(Cli, InfoOnMricronData) {
   }
 }
 
-TEST(Cli, DemoWritesReport) {
+TEST(CliProgram, DemoWritesReport) {
   TempDir dir;
   std::string out;
   ASSERT_EQ(run_command(strata_cmd("demo --size 32 -o '" + (dir / "demo").string() + "'"), &out), 0) << out;

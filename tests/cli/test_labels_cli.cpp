@@ -18,7 +18,7 @@ std::string strata_cmd(const std::string& args) { return std::string(STRATA_BINA
 
 }  // namespace
 
-TEST(LabelsCli, EncodeDecodeRoundTripBothIdModes) {
+TEST(CliLabels, EncodeDecodeRoundTripBothIdModes) {
   TempDir dir;
   const std::string in = (dir / "v.nrrd").string();
   std::string out;
@@ -73,7 +73,7 @@ TEST(LabelsCli, EncodeDecodeRoundTripBothIdModes) {
   }
 }
 
-TEST(LabelsCli, ExitCodes) {
+TEST(CliLabels, ExitCodes) {
   TempDir dir;
   std::string out;
   const std::string in = (dir / "v.nrrd").string(), enc = (dir / "v.strata").string();
@@ -114,7 +114,7 @@ TEST(LabelsCli, ExitCodes) {
 
 // `labels query`: the footprint answer sums to the box volume, agrees with the exact level-0
 // scan (--naive, sigma 0) within a few sigma, and bad boxes are errors naming --box.
-TEST(LabelsCli, QueryAgreesWithTheExactScan) {
+TEST(CliLabels, QueryAgreesWithTheExactScan) {
   strata::test::TempDir dir;
   const std::string in = (dir / "cells.nrrd").string(), enc = (dir / "cells.strata").string();
   std::string out;
@@ -159,7 +159,7 @@ TEST(LabelsCli, QueryAgreesWithTheExactScan) {
 // `labels calibrate`: random boxes against exact counts; the JSON shares are consistent, the
 // generated superpixel stack (real-like dyadic mixtures) stays within the 3-sigma acceptance,
 // and bad arguments are usage errors.
-TEST(LabelsCli, CalibrateReportsSharesOutsideSigma) {
+TEST(CliLabels, CalibrateReportsSharesOutsideSigma) {
   TempDir dir;
   const std::string in = (dir / "sp.nrrd").string(), enc = (dir / "sp.strata").string();
   std::string out;

@@ -34,7 +34,7 @@ std::size_t lit_pixels(const strata::render::Image& image) {
   return n;
 }
 
-class RenderCli : public ::testing::Test {
+class CliRender : public ::testing::Test {
  protected:
   void SetUp() override {
     const std::string raw = (dir / "sphere.nrrd").string();
@@ -46,7 +46,7 @@ class RenderCli : public ::testing::Test {
   fs::path file = dir / "sphere.strata";
 };
 
-TEST_F(RenderCli, StillImageAndStatistics) {
+TEST_F(CliRender, StillImageAndStatistics) {
   const fs::path png = dir / "still.png", stats = dir / "stats.json";
   std::string out;
   ASSERT_EQ(run_command(strata_cmd("render " + file.string() + " -o " + png.string() + " --size 96x72 --tf grayscale" +
@@ -68,7 +68,7 @@ TEST_F(RenderCli, StillImageAndStatistics) {
   EXPECT_EQ(j["summary"]["frames"], 1);
 }
 
-TEST_F(RenderCli, OrbitWritesEveryFrame) {
+TEST_F(CliRender, OrbitWritesEveryFrame) {
   const fs::path frames = dir / "orbit", stats = dir / "orbit.json";
   std::string out;
   ASSERT_EQ(run_command(strata_cmd("render " + file.string() + " -o " + frames.string() +
@@ -85,7 +85,7 @@ TEST_F(RenderCli, OrbitWritesEveryFrame) {
   EXPECT_GT(j["frames"][2]["load"]["cache_hits"].get<std::uint64_t>(), 0u);
 }
 
-TEST_F(RenderCli, TargetFrameRateCastsFewerRaysAfterTheFirstFrame) {
+TEST_F(CliRender, TargetFrameRateCastsFewerRaysAfterTheFirstFrame) {
   const fs::path frames = dir / "fast", stats = dir / "fast.json";
   std::string out;
   // A 100,000 frames/s budget cannot be met: the image grid coarsens after the first frame,
@@ -105,7 +105,7 @@ TEST_F(RenderCli, TargetFrameRateCastsFewerRaysAfterTheFirstFrame) {
   EXPECT_EQ(j["summary"]["after_first"]["frames"], 2);
 }
 
-TEST_F(RenderCli, RankSliderChangesTheImage) {
+TEST_F(CliRender, RankSliderChangesTheImage) {
   const fs::path full = dir / "full.png", low = dir / "low.png";
   std::string out;
   const std::string common = " --size 64x48 --tf grayscale --shading off";
@@ -115,7 +115,7 @@ TEST_F(RenderCli, RankSliderChangesTheImage) {
   EXPECT_NE(strata::render::read_png(full).pixels(), strata::render::read_png(low).pixels());
 }
 
-TEST_F(RenderCli, TransparentTransferFunctionDecodesNothing) {
+TEST_F(CliRender, TransparentTransferFunctionDecodesNothing) {
   const fs::path tf = dir / "clear.json", png = dir / "clear.png", stats = dir / "clear-stats.json";
   write_text(tf, R"({"points": [{"x": 0, "rgba": [1, 1, 1, 0]}, {"x": 1, "rgba": [1, 1, 1, 0]}]})");
   std::string out;
@@ -135,7 +135,7 @@ TEST_F(RenderCli, TransparentTransferFunctionDecodesNothing) {
 // A file stored at full rank (rank = brick width) with f32 factors and cores reconstructs the
 // input up to float rounding, so its image must match the plain file's (rendered as one block)
 // within the 8-bit rounding of two renders plus float noise: 2/255 per channel.
-TEST_F(RenderCli, FullRankFileMatchesThePlainVolume) {
+TEST_F(CliRender, FullRankFileMatchesThePlainVolume) {
   const std::string raw = (dir / "sphere.nrrd").string(), exact = (dir / "full.strata").string();
   std::string out;
   ASSERT_EQ(run_command(strata_cmd("compress " + raw + " -o " + exact + " --brick 16 --rank 16 --quant f32"), &out), 0)
@@ -155,7 +155,7 @@ TEST_F(RenderCli, FullRankFileMatchesThePlainVolume) {
   EXPECT_GT(lit_pixels(pa), 500u);
 }
 
-TEST_F(RenderCli, BadArgumentsAreReported) {
+TEST_F(CliRender, BadArgumentsAreReported) {
   const fs::path tf = dir / "broken.json";
   write_text(tf, R"({"points": [{"x": 0.5, "rgba": [1, 1]}]})");
   std::string out;
@@ -176,7 +176,7 @@ TEST_F(RenderCli, BadArgumentsAreReported) {
   EXPECT_FALSE(fs::exists(dir / "x.png"));
 }
 
-TEST(RenderCliLabels, ColourMapChangesTheImage) {
+TEST(CliRenderLabels, ColourMapChangesTheImage) {
   TempDir dir;
   const std::string raw = (dir / "cells.nrrd").string(), enc = (dir / "cells.strata").string();
   std::string out;

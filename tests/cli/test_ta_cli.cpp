@@ -29,7 +29,7 @@ bool has(const std::string& s, const std::string& part) { return s.find(part) !=
 // One generated volume and its compression, shared by the tests of this file:
 // 40x36x30 u16 prisms, brick 16, overlap 2 (core 12), rank 8, u16,b8log+.
 // Levels: 40x36x30 (4x3x3 bricks), 20x18x15 (2x2x2), 10x9x8 (1).
-class TaCli : public ::testing::Test {
+class CliTa : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     dir_ = new TempDir;
@@ -60,7 +60,7 @@ class TaCli : public ::testing::Test {
 
 }  // namespace
 
-TEST_F(TaCli, CompressReportsBricksLevelsAndRate) {
+TEST_F(CliTa, CompressReportsBricksLevelsAndRate) {
   EXPECT_TRUE(fs::exists(compressed()));
   EXPECT_FALSE(fs::exists(file("p.strata.tmp")));
   // 36 + 8 + 1 bricks in 3 levels.
@@ -68,7 +68,7 @@ TEST_F(TaCli, CompressReportsBricksLevelsAndRate) {
   EXPECT_TRUE(has(*compress_output_, "bits/voxel")) << *compress_output_;
 }
 
-TEST_F(TaCli, DecompressLevel0ReturnsTheSourceTypeCloseToTheOriginal) {
+TEST_F(CliTa, DecompressLevel0ReturnsTheSourceTypeCloseToTheOriginal) {
   std::string out;
   ASSERT_EQ(run_command(strata_cmd("decompress " + q(compressed()) + " -o " + q(file("d.nrrd"))), &out), 0) << out;
   const strata::Volume source = strata::io::read_volume(original());
@@ -84,7 +84,7 @@ TEST_F(TaCli, DecompressLevel0ReturnsTheSourceTypeCloseToTheOriginal) {
   EXPECT_TRUE(f.converted(strata::DType::u16) == d);
 }
 
-TEST_F(TaCli, DecompressLevelRankAndBox) {
+TEST_F(CliTa, DecompressLevelRankAndBox) {
   std::string out;
   ASSERT_EQ(run_command(strata_cmd("decompress " + q(compressed()) + " --level 1 -o " + q(file("l1.nrrd"))), &out), 0) << out;
   const strata::Volume l1 = strata::io::read_volume(file("l1.nrrd"));
@@ -118,7 +118,7 @@ TEST_F(TaCli, DecompressLevelRankAndBox) {
   EXPECT_EQ(fs::file_size(file("b.raw")), 8u * 8u * 8u * 2u);  // u16 samples
 }
 
-TEST_F(TaCli, EvalJsonReportsStorageAndError) {
+TEST_F(CliTa, EvalJsonReportsStorageAndError) {
   const nlohmann::json r = eval_json();
   const auto& s = r["storage"];
   const double voxels = 40.0 * 36 * 30;
@@ -158,7 +158,7 @@ TEST_F(TaCli, EvalJsonReportsStorageAndError) {
   EXPECT_GT(r["decode_seconds"].get<double>(), 0.0);
 }
 
-TEST_F(TaCli, EvalWithoutZstdShowsThePlainPartSizes) {
+TEST_F(CliTa, EvalWithoutZstdShowsThePlainPartSizes) {
   std::string out;
   const fs::path plain = file("plain.strata");
   ASSERT_EQ(run_command(strata_cmd("compress " + q(original()) + " -o " + q(plain) + " --brick 16 --rank 8 --zstd 0"), &out), 0)
@@ -177,7 +177,7 @@ TEST_F(TaCli, EvalWithoutZstdShowsThePlainPartSizes) {
   EXPECT_EQ(r["error"]["snr_db"].get<double>(), eval_json()["error"]["snr_db"].get<double>());
 }
 
-TEST_F(TaCli, EvalRankSlider) {
+TEST_F(CliTa, EvalRankSlider) {
   const double s8 = eval_json()["error"]["snr_db"].get<double>();
   const nlohmann::json r4 = eval_json("--rank 4");
   EXPECT_EQ(r4["error"]["rank"], 4);
@@ -192,7 +192,7 @@ TEST_F(TaCli, EvalRankSlider) {
   EXPECT_TRUE(has(out, "SNR")) << out;
 }
 
-TEST_F(TaCli, UsageErrorsExitWithTwo) {
+TEST_F(CliTa, UsageErrorsExitWithTwo) {
   std::string out;
   const std::string in = q(original()), ta = q(compressed()), o = q(file("u.strata"));
   EXPECT_EQ(run_command(strata_cmd("compress " + in), &out), 2) << out;                       // no -o
@@ -209,7 +209,7 @@ TEST_F(TaCli, UsageErrorsExitWithTwo) {
 
 // The library's errors name its parameters (CodecParams::rank, level, ...); the CLI reports
 // them as the flags that set them.
-TEST_F(TaCli, BadParameterValuesExitWithOneAndNameTheOption) {
+TEST_F(CliTa, BadParameterValuesExitWithOneAndNameTheOption) {
   std::string out;
   const std::string in = q(original()), ta = q(compressed());
   EXPECT_EQ(run_command(strata_cmd("compress " + in + " -o " + q(file("r.strata")) + " --brick 16 --rank 17"), &out), 1) << out;
@@ -238,7 +238,7 @@ TEST_F(TaCli, BadParameterValuesExitWithOneAndNameTheOption) {
 }
 
 // A negative rank is not "the default": it must be refused like any other out-of-range rank.
-TEST_F(TaCli, NegativeRankIsRefused) {
+TEST_F(CliTa, NegativeRankIsRefused) {
   std::string out;
   EXPECT_NE(run_command(strata_cmd("compress " + q(original()) + " -o " + q(file("neg.strata")) + " --rank -3"), &out), 0)
       << out;
@@ -249,7 +249,7 @@ TEST_F(TaCli, NegativeRankIsRefused) {
   EXPECT_NE(run_command(strata_cmd("eval " + q(original()) + " " + q(compressed()) + " --rank -3"), &out), 0) << out;
 }
 
-TEST_F(TaCli, BadFilesExitWithOneAndNameTheFile) {
+TEST_F(CliTa, BadFilesExitWithOneAndNameTheFile) {
   std::string out;
   EXPECT_EQ(run_command(strata_cmd("compress " + q(file("missing.nrrd")) + " -o " + q(file("m.strata"))), &out), 1) << out;
   EXPECT_TRUE(has(out, "error: ") && has(out, "missing.nrrd")) << out;
@@ -269,7 +269,7 @@ TEST_F(TaCli, BadFilesExitWithOneAndNameTheFile) {
   EXPECT_TRUE(has(out, "small.nrrd") && has(out, "dims")) << out;
 }
 
-TEST_F(TaCli, FailedCompressLeavesNoTemporary) {
+TEST_F(CliTa, FailedCompressLeavesNoTemporary) {
   std::string out;
   // Output directory missing.
   EXPECT_EQ(run_command(strata_cmd("compress " + q(original()) + " -o " + q(file("no/such/dir/x.strata"))), &out), 1) << out;
@@ -285,7 +285,7 @@ TEST_F(TaCli, FailedCompressLeavesNoTemporary) {
 
 // Failures while bricks are encoded (a non-finite sample, a full disk) must end in
 // `error: ...` and exit 1 with the temporary removed, not in an abort.
-TEST_F(TaCli, FailuresDuringEncodingExitWithOneAndLeaveNoTemporary) {
+TEST_F(CliTa, FailuresDuringEncodingExitWithOneAndLeaveNoTemporary) {
   std::string out;
   strata::Volume v = strata::io::read_volume(original()).converted(strata::DType::f32);
   v.set_value(20, 18, 15, std::numeric_limits<double>::quiet_NaN());
@@ -303,7 +303,7 @@ TEST_F(TaCli, FailuresDuringEncodingExitWithOneAndLeaveNoTemporary) {
   EXPECT_FALSE(fs::exists(fs::symlink_status(file("full.strata.tmp"))));
 }
 
-TEST_F(TaCli, IsaOptionLimitsTheKernelsAndRejectsUnknownLevels) {
+TEST_F(CliTa, IsaOptionLimitsTheKernelsAndRejectsUnknownLevels) {
   // Compressed and evaluated with the generic kernels only: the decomposition and the
   // reconstruction round differently from the vector kernels, but the error is the same to
   // far better than 0.01 dB.

@@ -13,7 +13,7 @@
 
 using namespace strata;
 
-TEST(DType, ParsesNamesAndRejectsUnknown) {
+TEST(CoreDType, ParsesNamesAndRejectsUnknown) {
   EXPECT_EQ(parse_dtype("uint16"), DType::u16);
   EXPECT_EQ(parse_dtype("F32"), DType::f32);
   EXPECT_EQ(parse_dtype("double"), DType::f64);
@@ -28,7 +28,7 @@ TEST(DType, ParsesNamesAndRejectsUnknown) {
     EXPECT_EQ(parse_dtype(dtype_name(t)), t);
 }
 
-TEST(Extent, ParsesSizesAndBoxes) {
+TEST(CoreExtent, ParsesSizesAndBoxes) {
   EXPECT_EQ(parse_extent("64"), (Extent{64, 64, 64}));
   EXPECT_EQ(parse_extent("1024,1024,512"), (Extent{1024, 1024, 512}));
   EXPECT_EQ(parse_extent("3x4x5"), (Extent{3, 4, 5}));
@@ -42,7 +42,7 @@ TEST(Extent, ParsesSizesAndBoxes) {
   EXPECT_EQ(Box::whole({10, 10, 10}).intersect(parse_box("5,5,5:20,20,20")).size(), (Extent{5, 5, 5}));
 }
 
-TEST(Volume, CropAndConvert) {
+TEST(CoreVolume, CropAndConvert) {
   Volume v({4, 3, 2}, DType::i16);
   auto view = v.view<std::int16_t>();
   for (int z = 0; z < 2; ++z)
@@ -58,7 +58,7 @@ TEST(Volume, CropAndConvert) {
   EXPECT_EQ(u8.value(3, 2, 1), 3 + 20 + 100 - 50);
 }
 
-TEST(Metrics, MatchPaperDefinitions) {
+TEST(CoreMetrics, MatchPaperDefinitions) {
   // A = [3, 4] (rms = sqrt(12.5)), Ã = [3, 5]: rmse = sqrt(0.5), SNR = 20 log10(5) = 13.979 dB.
   Volume a({2, 1, 1}, DType::f32), b({2, 1, 1}, DType::f32);
   a.set_value(0, 0, 0, 3); a.set_value(1, 0, 0, 4);
@@ -74,7 +74,7 @@ TEST(Metrics, MatchPaperDefinitions) {
   EXPECT_DOUBLE_EQ(bits_per_voxel(1000, 4000), 2.0);
 }
 
-TEST(Metrics, SlabAccumulationEqualsWhole) {
+TEST(CoreMetrics, SlabAccumulationEqualsWhole) {
   Volume a({8, 8, 8}, DType::u8), b({8, 8, 8}, DType::f32);
   for (int i = 0; i < 512; ++i) {
     a.samples<std::uint8_t>()[i] = std::uint8_t((i * 37) % 251);
@@ -91,7 +91,7 @@ TEST(Metrics, SlabAccumulationEqualsWhole) {
   EXPECT_EQ(parts.voxel_count, 512u);
 }
 
-TEST(Statistics, LabelsAndRanges) {
+TEST(CoreStatistics, LabelsAndRanges) {
   Volume v({10, 10, 10}, DType::u32);
   auto s = v.samples<std::uint32_t>();
   for (std::size_t i = 0; i < s.size(); ++i) s[i] = (i % 4 == 0) ? std::uint32_t(1 + i % 7) : 0u;
@@ -114,7 +114,7 @@ TEST(Statistics, LabelsAndRanges) {
   EXPECT_EQ(ws.histogram[0], 19u);  // values 40000..40018 fall in the first of 16 bins of 299/16
 }
 
-TEST(Threads, CountIsConfigurable) {
+TEST(CoreThreads, CountIsConfigurable) {
   set_thread_count(1);
   EXPECT_EQ(thread_count(), 1);
   set_thread_count(0);
@@ -125,7 +125,7 @@ TEST(Threads, CountIsConfigurable) {
 // exact and only the rest is sampled, so a uniform stream (every value once, in two slabs)
 // still gives a flat histogram. The sampled share is thinned evenly: each bin of it is off by
 // at most a couple of strides, far below 0.5% of a bin.
-TEST(Statistics, DistinctOverflowKeepsTheHistogram) {
+TEST(CoreStatistics, DistinctOverflowKeepsTheHistogram) {
   const std::int64_t n = std::int64_t(StatisticsAccumulator::kDistinctCap) + (1 << 20);
   const std::int64_t half = n / 2;
   StatisticsAccumulator acc;
@@ -146,7 +146,7 @@ TEST(Statistics, DistinctOverflowKeepsTheHistogram) {
   EXPECT_NEAR(double(total), double(n), 1e-3 * double(n));
 }
 
-TEST(Progress, ModeNamesParseAndOthersNameTheParameter) {
+TEST(CoreProgress, ModeNamesParseAndOthersNameTheParameter) {
   EXPECT_EQ(parse_progress_mode("json"), ProgressMode::json);
   EXPECT_EQ(parse_progress_mode("none"), ProgressMode::silent);
   EXPECT_EQ(test::error_of([] { parse_progress_mode("loud"); }),

@@ -32,13 +32,13 @@ std::string nrrd_header(const std::string& fields) { return "NRRD0004\n" + field
 
 const std::string kGoodFields = "type: uint16\ndimension: 3\nsizes: 4 3 2\nendian: little\n";
 
-TEST(Corrupt, TruncatedRawNrrd) {
+TEST(IoCorrupt, TruncatedRawNrrd) {
   test::TempDir dir;
   write_text(dir / "t.nrrd", nrrd_header(kGoodFields + "encoding: raw\n") + std::string(47, 'x'));
   expect_open_error(dir / "t.nrrd", {"data", "47", "48", "truncated"});
 }
 
-TEST(Corrupt, TruncatedGzipNrrd) {
+TEST(IoCorrupt, TruncatedGzipNrrd) {
   test::TempDir dir;
   write_volume(dir / "whole.nrrd", ramp_volume({40, 30, 20}, DType::u16));
   const std::string whole = read_text(dir / "whole.nrrd");
@@ -49,7 +49,7 @@ TEST(Corrupt, TruncatedGzipNrrd) {
   expect_open_error(dir / "empty.nrrd", {"data"});
 }
 
-TEST(Corrupt, BadGzipStream) {
+TEST(IoCorrupt, BadGzipStream) {
   test::TempDir dir;
   write_volume(dir / "whole.nrrd", ramp_volume({40, 30, 20}, DType::u16));
   std::string bytes = read_text(dir / "whole.nrrd");
@@ -63,7 +63,7 @@ TEST(Corrupt, BadGzipStream) {
   expect_open_error(dir / "plain.nrrd", {"data", "gzip"});
 }
 
-TEST(Corrupt, WrongSizes) {
+TEST(IoCorrupt, WrongSizes) {
   test::TempDir dir;
   const std::string data(48, 'x');  // 4x3x2 u16
   // Header promises more data than there is, and less: both mean the sizes are wrong.
@@ -88,7 +88,7 @@ TEST(Corrupt, WrongSizes) {
   expect_open_error(dir / "text.nrrd", {"sizes"});
 }
 
-TEST(Corrupt, UnknownOrUnsupportedType) {
+TEST(IoCorrupt, UnknownOrUnsupportedType) {
   test::TempDir dir;
   write_text(dir / "u.nrrd", nrrd_header("type: quaternion\ndimension: 3\nsizes: 1 1 1\nencoding: raw\n") + "x");
   expect_open_error(dir / "u.nrrd", {"type", "quaternion"});
@@ -97,7 +97,7 @@ TEST(Corrupt, UnknownOrUnsupportedType) {
   expect_open_error(dir / "l.nrrd", {"type", "int64"});
 }
 
-TEST(Corrupt, HeaderProblemsNameTheirField) {
+TEST(IoCorrupt, HeaderProblemsNameTheirField) {
   test::TempDir dir;
   const std::string one = "x";
   write_text(dir / "enc.nrrd", nrrd_header("type: uint8\ndimension: 3\nsizes: 1 1 1\nencoding: bzip2\n") + one);
@@ -119,7 +119,7 @@ TEST(Corrupt, HeaderProblemsNameTheirField) {
   expect_open_error(dir / "sp.nrrd", {"spacings", "one"});
 }
 
-TEST(Corrupt, DetachedHeaderProblems) {
+TEST(IoCorrupt, DetachedHeaderProblems) {
   test::TempDir dir;
   write_text(dir / "nodata.nhdr", "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 1 1 1\nencoding: raw\n");
   expect_open_error(dir / "nodata.nhdr", {"data file"});
@@ -131,7 +131,7 @@ TEST(Corrupt, DetachedHeaderProblems) {
   expect_open_error(dir / "list.nhdr", {"data file"});
 }
 
-TEST(Corrupt, RawWithoutSidecarOrOptions) {
+TEST(IoCorrupt, RawWithoutSidecarOrOptions) {
   test::TempDir dir;
   write_text(dir / "lonely.raw", std::string(64, 'x'));
   expect_open_error(dir / "lonely.raw", {"ReadOptions::raw_dims: ", "dims", "dtype", "sidecar"});
@@ -140,7 +140,7 @@ TEST(Corrupt, RawWithoutSidecarOrOptions) {
   expect_open_error(dir / "lonely.raw", {"ReadOptions::raw_dtype: ", "sidecar"}, only_dims);
 }
 
-TEST(Corrupt, BadSidecars) {
+TEST(IoCorrupt, BadSidecars) {
   test::TempDir dir;
   write_text(dir / "a.raw", std::string(8, 'x'));
   write_text(dir / "a.raw.json", "{\"dims\": [2, 2, 2], \"dtype\": ");
@@ -155,7 +155,7 @@ TEST(Corrupt, BadSidecars) {
   expect_open_error(dir / "a.raw", {"size", "expected 16 bytes for 2x2x2 u16, found 8"});
 }
 
-TEST(Corrupt, UnfinishedWritersLeaveNothing) {
+TEST(IoCorrupt, UnfinishedWritersLeaveNothing) {
   test::TempDir dir;
   const Volume slab = ramp_volume({6, 5, 2}, DType::u16);
   const VolumeInfo info{{6, 5, 4}, DType::u16, {}};
@@ -171,7 +171,7 @@ TEST(Corrupt, UnfinishedWritersLeaveNothing) {
   }
 }
 
-TEST(Corrupt, FailedWriteKeepsAnExistingOutputIntact) {
+TEST(IoCorrupt, FailedWriteKeepsAnExistingOutputIntact) {
   test::TempDir dir;
   const Volume good = ramp_volume({6, 5, 4}, DType::u16);
   write_volume(dir / "keep.nrrd", good);

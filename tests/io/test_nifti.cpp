@@ -91,9 +91,9 @@ void expect_hand_volume(const Volume& v, DType dtype, const std::vector<T>& expe
 
 // ---------------------------------------------------------------------------------------------
 
-class NiftiRoundTrip : public ::testing::TestWithParam<std::tuple<DType, const char*>> {};
+class IoNiftiRoundTrip : public ::testing::TestWithParam<std::tuple<DType, const char*>> {};
 
-TEST_P(NiftiRoundTrip, IsBitExactWithSpacingAndBoxes) {
+TEST_P(IoNiftiRoundTrip, IsBitExactWithSpacingAndBoxes) {
   const auto [dtype, suffix] = GetParam();
   TempDir dir;
   const fs::path path = dir / (std::string("v") + suffix);
@@ -110,7 +110,7 @@ TEST_P(NiftiRoundTrip, IsBitExactWithSpacingAndBoxes) {
   EXPECT_TRUE(io::open_volume(path)->read_box(box) == original.crop(box));
 }
 
-INSTANTIATE_TEST_SUITE_P(AllWritableTypes, NiftiRoundTrip,
+INSTANTIATE_TEST_SUITE_P(AllWritableTypes, IoNiftiRoundTrip,
                          ::testing::Combine(::testing::Values(DType::u8, DType::u16, DType::i16, DType::u32, DType::i32,
                                                               DType::f32, DType::f64),
                                             ::testing::Values(".nii", ".nii.gz")),
@@ -119,7 +119,7 @@ INSTANTIATE_TEST_SUITE_P(AllWritableTypes, NiftiRoundTrip,
                                   (std::string(std::get<1>(info.param)) == ".nii" ? "_nii" : "_nii_gz");
                          });
 
-TEST(Nifti, WrittenHeaderFollowsTheNifti1Layout) {
+TEST(IoNifti, WrittenHeaderFollowsTheNifti1Layout) {
   TempDir dir;
   const Volume v = random_volume({7, 5, 3}, DType::u16, 3, {0.5, 1.25, 2.0});
   io::write_volume(dir / "v.nii", v);
@@ -147,7 +147,7 @@ TEST(Nifti, WrittenHeaderFollowsTheNifti1Layout) {
   EXPECT_EQ(std::memcmp(bytes.data() + 352, v.bytes(), v.byte_size()), 0);
 }
 
-TEST(Nifti, GzOutputIsTheSameFileGzipped) {
+TEST(IoNifti, GzOutputIsTheSameFileGzipped) {
   TempDir dir;
   const Volume v = random_volume({6, 4, 3}, DType::f32, 5);
   io::write_volume(dir / "v.nii", v);
@@ -158,13 +158,13 @@ TEST(Nifti, GzOutputIsTheSameFileGzipped) {
   EXPECT_EQ(io::detail::gunzip_to_memory(gz.data(), gz.size(), "v.nii.gz", "gzip"), plain);
 }
 
-TEST(Nifti, WriterRejectsI8) {
+TEST(IoNifti, WriterRejectsI8) {
   TempDir dir;
   EXPECT_THROW(io::detail::create_nifti_writer(dir / "v.nii", VolumeInfo{{2, 2, 2}, DType::i8, {}}, {}), Error);
   EXPECT_FALSE(fs::exists(dir / "v.nii.tmp"));
 }
 
-TEST(Nifti, ReadsI8) {
+TEST(IoNifti, ReadsI8) {
   TempDir dir;
   HandHeader h;
   h.datatype = 256;
@@ -175,7 +175,7 @@ TEST(Nifti, ReadsI8) {
   expect_hand_volume(io::read_volume(dir / "i8.nii"), DType::i8, samples);
 }
 
-TEST(Nifti, SlopeAndInterceptGiveF32) {
+TEST(IoNifti, SlopeAndInterceptGiveF32) {
   TempDir dir;
   HandHeader h;
   h.scl_slope = 2;
@@ -193,7 +193,7 @@ TEST(Nifti, SlopeAndInterceptGiveF32) {
   EXPECT_EQ(box.samples<float>()[0], 2.0f * stored[21] + 1.0f);
 }
 
-TEST(Nifti, SlopeAppliedToGzippedInput) {
+TEST(IoNifti, SlopeAppliedToGzippedInput) {
   TempDir dir;
   HandHeader h;
   h.datatype = 2;
@@ -209,7 +209,7 @@ TEST(Nifti, SlopeAppliedToGzippedInput) {
   for (std::size_t i = 0; i < stored.size(); ++i) EXPECT_EQ(v.samples<float>()[i], 0.5f * stored[i] - 10.0f);
 }
 
-TEST(Nifti, IdentityOrZeroSlopeKeepsTheStoredType) {
+TEST(IoNifti, IdentityOrZeroSlopeKeepsTheStoredType) {
   TempDir dir;
   const auto stored = ramp_i16(24);
   for (auto [slope, inter] : {std::pair{1.0f, 0.0f}, std::pair{0.0f, 5.0f}}) {
@@ -223,7 +223,7 @@ TEST(Nifti, IdentityOrZeroSlopeKeepsTheStoredType) {
   }
 }
 
-TEST(Nifti, SlopeOnF64StaysF64) {
+TEST(IoNifti, SlopeOnF64StaysF64) {
   TempDir dir;
   HandHeader h;
   h.datatype = 64;
@@ -238,7 +238,7 @@ TEST(Nifti, SlopeOnF64StaysF64) {
   for (std::size_t i = 0; i < stored.size(); ++i) EXPECT_EQ(v.samples<double>()[i], stored[i] * 0.5 - 3.0);
 }
 
-TEST(Nifti, ReadsBigEndianFiles) {
+TEST(IoNifti, ReadsBigEndianFiles) {
   TempDir dir;
   HandHeader h;
   h.big_endian = true;
@@ -257,7 +257,7 @@ TEST(Nifti, ReadsBigEndianFiles) {
   for (std::size_t i = 0; i < floats.size(); ++i) EXPECT_EQ(f.samples<float>()[i], floats[i] * 3.0f);
 }
 
-TEST(Nifti, DimZeroMayBeFourWithOneVolume) {
+TEST(IoNifti, DimZeroMayBeFourWithOneVolume) {
   TempDir dir;
   HandHeader h;
   h.dim = {4, 4, 3, 2, 1, 1, 1, 1};
@@ -273,7 +273,7 @@ TEST(Nifti, DimZeroMayBeFourWithOneVolume) {
   expect_error([&] { io::open_volume(dir / "2d.nii"); }, {"2d.nii", "dim[0]"});
 }
 
-TEST(Nifti, HonoursVoxOffsetBeyondTheHeader) {
+TEST(IoNifti, HonoursVoxOffsetBeyondTheHeader) {
   TempDir dir;
   HandHeader h;
   h.vox_offset = 400;  // room for extensions, which we skip
@@ -289,7 +289,7 @@ TEST(Nifti, HonoursVoxOffsetBeyondTheHeader) {
 // ---------------------------------------------------------------------------------------------
 // Corrupt inputs: the message names the file and the header field.
 
-TEST(NiftiErrors, TruncatedData) {
+TEST(IoNiftiErrors, TruncatedData) {
   TempDir dir;
   auto bytes = with_samples(HandHeader{}, ramp_i16(24));
   bytes.resize(bytes.size() - 5);
@@ -297,7 +297,7 @@ TEST(NiftiErrors, TruncatedData) {
   expect_error([&] { io::read_volume(dir / "short.nii"); }, {"short.nii", "dim"});
 }
 
-TEST(NiftiErrors, TruncatedHeader) {
+TEST(IoNiftiErrors, TruncatedHeader) {
   TempDir dir;
   auto bytes = HandHeader{}.bytes();
   bytes.resize(200);
@@ -305,7 +305,7 @@ TEST(NiftiErrors, TruncatedHeader) {
   expect_error([&] { io::read_volume(dir / "stub.nii"); }, {"stub.nii", "sizeof_hdr"});
 }
 
-TEST(NiftiErrors, BadMagic) {
+TEST(IoNiftiErrors, BadMagic) {
   TempDir dir;
   HandHeader h;
   h.magic = {'x', 'y', 'z', '\0'};
@@ -316,7 +316,7 @@ TEST(NiftiErrors, BadMagic) {
   expect_error([&] { io::read_volume(dir / "pair.nii"); }, {"pair.nii", "magic"});
 }
 
-TEST(NiftiErrors, BadSizeofHdr) {
+TEST(IoNiftiErrors, BadSizeofHdr) {
   TempDir dir;
   HandHeader h;
   h.sizeof_hdr = 540;  // NIfTI-2
@@ -324,7 +324,7 @@ TEST(NiftiErrors, BadSizeofHdr) {
   expect_error([&] { io::read_volume(dir / "hdr.nii"); }, {"hdr.nii", "sizeof_hdr"});
 }
 
-TEST(NiftiErrors, UnsupportedDatatypeAndWrongBitpix) {
+TEST(IoNiftiErrors, UnsupportedDatatypeAndWrongBitpix) {
   TempDir dir;
   HandHeader h;
   h.datatype = 128;  // RGB24
@@ -337,7 +337,7 @@ TEST(NiftiErrors, UnsupportedDatatypeAndWrongBitpix) {
   expect_error([&] { io::read_volume(dir / "bitpix.nii"); }, {"bitpix.nii", "bitpix"});
 }
 
-TEST(NiftiErrors, BadGzip) {
+TEST(IoNiftiErrors, BadGzip) {
   TempDir dir;
   // gzip signature followed by garbage
   std::vector<std::byte> garbage{std::byte{0x1f}, std::byte{0x8b}};
@@ -360,7 +360,7 @@ TEST(NiftiErrors, BadGzip) {
 // ---------------------------------------------------------------------------------------------
 // Gzip decoding goes to the requested temp dir, reports progress, and cleans up.
 
-TEST(Nifti, GzipDecodesIntoTempDirWithProgress) {
+TEST(IoNifti, GzipDecodesIntoTempDirWithProgress) {
   TempDir dir;
   const Volume v = random_volume({20, 10, 5}, DType::i16, 11);
   io::write_volume(dir / "v.nii.gz", v);
@@ -381,7 +381,7 @@ TEST(Nifti, GzipDecodesIntoTempDirWithProgress) {
   EXPECT_EQ(progress.advanced, fs::file_size(dir / "v.nii.gz"));
 }
 
-TEST(Nifti, UnfinishedWriterLeavesNoFile) {
+TEST(IoNifti, UnfinishedWriterLeavesNoFile) {
   TempDir dir;
   const Volume v = random_volume({4, 4, 4}, DType::u8, 1);
   for (const char* name : {"a.nii", "a.nii.gz"}) {
@@ -398,7 +398,7 @@ TEST(Nifti, UnfinishedWriterLeavesNoFile) {
 // ---------------------------------------------------------------------------------------------
 // Real data from Debian's mricron-data package (skipped when it is not installed).
 
-TEST(NiftiRealData, Colin27) {
+TEST(IoNiftiRealData, Colin27) {
   const auto path = test::mricron_data("ch2better.nii.gz");
   if (!path) GTEST_SKIP() << "mricron-data not installed";
   auto source = io::open_volume(*path);
@@ -410,7 +410,7 @@ TEST(NiftiRealData, Colin27) {
   EXPECT_GT(*std::max_element(s.begin(), s.end()), 0);  // the middle of a brain is not empty
 }
 
-TEST(NiftiRealData, AalAtlasLabels) {
+TEST(IoNiftiRealData, AalAtlasLabels) {
   const auto path = test::mricron_data("aal.nii.gz");
   if (!path) GTEST_SKIP() << "mricron-data not installed";
   const Volume v = io::read_volume(*path);

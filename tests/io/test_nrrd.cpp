@@ -57,9 +57,9 @@ std::string header(const std::string& type, const std::string& sizes, const std:
          "\nencoding: " + encoding + "\n" + extra;
 }
 
-class NrrdRoundTrip : public ::testing::TestWithParam<bool> {};
+class IoNrrdRoundTrip : public ::testing::TestWithParam<bool> {};
 
-TEST_P(NrrdRoundTrip, IsBitExactForEveryDtype) {
+TEST_P(IoNrrdRoundTrip, IsBitExactForEveryDtype) {
   const bool compress = GetParam();
   test::TempDir dir;
   for (DType t : kAllDtypes) {
@@ -76,10 +76,10 @@ TEST_P(NrrdRoundTrip, IsBitExactForEveryDtype) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Encodings, NrrdRoundTrip, ::testing::Values(true, false),
+INSTANTIATE_TEST_SUITE_P(Encodings, IoNrrdRoundTrip, ::testing::Values(true, false),
                          [](const auto& info) { return info.param ? "gzip" : "raw"; });
 
-TEST(Nrrd, GzipWriterOutputIsAGzipStreamAfterTheHeader) {
+TEST(IoNrrd, GzipWriterOutputIsAGzipStreamAfterTheHeader) {
   test::TempDir dir;
   Volume original = random_bytes_volume({4, 4, 4}, DType::u8, 2);
   write_volume(dir / "g.nrrd", original);  // compress is the default
@@ -90,7 +90,7 @@ TEST(Nrrd, GzipWriterOutputIsAGzipStreamAfterTheHeader) {
   EXPECT_EQ(static_cast<unsigned char>(file[data + 1]), 0x8b);
 }
 
-TEST(Nrrd, ReadsBigEndianRawAndGzip) {
+TEST(IoNrrd, ReadsBigEndianRawAndGzip) {
   test::TempDir dir;
   const std::vector<std::int16_t> shorts = {-30000, -2, -1, 0, 1, 258, 1000, 32767, 7, -7, 300, -300};
   const std::vector<float> floats = {1.5f, -2.25f, 3e-5f, -4e7f, 0.f, 1.f};
@@ -110,7 +110,7 @@ TEST(Nrrd, ReadsBigEndianRawAndGzip) {
   EXPECT_EQ(u.value(1, 0, 0), double(0xA0B0C0D0u));
 }
 
-TEST(Nrrd, BigEndianSubBoxesMatchTheWhole) {
+TEST(IoNrrd, BigEndianSubBoxesMatchTheWhole) {
   test::TempDir dir;
   std::vector<std::uint16_t> values(5 * 4 * 3);
   for (std::size_t i = 0; i < values.size(); ++i) values[i] = std::uint16_t(i * 1031 + 7);
@@ -122,7 +122,7 @@ TEST(Nrrd, BigEndianSubBoxesMatchTheWhole) {
   EXPECT_TRUE(source->read_box(box) == whole.crop(box));
 }
 
-TEST(Nrrd, AcceptsEveryTypeSpelling) {
+TEST(IoNrrd, AcceptsEveryTypeSpelling) {
   const std::vector<std::pair<std::string, DType>> spellings = {
       {"uchar", DType::u8},          {"unsigned char", DType::u8},   {"uint8", DType::u8},
       {"uint8_t", DType::u8},        {"signed char", DType::i8},     {"int8", DType::i8},
@@ -145,7 +145,7 @@ TEST(Nrrd, AcceptsEveryTypeSpelling) {
   }
 }
 
-TEST(Nrrd, DetachedHeaderWithRawAndGzipData) {
+TEST(IoNrrd, DetachedHeaderWithRawAndGzipData) {
   test::TempDir dir;
   const std::vector<std::int32_t> values = {-5, 4, -3, 2, -1, 0, 1, 2};
   std::filesystem::create_directory(dir / "data");
@@ -161,7 +161,7 @@ TEST(Nrrd, DetachedHeaderWithRawAndGzipData) {
   }
 }
 
-TEST(Nrrd, WritingANhdrNameGivesADetachedPair) {
+TEST(IoNrrd, WritingANhdrNameGivesADetachedPair) {
   test::TempDir dir;
   Volume original = random_bytes_volume({3, 4, 5}, DType::u16, 8);
   for (bool compress : {true, false}) {
@@ -174,7 +174,7 @@ TEST(Nrrd, WritingANhdrNameGivesADetachedPair) {
   }
 }
 
-TEST(Nrrd, SpacingsAndSpaceDirectionsGiveSpacing) {
+TEST(IoNrrd, SpacingsAndSpaceDirectionsGiveSpacing) {
   test::TempDir dir;
   const std::string data(8, '\x05');
   write_text(dir / "a.nrrd", header("uchar", "2 2 2", "little", "raw", "spacings: 0.5 0.25 3\n") + "\n" + data);
@@ -189,14 +189,14 @@ TEST(Nrrd, SpacingsAndSpaceDirectionsGiveSpacing) {
   EXPECT_EQ(open_volume(dir / "c.nrrd")->info().spacing, (Spacing{1, 2, 1}));
 }
 
-TEST(Nrrd, SpacingWithManyDigitsSurvivesARoundTrip) {
+TEST(IoNrrd, SpacingWithManyDigitsSurvivesARoundTrip) {
   test::TempDir dir;
   Volume v(Extent{2, 2, 2}, DType::u8, Spacing{0.1, 1.0 / 3.0, 12345.678901234567});
   write_volume(dir / "sp.nrrd", v);
   EXPECT_EQ(read_volume(dir / "sp.nrrd").spacing(), v.spacing());
 }
 
-TEST(Nrrd, CommentsKeyValuesAndOtherFieldsAreIgnored) {
+TEST(IoNrrd, CommentsKeyValuesAndOtherFieldsAreIgnored) {
   test::TempDir dir;
   const std::vector<std::uint16_t> values = {1, 2, 3, 4, 5, 6, 7, 8};
   write_text(dir / "c.nrrd", "NRRD0005\r\n# a comment: with a colon\r\ncontent: test\r\ntype: ushort\r\n"
@@ -206,7 +206,7 @@ TEST(Nrrd, CommentsKeyValuesAndOtherFieldsAreIgnored) {
   EXPECT_EQ(as_string(read_volume(dir / "c.nrrd")), little_endian_bytes(values));
 }
 
-TEST(Nrrd, ByteSkipAndLineSkipLocateTheData) {
+TEST(IoNrrd, ByteSkipAndLineSkipLocateTheData) {
   test::TempDir dir;
   const std::vector<std::uint16_t> values = {10, 20, 30, 40};
   write_text(dir / "bs.nrrd", header("uint16", "2 2 1", "little", "raw", "byte skip: 3\n") + "\nXYZ" +
@@ -224,7 +224,7 @@ TEST(Nrrd, ByteSkipAndLineSkipLocateTheData) {
   }
 }
 
-TEST(Nrrd, FourDimensionsWithAUnitFirstAxisReadAsThree) {
+TEST(IoNrrd, FourDimensionsWithAUnitFirstAxisReadAsThree) {
   test::TempDir dir;
   const std::vector<std::uint8_t> values = {1, 2, 3, 4, 5, 6};
   write_text(dir / "4d.nrrd", "NRRD0004\ntype: uchar\ndimension: 4\nsizes: 1 3 2 1\nspacings: nan 0.5 0.5 2\n"
@@ -235,7 +235,7 @@ TEST(Nrrd, FourDimensionsWithAUnitFirstAxisReadAsThree) {
   EXPECT_EQ(as_string(v), little_endian_bytes(values));
 }
 
-TEST(Nrrd, ReadBoxOfSubBoxEqualsCropOfWholeForBothEncodings) {
+TEST(IoNrrd, ReadBoxOfSubBoxEqualsCropOfWholeForBothEncodings) {
   test::TempDir dir;
   Volume original = random_bytes_volume({11, 9, 6}, DType::i32, 4);
   for (bool compress : {true, false}) {
@@ -251,7 +251,7 @@ TEST(Nrrd, ReadBoxOfSubBoxEqualsCropOfWholeForBothEncodings) {
   }
 }
 
-TEST(NrrdRealData, FibsemGroundTruthLabels) {
+TEST(IoNrrdRealData, FibsemGroundTruthLabels) {
   auto path = test::shared_data("fibsem_medulla_250_gt.nrrd");
   if (!path) GTEST_SKIP() << "shared data not installed";
   auto source = open_volume(*path);
@@ -268,7 +268,7 @@ TEST(NrrdRealData, FibsemGroundTruthLabels) {
   EXPECT_LE(ids.size(), 526u);
 }
 
-TEST(NrrdRealData, FrogTissueLabels) {
+TEST(IoNrrdRealData, FrogTissueLabels) {
   auto path = test::shared_data("vtk_frog_tissue.nrrd");
   if (!path) GTEST_SKIP() << "shared data not installed";
   Volume v = read_volume(*path);

@@ -10,7 +10,7 @@ namespace {
 
 using namespace strata::test::io;
 
-TEST(Raw, RoundTripIsBitExactForEveryDtype) {
+TEST(IoRaw, RoundTripIsBitExactForEveryDtype) {
   test::TempDir dir;
   for (DType t : kAllDtypes) {
     SCOPED_TRACE(std::string(dtype_name(t)));
@@ -22,7 +22,7 @@ TEST(Raw, RoundTripIsBitExactForEveryDtype) {
   }
 }
 
-TEST(Raw, WriterCreatesSidecarWithDimsDtypeAndSpacing) {
+TEST(IoRaw, WriterCreatesSidecarWithDimsDtypeAndSpacing) {
   test::TempDir dir;
   write_volume(dir / "a.raw", random_bytes_volume({4, 3, 2}, DType::i16, 1));
   const std::string sidecar = read_text(dir / "a.raw.json");
@@ -33,7 +33,7 @@ TEST(Raw, WriterCreatesSidecarWithDimsDtypeAndSpacing) {
   EXPECT_FALSE(std::filesystem::exists(dir / "a.raw.json.tmp"));
 }
 
-TEST(Raw, SlabsWrittenInPiecesEqualTheWholeVolume) {
+TEST(IoRaw, SlabsWrittenInPiecesEqualTheWholeVolume) {
   test::TempDir dir;
   Volume original = random_bytes_volume({6, 4, 7}, DType::u32, 5);
   auto writer = create_volume_writer(dir / "s.raw", original.info());
@@ -44,7 +44,7 @@ TEST(Raw, SlabsWrittenInPiecesEqualTheWholeVolume) {
   EXPECT_TRUE(read_volume(dir / "s.raw") == original);
 }
 
-TEST(Raw, OptionsDescribeAFileWithoutSidecar) {
+TEST(IoRaw, OptionsDescribeAFileWithoutSidecar) {
   test::TempDir dir;
   const std::uint16_t samples[] = {1, 2, 3, 4, 5, 6, 700, 800, 900, 1000, 1100, 1200};
   write_bytes(dir / "plain.bin", samples, sizeof samples);
@@ -61,7 +61,7 @@ TEST(Raw, OptionsDescribeAFileWithoutSidecar) {
   EXPECT_EQ(v.value(2, 1, 1), 1200);
 }
 
-TEST(Raw, StemSidecarBesideTheFileIsFound) {
+TEST(IoRaw, StemSidecarBesideTheFileIsFound) {
   test::TempDir dir;
   const std::int16_t samples[] = {-1, 2, -3, 4, -5, 6};
   write_bytes(dir / "scan.raw", samples, sizeof samples);
@@ -74,7 +74,7 @@ TEST(Raw, StemSidecarBesideTheFileIsFound) {
   EXPECT_EQ(v.value(0, 1, 2), 6);
 }
 
-TEST(Raw, OptionsOverrideSidecarFieldByField) {
+TEST(IoRaw, OptionsOverrideSidecarFieldByField) {
   test::TempDir dir;
   const std::uint8_t samples[8] = {0, 1, 2, 3, 4, 5, 6, 7};
   write_bytes(dir / "o.raw", samples, sizeof samples);
@@ -87,7 +87,7 @@ TEST(Raw, OptionsOverrideSidecarFieldByField) {
   EXPECT_EQ(v.value(1, 1, 1), 7);
 }
 
-TEST(Raw, BigEndianAndHeaderBytesOptions) {
+TEST(IoRaw, BigEndianAndHeaderBytesOptions) {
   test::TempDir dir;
   // 3-byte header, then u16 samples 0x0102 and 0xA0B0 stored big endian.
   const unsigned char bytes[] = {9, 9, 9, 0x01, 0x02, 0xA0, 0xB0};
@@ -102,7 +102,7 @@ TEST(Raw, BigEndianAndHeaderBytesOptions) {
   EXPECT_EQ(v.value(1, 0, 0), 0xA0B0);
 }
 
-TEST(Raw, SidecarMayDeclareBigEndian) {
+TEST(IoRaw, SidecarMayDeclareBigEndian) {
   test::TempDir dir;
   const unsigned char bytes[] = {0x3f, 0x80, 0x00, 0x00, 0xc0, 0x00, 0x00, 0x00};  // 1.0f, -2.0f big endian
   write_bytes(dir / "f.raw", bytes, sizeof bytes);
@@ -112,7 +112,7 @@ TEST(Raw, SidecarMayDeclareBigEndian) {
   EXPECT_EQ(v.value(1, 0, 0), -2.0);
 }
 
-TEST(Raw, ReadBoxOfSubBoxEqualsCropOfWhole) {
+TEST(IoRaw, ReadBoxOfSubBoxEqualsCropOfWhole) {
   test::TempDir dir;
   Volume original = random_bytes_volume({9, 8, 7}, DType::f64, 3);
   write_volume(dir / "b.raw", original);
@@ -127,7 +127,7 @@ TEST(Raw, ReadBoxOfSubBoxEqualsCropOfWhole) {
   EXPECT_TRUE(source->read_slab(2, 5) == original.crop({{0, 0, 2}, {9, 8, 5}}));
 }
 
-TEST(Raw, WrongFileSizeNamesExpectedAndFoundBytes) {
+TEST(IoRaw, WrongFileSizeNamesExpectedAndFoundBytes) {
   test::TempDir dir;
   std::string bytes(47, 'x');
   write_text(dir / "short.raw", bytes);

@@ -16,9 +16,9 @@ namespace fs = std::filesystem;
 using test::TempDir;
 using namespace test::io;
 
-class FormatChain : public ::testing::TestWithParam<DType> {};
+class IoFormatChain : public ::testing::TestWithParam<DType> {};
 
-TEST_P(FormatChain, RawNrrdNiftiTiffRawIsIdentity) {
+TEST_P(IoFormatChain, RawNrrdNiftiTiffRawIsIdentity) {
   const DType dtype = GetParam();
   TempDir dir;
   // Spacings exactly representable in float32 (NIfTI stores pixdim as float).
@@ -50,13 +50,13 @@ TEST_P(FormatChain, RawNrrdNiftiTiffRawIsIdentity) {
   expect_same(io::read_volume(dir / "end.raw", raw_options), start, "raw again");
 }
 
-INSTANTIATE_TEST_SUITE_P(TypesAllFormatsStore, FormatChain,
+INSTANTIATE_TEST_SUITE_P(TypesAllFormatsStore, IoFormatChain,
                          ::testing::Values(DType::u8, DType::u16, DType::i16, DType::u32, DType::i32, DType::f32,
                                            DType::f64),
                          [](const auto& info) { return std::string(dtype_name(info.param)); });
 
 // The same chain through streaming copies, slab by slab, and a folder of TIFF slices.
-TEST(FormatChain, StreamedThroughSlabsAndATiffFolder) {
+TEST(IoFormatChain, StreamedThroughSlabsAndATiffFolder) {
   TempDir dir;
   const Volume start = random_volume({10, 9, 8}, DType::i16, 7, {1.0, 1.0, 2.5});
   io::write_volume(dir / "a.nii", start);

@@ -65,7 +65,7 @@ std::int64_t stream_and_measure(VolumeSource& source, std::int64_t slab_slices) 
 
 // 96 MiB of samples read in 4 MiB slabs: without releasing consumed pages the mapped file
 // would add the whole 96 MiB to the resident set (the acceptance test streams 1 GiB the same way).
-TEST(Streaming, SlabReadsKeepResidentMemorySmall) {
+TEST(IoStreaming, SlabReadsKeepResidentMemorySmall) {
   test::TempDir dir;
   const Extent dims{1024, 1024, 48};
   write_pattern_volume(dir / "big.raw", dims, 8);
@@ -74,7 +74,7 @@ TEST(Streaming, SlabReadsKeepResidentMemorySmall) {
   EXPECT_LT(growth, 16ll << 20) << "resident set grew by " << (growth >> 20) << " MiB";
 }
 
-TEST(Streaming, GzipNrrdSlabReadsKeepResidentMemorySmall) {
+TEST(IoStreaming, GzipNrrdSlabReadsKeepResidentMemorySmall) {
   test::TempDir dir;
   const Extent dims{1024, 1024, 48};
   write_pattern_volume(dir / "big.nrrd", dims, 8);
@@ -85,7 +85,7 @@ TEST(Streaming, GzipNrrdSlabReadsKeepResidentMemorySmall) {
   EXPECT_LT(growth, 16ll << 20) << "resident set grew by " << (growth >> 20) << " MiB";
 }
 
-TEST(Streaming, GzipInputDecodesToATemporaryThatDiesWithTheSource) {
+TEST(IoStreaming, GzipInputDecodesToATemporaryThatDiesWithTheSource) {
   test::TempDir dir, scratch;
   const Extent dims{64, 48, 40};
   write_pattern_volume(dir / "g.nrrd", dims, 7);
@@ -108,7 +108,7 @@ TEST(Streaming, GzipInputDecodesToATemporaryThatDiesWithTheSource) {
   EXPECT_EQ(progress.advanced, progress.total);
 }
 
-TEST(Streaming, SlabsOfAnySizeWriteTheSameVolume) {
+TEST(IoStreaming, SlabsOfAnySizeWriteTheSameVolume) {
   test::TempDir dir;
   const Extent dims{33, 17, 23};
   write_pattern_volume(dir / "one.nrrd", dims, 23);
@@ -118,7 +118,7 @@ TEST(Streaming, SlabsOfAnySizeWriteTheSameVolume) {
   EXPECT_TRUE(read_volume(dir / "many.nrrd") == expected);
 }
 
-TEST(Streaming, WriterRejectsMismatchedSlabs) {
+TEST(IoStreaming, WriterRejectsMismatchedSlabs) {
   test::TempDir dir;
   const Extent dims{8, 6, 5};
   for (const char* name : {"w.raw", "w.nrrd"}) {
@@ -140,7 +140,7 @@ TEST(Streaming, WriterRejectsMismatchedSlabs) {
   }
 }
 
-TEST(Streaming, AtomicOutputFileRenamesOnCommitAndCleansUpOtherwise) {
+TEST(IoStreaming, AtomicOutputFileRenamesOnCommitAndCleansUpOtherwise) {
   test::TempDir dir;
   {
     AtomicOutputFile out(dir / "kept.bin");
@@ -162,7 +162,7 @@ std::string gzip_with_our_writer(const std::filesystem::path& path, const std::s
   return read_text(path);
 }
 
-TEST(Streaming, GzipRoundTripsLargeAndConcatenatedStreams) {
+TEST(IoStreaming, GzipRoundTripsLargeAndConcatenatedStreams) {
   test::TempDir dir;
   // Several MiB of poorly compressible bytes make the decoder fill its output buffer many times.
   std::string payload(5'000'000, '\0');
@@ -187,7 +187,7 @@ TEST(Streaming, GzipRoundTripsLargeAndConcatenatedStreams) {
   EXPECT_EQ(progress.advanced, both.size());
 }
 
-TEST(Streaming, ByteSwapReversesEachSample) {
+TEST(IoStreaming, ByteSwapReversesEachSample) {
   unsigned char data[8] = {1, 2, 3, 4, 5, 6, 7, 8};
   detail::byte_swap(reinterpret_cast<std::byte*>(data), 2, 4);
   const unsigned char expected[8] = {4, 3, 2, 1, 8, 7, 6, 5};
@@ -197,7 +197,7 @@ TEST(Streaming, ByteSwapReversesEachSample) {
   EXPECT_EQ(std::memcmp(data, expected64, 8), 0);
 }
 
-TEST(VolumeIo, DetectsFormatsByName) {
+TEST(IoVolumeIo, DetectsFormatsByName) {
   test::TempDir dir;
   EXPECT_EQ(detect_format("a.raw"), FileFormat::raw);
   EXPECT_EQ(detect_format("a.BIN"), FileFormat::raw);
@@ -214,7 +214,7 @@ TEST(VolumeIo, DetectsFormatsByName) {
   EXPECT_STREQ(format_name(FileFormat::nifti), "nifti");
 }
 
-TEST(VolumeIo, FormatSupportsDtypes) {
+TEST(IoVolumeIo, FormatSupportsDtypes) {
   for (DType t : kAllDtypes) {
     EXPECT_TRUE(format_supports(FileFormat::raw, t));
     EXPECT_TRUE(format_supports(FileFormat::nrrd, t));
@@ -225,7 +225,7 @@ TEST(VolumeIo, FormatSupportsDtypes) {
   EXPECT_THROW(create_volume_writer(dir / "x.nii", VolumeInfo{{2, 2, 2}, DType::i8, {}}), Error);
 }
 
-TEST(VolumeIo, FormatOptionOverridesTheExtension) {
+TEST(IoVolumeIo, FormatOptionOverridesTheExtension) {
   test::TempDir dir;
   Volume v = pattern_slab({4, 3, 2}, 0, 2);
   WriteOptions options;

@@ -142,9 +142,9 @@ struct RoundTripCase {
   bool compress;
 };
 
-class TiffRoundTrip : public ::testing::TestWithParam<RoundTripCase> {};
+class IoTiffRoundTrip : public ::testing::TestWithParam<RoundTripCase> {};
 
-TEST_P(TiffRoundTrip, IsBitExactWithSpacingAndBoxes) {
+TEST_P(IoTiffRoundTrip, IsBitExactWithSpacingAndBoxes) {
   const auto [dtype, folder, compress] = GetParam();
   TempDir dir;
   const fs::path path = folder ? dir / "slices" : dir / "stack.tif";
@@ -175,12 +175,12 @@ std::vector<RoundTripCase> round_trip_cases() {
   return cases;
 }
 
-INSTANTIATE_TEST_SUITE_P(AllTypes, TiffRoundTrip, ::testing::ValuesIn(round_trip_cases()), [](const auto& info) {
+INSTANTIATE_TEST_SUITE_P(AllTypes, IoTiffRoundTrip, ::testing::ValuesIn(round_trip_cases()), [](const auto& info) {
   return std::string(dtype_name(info.param.dtype)) + (info.param.folder ? "_folder" : "_multipage") +
          (info.param.compress ? "_deflate" : "_plain");
 });
 
-TEST(Tiff, MultiPageFileHasOnePagePerSliceAndSpacingJson) {
+TEST(IoTiff, MultiPageFileHasOnePagePerSliceAndSpacingJson) {
   TempDir dir;
   const Volume v = random_volume({6, 4, 7}, DType::u16, 2, {0.25, 0.5, 3.0});
   io::write_volume(dir / "s.tiff", v);
@@ -190,7 +190,7 @@ TEST(Tiff, MultiPageFileHasOnePagePerSliceAndSpacingJson) {
   EXPECT_FALSE(fs::exists(dir / "s.tiff.tmp"));
 }
 
-TEST(Tiff, FolderWriterNamesSlicesAndLeavesNoStaging) {
+TEST(IoTiff, FolderWriterNamesSlicesAndLeavesNoStaging) {
   TempDir dir;
   fs::create_directory(dir / "out");  // an existing folder is detected as a TIFF stack
   const Volume v = random_volume({5, 3, 12}, DType::f32, 4);
@@ -202,7 +202,7 @@ TEST(Tiff, FolderWriterNamesSlicesAndLeavesNoStaging) {
   EXPECT_EQ(file_count(dir.path()), 1u);  // no out.tmp left behind
 }
 
-TEST(Tiff, FolderWriterReplacesOldSlicesButNotOtherFiles) {
+TEST(IoTiff, FolderWriterReplacesOldSlicesButNotOtherFiles) {
   TempDir dir;
   const io::WriteOptions options{.format = io::FileFormat::tiff};
   io::write_volume(dir / "out", random_volume({4, 4, 9}, DType::u8, 1), options);
@@ -216,7 +216,7 @@ TEST(Tiff, FolderWriterReplacesOldSlicesButNotOtherFiles) {
   EXPECT_TRUE(fs::exists(dir / "out" / "notes.txt"));
 }
 
-TEST(Tiff, UnfinishedWritersLeaveNothing) {
+TEST(IoTiff, UnfinishedWritersLeaveNothing) {
   TempDir dir;
   const Volume v = random_volume({4, 4, 4}, DType::u16, 3);
   const io::WriteOptions options{.format = io::FileFormat::tiff};
@@ -233,7 +233,7 @@ TEST(Tiff, UnfinishedWritersLeaveNothing) {
 // ---------------------------------------------------------------------------------------------
 // Files from other writers
 
-TEST(Tiff, FolderSlicesAreInNaturalOrder) {
+TEST(IoTiff, FolderSlicesAreInNaturalOrder) {
   TempDir dir;
   fs::create_directory(dir / "stack");
   std::vector<PageSpec> pages;
@@ -252,7 +252,7 @@ TEST(Tiff, FolderSlicesAreInNaturalOrder) {
   EXPECT_EQ(v.spacing(), Spacing{});  // no description: default spacing
 }
 
-TEST(Tiff, ReadsTiledCompressedPages) {
+TEST(IoTiff, ReadsTiledCompressedPages) {
   TempDir dir;
   std::vector<PageSpec> pages;
   for (std::uint64_t z = 0; z < 3; ++z) {
@@ -269,7 +269,7 @@ TEST(Tiff, ReadsTiledCompressedPages) {
   EXPECT_TRUE(source->read_box(box) == expected.crop(box));
 }
 
-TEST(Tiff, ReadsBigEndianStripsWithPredictor) {
+TEST(IoTiff, ReadsBigEndianStripsWithPredictor) {
   TempDir dir;
   std::vector<PageSpec> pages;
   for (std::uint64_t z = 0; z < 4; ++z) {
@@ -288,14 +288,14 @@ TEST(Tiff, ReadsBigEndianStripsWithPredictor) {
   EXPECT_TRUE(source->read_box(box) == expected.crop(box));
 }
 
-TEST(Tiff, ReadsBigTiff) {
+TEST(IoTiff, ReadsBigTiff) {
   TempDir dir;
   std::vector<PageSpec> pages{page_of(5, 5, 64, SAMPLEFORMAT_IEEEFP, 1), page_of(5, 5, 64, SAMPLEFORMAT_IEEEFP, 2)};
   write_pages(dir / "big.tif", pages, "w8");
   EXPECT_TRUE(io::read_volume(dir / "big.tif") == volume_of(pages, DType::f64));
 }
 
-TEST(Tiff, SpacingFromImageDescription) {
+TEST(IoTiff, SpacingFromImageDescription) {
   TempDir dir;
   PageSpec p = page_of(4, 4, 8, SAMPLEFORMAT_UINT, 1);
   p.description = R"({"spacing":[0.1,0.2,0.3],"by":"someone"})";
@@ -314,20 +314,20 @@ TEST(Tiff, SpacingFromImageDescription) {
 // ---------------------------------------------------------------------------------------------
 // Inconsistent or unsupported pages: the message names the file/page and the tag.
 
-TEST(TiffErrors, PageWithDifferentWidth) {
+TEST(IoTiffErrors, PageWithDifferentWidth) {
   TempDir dir;
   write_pages(dir / "mixed.tif", {page_of(8, 6, 8, SAMPLEFORMAT_UINT, 1), page_of(8, 6, 8, SAMPLEFORMAT_UINT, 2),
                                   page_of(9, 6, 8, SAMPLEFORMAT_UINT, 3)});
   expect_error([&] { io::open_volume(dir / "mixed.tif"); }, {"mixed.tif", "page 2", "ImageWidth"});
 }
 
-TEST(TiffErrors, PageWithDifferentSampleFormat) {
+TEST(IoTiffErrors, PageWithDifferentSampleFormat) {
   TempDir dir;
   write_pages(dir / "signs.tif", {page_of(8, 6, 16, SAMPLEFORMAT_UINT, 1), page_of(8, 6, 16, SAMPLEFORMAT_INT, 2)});
   expect_error([&] { io::open_volume(dir / "signs.tif"); }, {"signs.tif", "page 1", "SampleFormat"});
 }
 
-TEST(TiffErrors, FolderSliceWithDifferentBits) {
+TEST(IoTiffErrors, FolderSliceWithDifferentBits) {
   TempDir dir;
   fs::create_directory(dir / "stack");
   for (int i = 0; i < 5; ++i)
@@ -336,7 +336,7 @@ TEST(TiffErrors, FolderSliceWithDifferentBits) {
   expect_error([&] { io::open_volume(dir / "stack"); }, {"slice_3.tif", "BitsPerSample"});
 }
 
-TEST(TiffErrors, FolderSliceWithSeveralPages) {
+TEST(IoTiffErrors, FolderSliceWithSeveralPages) {
   TempDir dir;
   fs::create_directory(dir / "stack");
   write_pages(dir / "stack" / "a1.tif", {page_of(8, 6, 8, SAMPLEFORMAT_UINT, 1)});
@@ -344,7 +344,7 @@ TEST(TiffErrors, FolderSliceWithSeveralPages) {
   expect_error([&] { io::open_volume(dir / "stack"); }, {"a2.tif", "pages"});
 }
 
-TEST(TiffErrors, RgbAndUnsupportedSampleTypes) {
+TEST(IoTiffErrors, RgbAndUnsupportedSampleTypes) {
   TempDir dir;
   PageSpec rgb = page_of(8, 6, 8, SAMPLEFORMAT_UINT, 1);
   rgb.samples = 3;
@@ -356,7 +356,7 @@ TEST(TiffErrors, RgbAndUnsupportedSampleTypes) {
   expect_error([&] { io::open_volume(dir / "u64.tif"); }, {"u64.tif", "BitsPerSample"});
 }
 
-TEST(TiffErrors, NotATiffAndEmptyFolder) {
+TEST(IoTiffErrors, NotATiffAndEmptyFolder) {
   TempDir dir;
   std::ofstream(dir / "fake.tif") << "this is not a TIFF file at all";
   expect_error([&] { io::open_volume(dir / "fake.tif"); }, {"fake.tif"});
@@ -368,7 +368,7 @@ TEST(TiffErrors, NotATiffAndEmptyFolder) {
 // Streaming: a request opens only the pages it covers, so a damaged page outside it is not
 // touched, and a damaged page inside it is reported by name.
 
-TEST(TiffStreaming, FolderReadsOnlyRequestedSlices) {
+TEST(IoTiffStreaming, FolderReadsOnlyRequestedSlices) {
   TempDir dir;
   const io::WriteOptions options{.format = io::FileFormat::tiff};
   const Volume v = random_volume({6, 5, 6}, DType::u16, 8);
@@ -379,7 +379,7 @@ TEST(TiffStreaming, FolderReadsOnlyRequestedSlices) {
   expect_error([&] { source->read_slab(3, 6); }, {"slice_0005.tif"});
 }
 
-TEST(TiffStreaming, MultiPageReadsOnlyRequestedPages) {
+TEST(IoTiffStreaming, MultiPageReadsOnlyRequestedPages) {
   TempDir dir;
   std::vector<PageSpec> pages;
   for (std::uint64_t z = 0; z < 5; ++z) {

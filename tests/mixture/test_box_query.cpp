@@ -112,7 +112,7 @@ Box random_box(std::mt19937_64& rng, Extent d) {
   return b;
 }
 
-TEST(AlignedPieces, GreedyAlignedAndBorderOverhang) {
+TEST(MixtureAlignedPieces, GreedyAlignedAndBorderOverhang) {
   using P = std::vector<std::pair<std::int64_t, int>>;
   EXPECT_EQ(aligned_pieces(3, 13, 64, 6), (P{{3, 0}, {4, 2}, {8, 2}, {12, 0}}));
   EXPECT_EQ(aligned_pieces(0, 64, 64, 6), (P{{0, 6}}));
@@ -131,9 +131,9 @@ TEST(AlignedPieces, GreedyAlignedAndBorderOverhang) {
   EXPECT_THROW(aligned_pieces(0, 11, 10, 4), Error);
 }
 
-class BoxQueryTest : public ::testing::TestWithParam<gen::Kind> {};
+class MixtureBoxQuery : public ::testing::TestWithParam<gen::Kind> {};
 
-TEST_P(BoxQueryTest, RandomBoxesMatchBruteForce) {
+TEST_P(MixtureBoxQuery, RandomBoxesMatchBruteForce) {
   const Extent dims{45, 38, 29};  // odd sizes: borders at every level
   const Encoded e = encode(GetParam(), dims, GetParam() == gen::Kind::fibres ? 300 : 40, 7);
   FactorizationGrid grid(e.f);
@@ -185,10 +185,10 @@ TEST_P(BoxQueryTest, RandomBoxesMatchBruteForce) {
               within, labels);
 }
 
-INSTANTIATE_TEST_SUITE_P(Kinds, BoxQueryTest, ::testing::Values(gen::Kind::voronoi, gen::Kind::fibres),
+INSTANTIATE_TEST_SUITE_P(Kinds, MixtureBoxQuery, ::testing::Values(gen::Kind::voronoi, gen::Kind::fibres),
                          [](const auto& info) { return std::string(gen::kind_name(info.param)); });
 
-TEST(BoxQuery, PlanTilesTheBoxExactly) {
+TEST(MixtureBoxQuery, PlanTilesTheBoxExactly) {
   const Extent dims{45, 38, 29};
   const Encoded e = encode(gen::Kind::voronoi, dims, 20, 3);
   FactorizationGrid grid(e.f);
@@ -220,7 +220,7 @@ TEST(BoxQuery, PlanTilesTheBoxExactly) {
 // weighted by its real support. dims 100 x 20 x 12: x = [0,64) + [64,96) + [96,100) where the
 // last piece is one level-5 voxel covering 4 voxels (nominal 32); a weight of 32 per axis would
 // break the total, and a wrong support would bias the counts.
-TEST(BoxQuery, BorderSupportWeights) {
+TEST(MixtureBoxQuery, BorderSupportWeights) {
   const Extent dims{100, 20, 12};
   const Encoded e = encode(gen::Kind::voronoi, dims, 12, 5, 16);  // 16 bits: near-exact weights
   FactorizationGrid grid(e.f);
@@ -243,7 +243,7 @@ TEST(BoxQuery, BorderSupportWeights) {
   }
 }
 
-TEST(BoxQuery, WholeVolumeIsFewSamplesAndOneVoxelIsExact) {
+TEST(MixtureBoxQuery, WholeVolumeIsFewSamplesAndOneVoxelIsExact) {
   const Extent dims{64, 64, 32};
   const Encoded& e = fibres_64x64x32();
   FactorizationGrid grid(e.f);
@@ -262,7 +262,7 @@ TEST(BoxQuery, WholeVolumeIsFewSamplesAndOneVoxelIsExact) {
   }
 }
 
-TEST(BoxQuery, HybridReadsFewerIdsThanTheVolume) {
+TEST(MixtureBoxQuery, HybridReadsFewerIdsThanTheVolume) {
   const Extent dims{96, 96, 96};
   const Encoded e = encode(gen::Kind::fibres, dims, 300, 2);
   FactorizationGrid grid(e.f);
@@ -311,7 +311,7 @@ class FailingGrid final : public NodeGrid {
   const NodeGrid& g_;
 };
 
-TEST(BoxQuery, FailedReadsPropagateAndLeaveNoState) {
+TEST(MixtureBoxQuery, FailedReadsPropagateAndLeaveNoState) {
   const Extent dims{40, 36, 30};
   const Encoded e = encode(gen::Kind::voronoi, dims, 20, 4);
   FactorizationGrid inner(e.f);
@@ -337,7 +337,7 @@ TEST(BoxQuery, FailedReadsPropagateAndLeaveNoState) {
 
 // The coarse method samples one level whose cells meeting the box fit the budget: its counts
 // sum to the box volume for any box, and a budget that holds the whole box is an exact scan.
-TEST(BoxQuery, CoarseRespectsTheBudgetAndSumsToTheBoxVolume) {
+TEST(MixtureBoxQuery, CoarseRespectsTheBudgetAndSumsToTheBoxVolume) {
   const Extent dims{64, 64, 32};
   const Encoded& e = fibres_64x64x32();
   FactorizationGrid grid(e.f);
@@ -363,7 +363,7 @@ TEST(BoxQuery, CoarseRespectsTheBudgetAndSumsToTheBoxVolume) {
 
 // A box made of whole level-4 cells has no partly covered cell: the coarse answer is the
 // footprint assembly's (the same 8 samples), with no placement term in sigma.
-TEST(BoxQuery, CoarseOnAlignedCellsEqualsTheFootprint) {
+TEST(MixtureBoxQuery, CoarseOnAlignedCellsEqualsTheFootprint) {
   const Encoded& e = fibres_64x64x32();
   FactorizationGrid grid(e.f);
   BoxQuery q(grid, e.lookup, e.num_sources);
@@ -383,7 +383,7 @@ TEST(BoxQuery, CoarseOnAlignedCellsEqualsTheFootprint) {
 // feasible range): on randomly placed labels (i.i.d. voxels), whose true spread is far
 // narrower (hypergeometric), every label must fall within 3 sigma; dropping the term leaves
 // most outside (12 of 160 were inside when it was tried).
-TEST(BoxQuery, CoarseSigmaCoversRandomlyPlacedLabels) {
+TEST(MixtureBoxQuery, CoarseSigmaCoversRandomlyPlacedLabels) {
   const Extent dims{48, 40, 36};
   Volume labels(dims, DType::u8);
   std::mt19937_64 rng(17);
@@ -402,7 +402,7 @@ TEST(BoxQuery, CoarseSigmaCoversRandomlyPlacedLabels) {
   EXPECT_EQ(covered, labels_seen);
 }
 
-TEST(BoxQuery, RejectsBadBoxesAndMethods) {
+TEST(MixtureBoxQuery, RejectsBadBoxesAndMethods) {
   const Encoded e = encode(gen::Kind::voronoi, {9, 7, 5}, 4, 1);
   FactorizationGrid grid(e.f);
   BoxQuery q(grid, e.lookup, e.num_sources);

@@ -119,7 +119,7 @@ void round_trip(const Volume& labels, IdsMode mode, const std::string& name, int
               std::string(ids_mode_name(mode)).c_str(), (unsigned long long)r.nodes, r.depth, r.bits_per_voxel, *r.max_l1);
 }
 
-TEST(EncodedLabels, GraphBitstreamRoundTrip) {
+TEST(MixtureEncodedLabels, GraphBitstreamRoundTrip) {
   MixtureGraph g;
   g.num_sources = 5;
   g.nodes = {{0, 1, 3}, {2, 5, 0}, {6, 3, 7}, {4, 7, 1}};
@@ -160,7 +160,7 @@ TEST(EncodedLabels, GraphBitstreamRoundTrip) {
             std::string::npos);
 }
 
-TEST(EncodedLabels, VoronoiRoundTripBothIdModes) {
+TEST(MixtureEncodedLabels, VoronoiRoundTripBothIdModes) {
   const Volume v = make_labels(gen::Kind::voronoi, {37, 30, 21}, 40);
   round_trip(v, IdsMode::blocks, "voronoi");
   round_trip(v, IdsMode::fixed, "voronoi");
@@ -168,13 +168,13 @@ TEST(EncodedLabels, VoronoiRoundTripBothIdModes) {
   round_trip(v, IdsMode::fixed, "vor-raw", 0);
 }
 
-TEST(EncodedLabels, FibresRoundTripBothIdModes) {
+TEST(MixtureEncodedLabels, FibresRoundTripBothIdModes) {
   const Volume v = make_labels(gen::Kind::fibres, {40, 33, 26}, 150);
   round_trip(v, IdsMode::blocks, "fibres");
   round_trip(v, IdsMode::fixed, "fibres");
 }
 
-TEST(EncodedLabels, KeepsDtypeAndSignedValues) {
+TEST(MixtureEncodedLabels, KeepsDtypeAndSignedValues) {
   Volume v({9, 7, 5}, DType::i16);
   auto s = v.samples<std::int16_t>();
   for (std::size_t i = 0; i < s.size(); ++i) s[i] = std::int16_t(i % 13 < 6 ? -300 : (i / 40) * 1000 - 2000);
@@ -186,7 +186,7 @@ TEST(EncodedLabels, KeepsDtypeAndSignedValues) {
 
 // Table 2 columns of the report, on a volume whose mipmap is known by hand: 4x2x2 voxels, the
 // left half label 0 (background), the right half labels 5 and 9 in alternating rows.
-TEST(EncodedLabels, ReportDescribesTheMipmap) {
+TEST(MixtureEncodedLabels, ReportDescribesTheMipmap) {
   Volume v({4, 2, 2}, DType::u8);
   auto s = v.samples<std::uint8_t>();
   for (std::int64_t z = 0; z < 2; ++z)
@@ -203,7 +203,7 @@ TEST(EncodedLabels, ReportDescribesTheMipmap) {
   EXPECT_EQ(r.level0_voxels, 16u);
 }
 
-TEST(EncodedLabels, GalaFibsemRoundTrip) {
+TEST(MixtureEncodedLabels, GalaFibsemRoundTrip) {
   const auto path = test::shared_data("gala_fibsem_test_gt.nrrd");
   if (!path) GTEST_SKIP() << "gala_fibsem_test_gt.nrrd not available";
   const Volume labels = io::read_volume(*path);
@@ -211,7 +211,7 @@ TEST(EncodedLabels, GalaFibsemRoundTrip) {
   round_trip(labels, IdsMode::fixed, "gala");
 }
 
-TEST(EncodedLabels, CorruptionAndTruncationAreErrors) {
+TEST(MixtureEncodedLabels, CorruptionAndTruncationAreErrors) {
   test::TempDir dir;
   const auto file = dir / "v.strata";
   const Volume v = make_labels(gen::Kind::voronoi, {20, 18, 16}, 12);
@@ -247,7 +247,7 @@ TEST(EncodedLabels, CorruptionAndTruncationAreErrors) {
 }
 
 // Checksums are right but an id names no node: rejected at open, naming the section.
-TEST(EncodedLabels, OutOfRangeIdsAreRejected) {
+TEST(MixtureEncodedLabels, OutOfRangeIdsAreRejected) {
   test::TempDir dir;
   const auto good = dir / "good.strata";
   const Volume v = make_labels(gen::Kind::voronoi, {12, 10, 9}, 6);

@@ -34,7 +34,7 @@ InternalNode expected(std::uint32_t x, std::uint32_t y, double mx, double my, We
 
 const PairScore kScores[] = {PairScore::occurrence, PairScore::reduction, PairScore::reuse};
 
-TEST(Quantize, SymmetricBinsAreCentredOnDyadics) {
+TEST(MixtureQuantize, SymmetricBinsAreCentredOnDyadics) {
   // w in (0, 0.5]; bin q is centred on (q + 1) / 2^(bits+1).
   EXPECT_EQ(quantize_weight(0.5, 9), 511u);
   EXPECT_EQ(quantize_weight(0.25, 9), 255u);
@@ -64,7 +64,7 @@ TEST(Quantize, SymmetricBinsAreCentredOnDyadics) {
   EXPECT_THROW(parse_weight_bins("log"), Error);
 }
 
-TEST(Quantize, UniformBinsAndMirror) {
+TEST(MixtureQuantize, UniformBinsAndMirror) {
   const WeightBins u = WeightBins::uniform;
   EXPECT_EQ(quantize_weight(0.5, 9, u), 256u);
   EXPECT_EQ(quantize_weight(1e-9, 9, u), 0u);
@@ -81,7 +81,7 @@ TEST(Quantize, UniformBinsAndMirror) {
 }
 
 // Fig. 2: m = (0.1, 0.2, 0.3, 0.4) factors as (1,2), then (3,5), then (4,6) (1-based).
-TEST(Factorize, PaperFigure2) {
+TEST(MixtureFactorize, PaperFigure2) {
   for (WeightBins layout : {WeightBins::symmetric, WeightBins::uniform}) {
     for (bool integral : {true, false}) {
       for (PairScore s : kScores) {
@@ -124,7 +124,7 @@ TEST(Factorize, PaperFigure2) {
 // Fig. 4: with m' = (0.2, 0.4, 0.1, 0.3) the interpolation lambda_5 of (1,2) at 1:2 serves both.
 // Every pair is held by both mixtures (phi1 and phi2 tie); only (1,2) has the same ratio in
 // both, so it saves a node and is picked first.
-TEST(Factorize, PaperFigure4ReusesLambda5) {
+TEST(MixtureFactorize, PaperFigure4ReusesLambda5) {
   for (PairScore s : kScores) {
     MixtureTable t(4, true);
     const auto m = add(t, {0, 1, 2, 3}, {1, 2, 3, 4});
@@ -154,7 +154,7 @@ TEST(Factorize, PaperFigure4ReusesLambda5) {
 }
 
 // phi1 counts voxels holding a pair; phi2 weights them by nnz - 1 (2 for nnz 2).
-TEST(Factorize, OccurrenceAndReductionDisagreeWhereTheyShould) {
+TEST(MixtureFactorize, OccurrenceAndReductionDisagreeWhereTheyShould) {
   MixtureTable t(6, true);
   const auto a = add(t, {0, 1}, {1, 1});
   const auto b = add(t, {1, 2, 3, 4, 5}, {1, 2, 3, 4, 5});
@@ -175,7 +175,7 @@ TEST(Factorize, OccurrenceAndReductionDisagreeWhereTheyShould) {
 
 // Pair (1,2) occurs in {0,1,2} and in {1,2,3} (same ratio); once picked, ALL occurrences are
 // factored - including in a mixture with nnz <= tau that does not vote yet.
-TEST(Factorize, FactorsAllOccurrencesOfThePair) {
+TEST(MixtureFactorize, FactorsAllOccurrencesOfThePair) {
   MixtureTable t(5, true);
   add(t, {1, 2, 3, 4}, {1, 1, 5, 7});
   add(t, {1, 2}, {3, 3});
@@ -187,7 +187,7 @@ TEST(Factorize, FactorsAllOccurrencesOfThePair) {
   EXPECT_EQ(f.stats.reused, 2u);
 }
 
-TEST(Factorize, WeightQuantizationMergesNodes) {
+TEST(MixtureFactorize, WeightQuantizationMergesNodes) {
   MixtureTable t(2, true);
   const auto x = add(t, {0, 1}, {1, 2});        // w = 1/3 on the lighter side
   const auto y = add(t, {0, 1}, {1000, 2001});  // w = 0.33322, same 9-bit bin
@@ -204,7 +204,7 @@ TEST(Factorize, WeightQuantizationMergesNodes) {
   EXPECT_EQ(f.graph.codebook.uses[q], 2u);
 }
 
-TEST(Factorize, RejectsBadBits) {
+TEST(MixtureFactorize, RejectsBadBits) {
   MixtureTable t(2, true);
   FactorOptions o;
   o.bits = 0;
@@ -239,7 +239,7 @@ void check_graph(const MixtureGraph& g) {
 // Voronoi cells: every reconstructed mixture within the quantisation bound of exact H.
 // One interpolation with |w - code| < 2^-b moves at most 2 * 2^-b of l1 mass; a mixture
 // factored greedily uses nnz - 1 of them (each scaled by the fraction it carries <= 1).
-TEST(Factorize, ReconstructionWithinQuantizationBound) {
+TEST(MixtureFactorize, ReconstructionWithinQuantizationBound) {
   const Volume v = gen::generate(gen::Params{gen::Kind::voronoi, {37, 29, 21}, 5, 40, std::nullopt});
   const HistogramMipmap h = HistogramMipmap::from_labels(v);
   for (PairScore s : kScores)
@@ -279,7 +279,7 @@ TEST(Factorize, ReconstructionWithinQuantizationBound) {
 
 // Dense mixtures are built from their children's nodes: the error adds at most the
 // interpolations of <= 8 children on top of the worst child.
-TEST(Factorize, DenseMixturesViaChildren) {
+TEST(MixtureFactorize, DenseMixturesViaChildren) {
   const Volume v = gen::generate(gen::Params{gen::Kind::fibres, {40, 36, 30}, 3, 60, std::nullopt});
   const HistogramMipmap h = HistogramMipmap::from_labels(v);
   FactorOptions o;
@@ -317,7 +317,7 @@ TEST(Factorize, DenseMixturesViaChildren) {
   EXPECT_LT(f.stats.nodes, g.stats.nodes);
 }
 
-TEST(Factorize, DeterministicAndMoveEquivalent) {
+TEST(MixtureFactorize, DeterministicAndMoveEquivalent) {
   const Volume v = gen::generate(gen::Params{gen::Kind::voronoi, {30, 30, 30}, 9, 25, std::nullopt});
   HistogramMipmap h = HistogramMipmap::from_labels(v);
   const Factorization a = factorize(h, {});

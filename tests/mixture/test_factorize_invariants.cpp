@@ -35,7 +35,7 @@ void expect_exact_level0_and_normalised(const HistogramMipmap& h, const Factoriz
 // partition, so level-1 voxels hold exact 1:1 mixtures, and one level-2 voxel has children with
 // nodes A, B and C = (A, B, w = 1/2). Merging A and B (one child each) returned C, which was
 // then merged with the other copy of C: node (C, C), rejected when the file was read back.
-TEST(FactorizeInvariants, SuperpixelCropWhereAMergeMetItsOwnResult) {
+TEST(MixtureFactorizeInvariants, SuperpixelCropWhereAMergeMetItsOwnResult) {
   const Volume labels = io::read_volume(test::test_data("fibsem_medulla_sp_crop20.nrrd"));
   ASSERT_EQ(labels.dims(), (Extent{20, 20, 20}));
   LabelMap map;
@@ -55,7 +55,7 @@ TEST(FactorizeInvariants, SuperpixelCropWhereAMergeMetItsOwnResult) {
 }
 
 // validate() names the node and the broken rule.
-TEST(FactorizeInvariants, ValidateRejectsBrokenGraphs) {
+TEST(MixtureFactorizeInvariants, ValidateRejectsBrokenGraphs) {
   MixtureGraph g;
   g.num_sources = 3;
   g.codebook.bits = 2;
@@ -85,7 +85,7 @@ TEST(FactorizeInvariants, ValidateRejectsBrokenGraphs) {
 
 // Randomised: generated superpixel stacks (the kind that broke the dense path), Voronoi cells
 // and fibres, thousands of labels, under random factorisation options. Seeded: reproducible.
-TEST(FactorizeInvariants, RandomLabelVolumesUnderRandomOptions) {
+TEST(MixtureFactorizeInvariants, RandomLabelVolumesUnderRandomOptions) {
   std::mt19937 rng(20261124);
   auto pick = [&](int lo, int hi) { return std::uniform_int_distribution<int>(lo, hi)(rng); };
   const PairScore scores[] = {PairScore::reduction, PairScore::occurrence, PairScore::reuse};
@@ -123,7 +123,7 @@ TEST(FactorizeInvariants, RandomLabelVolumesUnderRandomOptions) {
 }
 
 // The same through the file: encode, read back (the reader checks the graph), decode level 0.
-TEST(FactorizeInvariants, GeneratedSuperpixelStacksRoundTripThroughTheFile) {
+TEST(MixtureFactorizeInvariants, GeneratedSuperpixelStacksRoundTripThroughTheFile) {
   test::TempDir dir;
   for (std::uint64_t seed = 1; seed <= 6; ++seed) {
     gen::Params p;

@@ -29,7 +29,7 @@ MixtureGraph hand_graph() {
   return g;
 }
 
-TEST(Schedule, TopologicalLevelsAndDepth) {
+TEST(MixtureSchedule, TopologicalLevelsAndDepth) {
   const MixtureGraph g = hand_graph();
   EXPECT_EQ(topological_levels(g), (std::vector<std::uint32_t>{0, 0, 0, 0, 1, 2, 3, 1, 1}));
   EXPECT_EQ(topological_depth(g), 3u);
@@ -62,7 +62,7 @@ void check_schedule(const MixtureGraph& g, const Schedule& s) {
     }
 }
 
-TEST(Schedule, BalancedPhasesRespectDependencies) {
+TEST(MixtureSchedule, BalancedPhasesRespectDependencies) {
   const Volume v = gen::generate(gen::Params{gen::Kind::voronoi, {40, 40, 40}, 2, 50, std::nullopt});
   const HistogramMipmap h = HistogramMipmap::from_labels(v);
   const Factorization f = factorize(h, {});
@@ -80,7 +80,7 @@ TEST(Schedule, BalancedPhasesRespectDependencies) {
   EXPECT_LE(max_b, max_u);
 }
 
-TEST(Palette, EqualsBruteForceMixing) {
+TEST(MixturePalette, EqualsBruteForceMixing) {
   const Volume v = gen::generate(gen::Params{gen::Kind::fibres, {48, 40, 32}, 4, 80, std::nullopt});
   const HistogramMipmap h = HistogramMipmap::from_labels(v);
   const Factorization f = factorize(h, {});
@@ -123,7 +123,7 @@ TEST(Palette, EqualsBruteForceMixing) {
   EXPECT_THROW(propagate_palette(f.graph, s, std::vector<float>(3), C), Error);
 }
 
-TEST(Lookup, ErrorPropagationOnAHandExample) {
+TEST(MixtureLookup, ErrorPropagationOnAHandExample) {
   const MixtureGraph g = hand_graph();
   const Schedule s = make_schedule(g);
   // Node 4 = 0.8 e0 + 0.2 e1 (bin 0: w 0.2, dw 0.01). Node 5 = 0.6 e2 + 0.4 node4 (bin 1).
@@ -164,7 +164,7 @@ TEST(Lookup, ErrorPropagationOnAHandExample) {
   for (std::uint32_t n = 0; n < g.node_count(); ++n) EXPECT_NEAR(L.mean(n).total(), 1.0, 1e-15);
 }
 
-TEST(Lookup, ReconstructAnyVoxel) {
+TEST(MixtureLookup, ReconstructAnyVoxel) {
   const Volume v = gen::generate(gen::Params{gen::Kind::voronoi, {20, 18, 14}, 6, 12, std::nullopt});
   const HistogramMipmap h = HistogramMipmap::from_labels(v);
   const Factorization f = factorize(h, {});

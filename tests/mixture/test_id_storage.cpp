@@ -35,7 +35,7 @@ void expect_all_equal(const Storage& s, const std::vector<std::uint32_t>& ids, c
 
 }  // namespace
 
-TEST(IdStorage, FixedRateRoundTripsAndUsesMinimalBits) {
+TEST(MixtureIdStorage, FixedRateRoundTripsAndUsesMinimalBits) {
   const Extent d{40, 30, 20};
   auto ids = coherent_ids(d, 1);
   FixedRateIds f(ids, d);
@@ -49,7 +49,7 @@ TEST(IdStorage, FixedRateRoundTripsAndUsesMinimalBits) {
   EXPECT_EQ(c.at(12, 8, 6), 42u);
 }
 
-TEST(IdStorage, BlockPaletteRoundTripsOnOddSizes) {
+TEST(MixtureIdStorage, BlockPaletteRoundTripsOnOddSizes) {
   const Extent d{21, 17, 10};  // edge blocks are partial on every axis
   auto ids = coherent_ids(d, 2);
   BlockPaletteIds b(ids, d);
@@ -68,7 +68,7 @@ TEST(IdStorage, BlockPaletteRoundTripsOnOddSizes) {
   EXPECT_NE(test::error_of([&] { c.decode_box(box, short_out); }).find("outputs for"), std::string::npos);
 }
 
-TEST(IdStorage, BlockPaletteIsSmallForCoherentIdsAndSharesPalettes) {
+TEST(MixtureIdStorage, BlockPaletteIsSmallForCoherentIdsAndSharesPalettes) {
   const Extent d{64, 64, 64};
   auto ids = coherent_ids(d, 3);
   BlockPaletteIds b(ids, d);
@@ -82,7 +82,7 @@ TEST(IdStorage, BlockPaletteIsSmallForCoherentIdsAndSharesPalettes) {
   EXPECT_EQ(u.at(63, 0, 31), 7u);
 }
 
-TEST(IdStorage, CorruptStreamsAreErrors) {
+TEST(MixtureIdStorage, CorruptStreamsAreErrors) {
   const Extent d{16, 16, 16};
   auto ids = coherent_ids(d, 4);
   auto bytes = BlockPaletteIds(ids, d).serialize();
@@ -102,7 +102,7 @@ TEST(IdStorage, CorruptStreamsAreErrors) {
 
 // decode_box reads a block row at once for 1..8-bit indices and per voxel above: blocks with
 // 1 to 512 distinct ids (index widths 0..9), boxes at random offsets, against the ids and at().
-TEST(IdStorage, BlockPaletteDecodesEveryIndexWidth) {
+TEST(MixtureIdStorage, BlockPaletteDecodesEveryIndexWidth) {
   const Extent d{40, 24, 24};  // 5 x 3 x 3 blocks
   std::mt19937 rng(11);
   std::vector<std::uint32_t> ids(std::size_t(d.voxel_count()));

@@ -13,7 +13,7 @@
 namespace strata::mixture {
 namespace {
 
-TEST(SparseMixture, FromEntriesSortsMergesAndDropsZeros) {
+TEST(MixtureSparseMixture, FromEntriesSortsMergesAndDropsZeros) {
   auto m = SparseMixture::from_entries({{5, 1.0}, {2, 0.5}, {5, 2.0}, {9, 0.0}, {1, 0.25}});
   ASSERT_EQ(m.nnz(), 3u);
   EXPECT_EQ(m[0], (SparseEntry{1, 0.25}));
@@ -28,7 +28,7 @@ TEST(SparseMixture, FromEntriesSortsMergesAndDropsZeros) {
   EXPECT_THROW(SparseMixture::from_entries({{1, -1.0}}), Error);
 }
 
-TEST(SparseMixture, NormalizeLerpDistanceDot) {
+TEST(MixtureSparseMixture, NormalizeLerpDistanceDot) {
   auto a = SparseMixture::from_entries({{0, 1.0}, {1, 3.0}});
   a.normalize();
   EXPECT_DOUBLE_EQ(a.weight(0), 0.25);
@@ -72,7 +72,7 @@ void check_label_roundtrip(std::vector<T> values) {
   EXPECT_TRUE(back == v);
 }
 
-TEST(LabelMap, RoundTripEveryIntegerDtype) {
+TEST(MixtureLabelMap, RoundTripEveryIntegerDtype) {
   check_label_roundtrip<std::uint8_t>({0, 7, 255, 3});
   check_label_roundtrip<std::int8_t>({-128, -1, 0, 127});
   check_label_roundtrip<std::uint16_t>({0, 65535, 1000, 17});
@@ -81,7 +81,7 @@ TEST(LabelMap, RoundTripEveryIntegerDtype) {
   check_label_roundtrip<std::int32_t>({-2147483647 - 1, 2147483647, 0, -77});
 }
 
-TEST(LabelMap, RejectsFloatAndBadIds) {
+TEST(MixtureLabelMap, RejectsFloatAndBadIds) {
   Volume f({2, 2, 2}, DType::f32);
   EXPECT_THROW(to_source_ids(f), Error);
   LabelMap m(DType::u8, {1, 2});
@@ -92,7 +92,7 @@ TEST(LabelMap, RejectsFloatAndBadIds) {
   EXPECT_THROW(LabelMap(DType::u8, {2, 1}), Error);
 }
 
-TEST(Mipmap, LevelDims) {
+TEST(MixtureMipmap, LevelDims) {
   const auto d = mip_level_dims({5, 3, 1});
   ASSERT_EQ(d.size(), 4u);
   EXPECT_EQ(d[1], (Extent{3, 2, 1}));
@@ -144,7 +144,7 @@ void expect_matches(const HistogramMipmap& h, const std::vector<std::vector<Dens
   }
 }
 
-TEST(Mipmap, MatchesBruteForceOnOddSizes) {
+TEST(MixtureMipmap, MatchesBruteForceOnOddSizes) {
   for (Extent d : {Extent{7, 5, 3}, Extent{13, 9, 6}, Extent{1, 1, 9}, Extent{16, 16, 16}, Extent{3, 17, 2}}) {
     std::mt19937_64 rng(d.x * 100 + d.y * 10 + d.z);
     const std::uint32_t n = 6;
@@ -179,7 +179,7 @@ TEST(Mipmap, MatchesBruteForceOnOddSizes) {
   }
 }
 
-TEST(Mipmap, ExactRationalCounts) {
+TEST(MixtureMipmap, ExactRationalCounts) {
   // 3 voxels in a row: level 1 = {(a,b)/2, c}, level 2 = (a/4 + b/4 + c/2): counts 1,1,2 over 4.
   const HistogramMipmap h = HistogramMipmap::from_source_ids({3, 1, 1}, {0, 1, 2}, 3);
   ASSERT_EQ(h.level_count(), 3);
@@ -201,7 +201,7 @@ TEST(Mipmap, ExactRationalCounts) {
   for (int l = 0; l < u.level_count(); ++l) EXPECT_EQ(u.mixture_id(l, 0, 0, 0), 1u);
 }
 
-TEST(Mipmap, FractionalInputMatchesBruteForce) {
+TEST(MixtureMipmap, FractionalInputMatchesBruteForce) {
   const Extent d{5, 4, 3};
   std::mt19937_64 rng(7);
   FractionalVoxels f;
@@ -231,7 +231,7 @@ TEST(Mipmap, FractionalInputMatchesBruteForce) {
   EXPECT_THROW(HistogramMipmap::from_fractional(bad), Error);
 }
 
-TEST(Mipmap, FromLabelsKeepsTheMap) {
+TEST(MixtureMipmap, FromLabelsKeepsTheMap) {
   Volume v({4, 2, 2}, DType::i16);
   auto s = v.samples<std::int16_t>();
   for (std::size_t i = 0; i < s.size(); ++i) s[i] = std::int16_t(i % 3 == 0 ? -4 : 900);

@@ -22,7 +22,7 @@
 namespace strata::mixture {
 namespace {
 
-TEST(QueryCalibration, ScoresEveryLabelOfEitherHistogram) {
+TEST(MixtureQueryCalibration, ScoresEveryLabelOfEitherHistogram) {
   const Box box{{0, 0, 0}, {4, 4, 4}};
   BoxHistogram exact, estimate;
   exact.box = estimate.box = box;
@@ -90,7 +90,7 @@ QueryCalibration calibrate_file(const EncodedFile& file, const std::string& name
   return c;
 }
 
-TEST(QueryCalibration, GeneratedLabelVolumes) {
+TEST(MixtureQueryCalibration, GeneratedLabelVolumes) {
   struct Case {
     gen::Kind kind;
     Extent dims;
@@ -113,14 +113,14 @@ TEST(QueryCalibration, GeneratedLabelVolumes) {
   }
 }
 
-TEST(QueryCalibration, RealSuperpixelCrop) {
+TEST(MixtureQueryCalibration, RealSuperpixelCrop) {
   const EncodedFile file(io::read_volume(test::test_data("fibsem_medulla_sp_crop20.nrrd")));
   const QueryCalibration c = calibrate_file(file, "fibsem_medulla_sp_crop20", {4, 8, 12, 16}, 40);
   EXPECT_GT(c.pairs, 500u);
 }
 
 // The measurement: 30 boxes each of 64^3 and 128^3 on the shared medulla segmentations.
-TEST(QueryCalibration, SharedMedullaSegmentations) {
+TEST(MixtureQueryCalibration, SharedMedullaSegmentations) {
   int found = 0;
   for (const char* name : {"fibsem_medulla_250_gt.nrrd", "fibsem_medulla_250_ws.nrrd", "fibsem_medulla_250_sp.nrrd"}) {
     const auto path = test::shared_data(name);
@@ -135,7 +135,7 @@ TEST(QueryCalibration, SharedMedullaSegmentations) {
 // The coarse method near the far border of odd-sized volumes: there a cell's Eq. 4 mixture
 // weighs its voxels unequally (children of unequal length get equal weights), so it is not the
 // histogram of its support; sigma must cover that. Boxes ending at the far corner, few cells.
-TEST(QueryCalibration, CoarseAtTheFarBorderOfOddSizes) {
+TEST(MixtureQueryCalibration, CoarseAtTheFarBorderOfOddSizes) {
   gen::Params p;
   p.kind = gen::Kind::voronoi;
   p.dims = {75, 70, 61};  // 75 = 64 + 8 + 2 + 1: cut cells at every level

@@ -16,7 +16,7 @@ std::vector<std::uint32_t> random_codes(std::size_t count, int bits, unsigned se
   return codes;
 }
 
-TEST(BitPack, RoundTripsEveryWidth) {
+TEST(QuantBitPack, RoundTripsEveryWidth) {
   for (int bits = 1; bits <= 32; ++bits) {
     for (std::size_t count : {std::size_t(0), std::size_t(1), std::size_t(7), std::size_t(4096)}) {
       const auto codes = random_codes(count, bits, unsigned(bits * 100 + count));
@@ -30,7 +30,7 @@ TEST(BitPack, RoundTripsEveryWidth) {
   }
 }
 
-TEST(BitPack, TwelveBitCodesPackTwoPerThreeBytes) {
+TEST(QuantBitPack, TwelveBitCodesPackTwoPerThreeBytes) {
   const std::vector<std::uint32_t> codes{0xABC, 0x123, 0xFFF};
   EXPECT_EQ(packed_size(codes.size(), 12), 5u);
   std::vector<std::byte> packed(5);
@@ -40,7 +40,7 @@ TEST(BitPack, TwelveBitCodesPackTwoPerThreeBytes) {
   EXPECT_EQ(packed, expected);
 }
 
-TEST(BitPack, SixteenBitCodesAreLittleEndian) {
+TEST(QuantBitPack, SixteenBitCodesAreLittleEndian) {
   const std::vector<std::uint32_t> codes{0x1234};
   std::vector<std::byte> packed(2);
   pack_codes(codes, 16, packed);
@@ -48,7 +48,7 @@ TEST(BitPack, SixteenBitCodesAreLittleEndian) {
   EXPECT_EQ(packed[1], std::byte(0x12));
 }
 
-TEST(BitPack, RejectsOversizedCodesAndShortBuffers) {
+TEST(QuantBitPack, RejectsOversizedCodesAndShortBuffers) {
   std::vector<std::byte> packed(16);
   const std::vector<std::uint32_t> too_big{256};
   EXPECT_THROW(pack_codes(too_big, 8, packed), Error);

@@ -36,7 +36,7 @@ double max_abs(std::span<const float> v) {
   return m;
 }
 
-TEST(QuantizedBrick, SerializedSizeFollowsPaperSection42) {
+TEST(QuantQuantizedBrick, SerializedSizeFollowsPaperSection42) {
   const QuantScheme s = QuantScheme::parse("u16,b8log+");
   // R^3 Q_B + 3 B R Q_U bits, + floats: factor min/max, core max, hot corner, + 12-byte header.
   EXPECT_EQ(serialized_size(s, {32, 32, 32}, {16, 16, 16}), 12u + 4 * 4 + 4096 + 3 * 32 * 16 * 2);
@@ -46,7 +46,7 @@ TEST(QuantizedBrick, SerializedSizeFollowsPaperSection42) {
   EXPECT_EQ(serialized_size(QuantScheme::parse("u8,b8mu"), {8, 8, 8}, {3, 3, 3}), 12u + 4 * 4 + 27 + 3 * 8 * 3);
 }
 
-TEST(QuantizedBrick, SerializationRoundTripsForEveryScheme) {
+TEST(QuantQuantizedBrick, SerializationRoundTripsForEveryScheme) {
   const tensor::Tucker model = brick_model(16, 8, 1);
   for (const char* text : kSchemes) {
     SCOPED_TRACE(text);
@@ -58,7 +58,7 @@ TEST(QuantizedBrick, SerializationRoundTripsForEveryScheme) {
   }
 }
 
-TEST(QuantizedBrick, FloatSchemeIsLossless) {
+TEST(QuantQuantizedBrick, FloatSchemeIsLossless) {
   const tensor::Tucker model = brick_model(16, 8, 2);
   const QuantScheme s = QuantScheme::parse("f32");
   const tensor::Tucker back = dequantize(quantize(model, s), s);
@@ -66,7 +66,7 @@ TEST(QuantizedBrick, FloatSchemeIsLossless) {
   for (std::size_t n = 0; n < 3; ++n) EXPECT_EQ(back.factors[n], model.factors[n]);
 }
 
-TEST(QuantizedBrick, HotCornerIsExactInPlusSchemes) {
+TEST(QuantQuantizedBrick, HotCornerIsExactInPlusSchemes) {
   const tensor::Tucker model = brick_model(16, 8, 3);
   for (const char* text : {"u16,b8log+", "u16,b12log+", "u16,b8mu+", "u8,b8lin+"}) {
     const QuantScheme s = QuantScheme::parse(text);
@@ -80,7 +80,7 @@ TEST(QuantizedBrick, HotCornerIsExactInPlusSchemes) {
   }
 }
 
-TEST(QuantizedBrick, FactorErrorIsWithinHalfAStep) {
+TEST(QuantQuantizedBrick, FactorErrorIsWithinHalfAStep) {
   const tensor::Tucker model = brick_model(16, 8, 4);
   for (const char* text : {"u8,b8log", "u16,b8log"}) {
     const QuantScheme s = QuantScheme::parse(text);
@@ -94,7 +94,7 @@ TEST(QuantizedBrick, FactorErrorIsWithinHalfAStep) {
   }
 }
 
-TEST(QuantizedBrick, CoreErrorIsWithinEachCodingsBound) {
+TEST(QuantQuantizedBrick, CoreErrorIsWithinEachCodingsBound) {
   const tensor::Tucker model = brick_model(16, 8, 5);
   const auto core = model.core.values();
   for (const char* text : {"u16,b8log+", "u16,b8log", "u16,b12log+", "u16,b16log", "u16,b8mu+", "u16,b16lin"}) {
@@ -127,7 +127,7 @@ TEST(QuantizedBrick, CoreErrorIsWithinEachCodingsBound) {
 
 // Orthonormal factors make the core error the reconstruction error (‖Ã - Ã'‖ = ‖B - B'‖), so the
 // hot corner's own resolution matters: taking it out of the log range must not hurt.
-TEST(QuantizedBrick, HotCornerVariantIsAtLeastAsAccurate) {
+TEST(QuantQuantizedBrick, HotCornerVariantIsAtLeastAsAccurate) {
   const tensor::Tucker model = brick_model(16, 8, 6);
   auto core_error = [&](const char* text) {
     const QuantScheme s = QuantScheme::parse(text);
@@ -144,7 +144,7 @@ TEST(QuantizedBrick, HotCornerVariantIsAtLeastAsAccurate) {
   EXPECT_LT(core_error("u16,b16lin"), core_error("u16,b8lin"));
 }
 
-TEST(BrickView, LeadingRanksEqualTruncatedFullDequantization) {
+TEST(QuantBrickView, LeadingRanksEqualTruncatedFullDequantization) {
   const tensor::Tucker model = brick_model(16, 8, 7);
   for (const char* text : {"u16,b8log+", "u16,b12log+", "u8,b8lin", "f32"}) {
     SCOPED_TRACE(text);
@@ -162,7 +162,7 @@ TEST(BrickView, LeadingRanksEqualTruncatedFullDequantization) {
   }
 }
 
-TEST(BrickView, DecodesIntoBrickReconstructor) {
+TEST(QuantBrickView, DecodesIntoBrickReconstructor) {
   const tensor::Tucker model = brick_model(32, 16, 8);
   const QuantScheme s = QuantScheme::parse("u16,b8log+");
   const QuantizedBrick q = quantize(model, s);
@@ -179,7 +179,7 @@ TEST(BrickView, DecodesIntoBrickReconstructor) {
   EXPECT_LT(worst, 1e-5 * full.core.norm());  // float rounding of two evaluation orders
 }
 
-TEST(BrickView, RejectsWrongSizesHeadersAndSchemes) {
+TEST(QuantBrickView, RejectsWrongSizesHeadersAndSchemes) {
   const tensor::Tucker model = brick_model(8, 4, 9);
   const QuantScheme s = QuantScheme::parse("u16,b8log+");
   std::vector<std::byte> bytes = serialize(quantize(model, s), s);
@@ -203,13 +203,13 @@ TEST(BrickView, RejectsWrongSizesHeadersAndSchemes) {
   EXPECT_THROW(view.dequantize_factor(4, 2, wrong), Error);
 }
 
-TEST(QuantizedBrick, RejectsNonFiniteCoefficients) {
+TEST(QuantQuantizedBrick, RejectsNonFiniteCoefficients) {
   tensor::Tucker model = brick_model(8, 4, 10);
   model.core(1, 0, 0) = std::numeric_limits<float>::infinity();
   EXPECT_THROW(quantize(model, QuantScheme{}), Error);
 }
 
-TEST(QuantizedBrick, RankOneCoreWithHotCornerHasNothingElseToCode) {
+TEST(QuantQuantizedBrick, RankOneCoreWithHotCornerHasNothingElseToCode) {
   tensor::Tucker model = brick_model(8, 1, 11);
   const QuantScheme s = QuantScheme::parse("u16,b8log+");
   const QuantizedBrick q = quantize(model, s);

@@ -30,7 +30,7 @@ std::vector<float> signed_log_spread(float xmax, unsigned seed) {
 // the "- 1" one more; so the decoded magnitude is off by at most (1 + |x|)(ln2 2^-24 L + 4 eps).
 double float_slack(double x, double log_range) { return (1.0 + std::abs(x)) * (0.7 * 0x1p-24 * log_range + 4 * kEps); }
 
-TEST(Exp2Approx, MatchesExp2ToAFewUlps) {
+TEST(QuantExp2Approx, MatchesExp2ToAFewUlps) {
   for (double x = -30.0; x < 127.0; x += 0.0137) {
     const double expected = std::exp2(double(float(x)));
     EXPECT_NEAR(exp2_approx(float(x)), expected, 2 * kEps * expected) << x;
@@ -38,7 +38,7 @@ TEST(Exp2Approx, MatchesExp2ToAFewUlps) {
   EXPECT_EQ(exp2_approx(0.0f), 1.0f);
 }
 
-TEST(LinearQuantizer, ErrorIsWithinHalfAStep) {
+TEST(QuantLinearQuantizer, ErrorIsWithinHalfAStep) {
   for (int bits : {8, 12, 16}) {
     const float lo = -0.73f, hi = 0.91f;
     const LinearQuantizer q(lo, hi, bits);
@@ -57,7 +57,7 @@ TEST(LinearQuantizer, ErrorIsWithinHalfAStep) {
   }
 }
 
-TEST(LinearQuantizer, ClampsOutOfRangeAndHandlesEmptyRange) {
+TEST(QuantLinearQuantizer, ClampsOutOfRangeAndHandlesEmptyRange) {
   const LinearQuantizer q(0.0f, 1.0f, 8);
   EXPECT_EQ(q.encode(-5.0f), 0u);
   EXPECT_EQ(q.encode(7.0f), 255u);
@@ -69,7 +69,7 @@ TEST(LinearQuantizer, ClampsOutOfRangeAndHandlesEmptyRange) {
 }
 
 // Eq. 2 is uniform in log2(1 + |x|): the error at x is bounded by the log step around x.
-TEST(LogQuantizer, ErrorIsWithinTheLogStepBound) {
+TEST(QuantLogQuantizer, ErrorIsWithinTheLogStepBound) {
   for (float xmax : {50000.0f, 1000.0f, 0.5f}) {
     for (int bits : {8, 12, 16}) {
       const LogQuantizer q(xmax, bits);
@@ -84,7 +84,7 @@ TEST(LogQuantizer, ErrorIsWithinTheLogStepBound) {
   }
 }
 
-TEST(LogQuantizer, EightBitsAreSignPlusSevenMagnitudeBits) {
+TEST(QuantLogQuantizer, EightBitsAreSignPlusSevenMagnitudeBits) {
   const LogQuantizer q(1000.0f, 8);
   EXPECT_EQ(q.encode(1000.0f), 127u);
   EXPECT_EQ(q.encode(-1000.0f), 255u);
@@ -92,7 +92,7 @@ TEST(LogQuantizer, EightBitsAreSignPlusSevenMagnitudeBits) {
   EXPECT_NEAR(q.decode(255), -1000.0f, float_slack(1000, std::log2(1001.0)));
 }
 
-TEST(LogQuantizer, PreservesSignAndZero) {
+TEST(QuantLogQuantizer, PreservesSignAndZero) {
   const LogQuantizer q(100.0f, 8);
   EXPECT_EQ(q.encode(0.0f), 0u);
   EXPECT_EQ(q.encode(-0.0f), 0u);  // one code for zero
@@ -107,7 +107,7 @@ TEST(LogQuantizer, PreservesSignAndZero) {
   }
 }
 
-TEST(LogQuantizer, CodesAreMonotoneInMagnitude) {
+TEST(QuantLogQuantizer, CodesAreMonotoneInMagnitude) {
   const LogQuantizer q(500.0f, 12);
   std::uint32_t previous = 0;
   for (float x = 0.0f; x <= 500.0f; x += 0.37f) {
@@ -117,7 +117,7 @@ TEST(LogQuantizer, CodesAreMonotoneInMagnitude) {
   }
 }
 
-TEST(LogQuantizer, ZeroRangeEncodesEverythingAsZero) {
+TEST(QuantLogQuantizer, ZeroRangeEncodesEverythingAsZero) {
   const LogQuantizer q(0.0f, 8);
   EXPECT_EQ(q.encode(0.0f), 0u);
   EXPECT_EQ(q.decode(q.encode(0.0f)), 0.0f);
@@ -125,7 +125,7 @@ TEST(LogQuantizer, ZeroRangeEncodesEverythingAsZero) {
   EXPECT_THROW(LogQuantizer(-1.0f, 8), Error);
 }
 
-TEST(MuLawQuantizer, ErrorIsWithinTheLogStepBound) {
+TEST(QuantMuLawQuantizer, ErrorIsWithinTheLogStepBound) {
   for (float mu : {1.0f, 255.0f, 1e5f}) {
     for (int bits : {8, 12, 16}) {
       const float xmax = 3.0f;
@@ -146,13 +146,13 @@ TEST(MuLawQuantizer, ErrorIsWithinTheLogStepBound) {
 }
 
 // mu-law depends only on |x| / xmax: rescaling data and range by a power of two changes no code.
-TEST(MuLawQuantizer, IsScaleInvariant) {
+TEST(QuantMuLawQuantizer, IsScaleInvariant) {
   const MuLawQuantizer a(2.0f, 255.0f, 8), b(2.0f * 4096.0f, 255.0f, 8);
   for (float x : signed_log_spread(2.0f, 11)) EXPECT_EQ(a.encode(x), b.encode(x * 4096.0f)) << x;
 }
 
 // Eq. 2 literally is not: the same relative data quantizes differently at different scales.
-TEST(LogQuantizer, IsNotScaleInvariant) {
+TEST(QuantLogQuantizer, IsNotScaleInvariant) {
   const LogQuantizer small(1.0f, 8), large(65536.0f, 8);
   EXPECT_NE(small.encode(0.01f), large.encode(0.01f * 65536.0f));
 }

@@ -39,7 +39,7 @@ std::vector<Vec3> corners(const Vec3& size) {
 
 }  // namespace
 
-TEST(Camera, AzimuthZeroLooksAlongPlusYWithXRightAndZUp) {
+TEST(RenderCamera, AzimuthZeroLooksAlongPlusYWithXRightAndZUp) {
   const Camera cam(spec(64, 48, Projection::perspective, 0, 0), {10, 20, 30}, {});
   expect_near(cam.forward(), {0, 1, 0});
   expect_near(cam.right(), {1, 0, 0});
@@ -48,7 +48,7 @@ TEST(Camera, AzimuthZeroLooksAlongPlusYWithXRightAndZUp) {
   EXPECT_LT(cam.eye().y, 10.0);
 }
 
-TEST(Camera, AzimuthAndElevationMoveTheEyeAsDocumented) {
+TEST(RenderCamera, AzimuthAndElevationMoveTheEyeAsDocumented) {
   const Camera cam(spec(64, 48, Projection::perspective, 90, 30), {10, 10, 10}, {});
   // Azimuth 90: the eye is on the +x side; elevation 30: above the target.
   const Vec3 to_eye = normalized(cam.eye() - cam.target());
@@ -60,14 +60,14 @@ TEST(Camera, AzimuthAndElevationMoveTheEyeAsDocumented) {
   EXPECT_NEAR(length(cam.up()), 1, 1e-12);
 }
 
-TEST(Camera, StraightDownStaysWellDefined) {
+TEST(RenderCamera, StraightDownStaysWellDefined) {
   const Camera cam(spec(32, 32, Projection::perspective, 0, 90), {8, 8, 8}, {});
   expect_near(cam.forward(), {0, 0, -1}, 1e-12);
   EXPECT_TRUE(std::isfinite(cam.up().x) && std::isfinite(cam.up().y) && std::isfinite(cam.up().z));
   EXPECT_NEAR(length(cam.up()), 1, 1e-12);
 }
 
-TEST(Camera, DefaultDistanceFramesTheWholeVolume) {
+TEST(RenderCamera, DefaultDistanceFramesTheWholeVolume) {
   // Wide and tall images: the narrower field of view decides.
   for (auto [w, h] : {std::pair{200, 100}, std::pair{100, 200}}) {
     for (Projection p : {Projection::perspective, Projection::orthographic}) {
@@ -80,14 +80,14 @@ TEST(Camera, DefaultDistanceFramesTheWholeVolume) {
   }
 }
 
-TEST(Camera, CentreRayIsTheViewDirection) {
+TEST(RenderCamera, CentreRayIsTheViewDirection) {
   const Camera cam(spec(64, 48, Projection::perspective, 12, 34), {16, 16, 16}, {});
   const Ray r = cam.ray(31.5, 23.5);  // the image centre lies between the four middle pixels
   expect_near(r.direction, cam.forward(), 1e-12);
   expect_near(r.origin, cam.eye());
 }
 
-TEST(Camera, CornerRaysLieOnTheSideFrustumPlanes) {
+TEST(RenderCamera, CornerRaysLieOnTheSideFrustumPlanes) {
   for (Projection p : {Projection::perspective, Projection::orthographic}) {
     const Camera cam(spec(64, 48, p, 20, 10), {16, 16, 16}, {});
     const lod::View view = cam.view();
@@ -108,7 +108,7 @@ TEST(Camera, CornerRaysLieOnTheSideFrustumPlanes) {
   }
 }
 
-TEST(Camera, PixelSizeMatchesTheRaySpacing) {
+TEST(RenderCamera, PixelSizeMatchesTheRaySpacing) {
   const Camera persp(spec(100, 80, Projection::perspective, 0, 0), {32, 32, 32}, {});
   const lod::View pv = persp.view();
   EXPECT_NEAR(pv.pixel_angle, 30.0 * kPi / 180.0 / 80.0, 1e-15);
@@ -133,13 +133,13 @@ TEST(Camera, PixelSizeMatchesTheRaySpacing) {
   expect_near(c.direction, e.direction);
 }
 
-TEST(Camera, OrthographicDefaultHeightMatchesThePerspectiveFramingAtTheTarget) {
+TEST(RenderCamera, OrthographicDefaultHeightMatchesThePerspectiveFramingAtTheTarget) {
   const Camera p(spec(64, 64, Projection::perspective, 0, 0), {32, 32, 32}, {});
   const Camera o(spec(64, 64, Projection::orthographic, 0, 0), {32, 32, 32}, {});
   EXPECT_NEAR(o.half_height(), p.distance() * p.half_height(), 1e-9);
 }
 
-TEST(Camera, ExplicitTargetAndDistance) {
+TEST(RenderCamera, ExplicitTargetAndDistance) {
   CameraSpec s = spec(64, 64, Projection::perspective, 0, 0);
   s.orbit.target = {1, 2, 3};
   s.orbit.target_set = true;
@@ -148,7 +148,7 @@ TEST(Camera, ExplicitTargetAndDistance) {
   expect_near(cam.eye(), {1, -8, 3}, 1e-12);
 }
 
-TEST(Camera, RejectsInvalidSpecs) {
+TEST(RenderCamera, RejectsInvalidSpecs) {
   CameraSpec s;
   s.width = 0;
   EXPECT_THROW(Camera(s, {8, 8, 8}, {}), Error);

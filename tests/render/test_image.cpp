@@ -11,7 +11,7 @@
 using namespace strata;
 using namespace strata::render;
 
-TEST(Image, PngRoundTripKeepsEveryPixelAndAlpha) {
+TEST(RenderImage, PngRoundTripKeepsEveryPixelAndAlpha) {
   test::TempDir dir;
   Image img(37, 21);
   std::mt19937 rng(5);
@@ -27,14 +27,14 @@ TEST(Image, PngRoundTripKeepsEveryPixelAndAlpha) {
   EXPECT_EQ(back.pixels(), img.pixels());
 }
 
-TEST(Image, FillAndRowAccess) {
+TEST(RenderImage, FillAndRowAccess) {
   Image img(4, 3, {1, 2, 3, 4});
   EXPECT_EQ(img.at(3, 2), (Rgba8{1, 2, 3, 4}));
   img.row(1)[2] = {9, 9, 9, 9};
   EXPECT_EQ(img.at(2, 1), (Rgba8{9, 9, 9, 9}));
 }
 
-TEST(Image, WriteErrorsNameTheFile) {
+TEST(RenderImage, WriteErrorsNameTheFile) {
   test::TempDir dir;
   const auto path = dir / "missing-dir" / "x.png";
   try {
@@ -46,7 +46,7 @@ TEST(Image, WriteErrorsNameTheFile) {
   EXPECT_THROW(write_png(Image(), dir / "empty.png"), Error);
 }
 
-TEST(Image, ReadErrorsNameTheFile) {
+TEST(RenderImage, ReadErrorsNameTheFile) {
   test::TempDir dir;
   const auto path = dir / "bad.png";
   std::ofstream(path) << "not a png";
@@ -60,7 +60,7 @@ TEST(Image, ReadErrorsNameTheFile) {
 
 // Doubling a 2x1 image: pixel centres at 0.25/0.75 of the source span map to source x -0.25
 // (clamped to 0), 0.25, 0.75 and 1.25 (clamped to 1), so the middle pixels mix 3:1 and 1:3.
-TEST(Image, BilinearResizeInterpolatesBetweenPixelCentres) {
+TEST(RenderImage, BilinearResizeInterpolatesBetweenPixelCentres) {
   Image src(2, 1);
   src.at(0, 0) = {0, 100, 200, 255};
   src.at(1, 0) = {200, 100, 0, 255};

@@ -135,7 +135,7 @@ void check_sphere_image(const Image& img, double step, const char* label) {
 
 }  // namespace
 
-TEST(RayCaster, AnalyticSphereMatchesTheClosedFormImage) {
+TEST(RenderRayCaster, AnalyticSphereMatchesTheClosedFormImage) {
   const Volume v = sphere_volume();
   const BrickedVolume bricked(v, 16, 2);
   const Camera cam = sphere_camera();
@@ -156,7 +156,7 @@ TEST(RayCaster, AnalyticSphereMatchesTheClosedFormImage) {
   }
 }
 
-TEST(RayCaster, SphereRadiusFollowsTheThresholdAndBackgroundShowsThrough) {
+TEST(RenderRayCaster, SphereRadiusFollowsTheThresholdAndBackgroundShowsThrough) {
   // A higher threshold (0.9) shrinks the opaque disc to R - 0.4; a transparent background
   // leaves alpha = 0 outside and straight colour inside.
   const Volume v = sphere_volume();
@@ -210,7 +210,7 @@ Camera perspective_camera(const Extent& dims, double az, double el, int w = 128,
 
 }  // namespace
 
-TEST(RayCaster, FullRankF32FileMatchesTheUncompressedVolumeWithoutSeams) {
+TEST(RenderRayCaster, FullRankF32FileMatchesTheUncompressedVolumeWithoutSeams) {
   CompressedCase c(prisms_volume(), 16, 2);
   const double lo = c.ta->value_min(), hi = c.ta->value_max();
   const lod::FrameBricks decoded = level_bricks(*c.ta, 0, c.ta->rank());
@@ -234,7 +234,7 @@ TEST(RayCaster, FullRankF32FileMatchesTheUncompressedVolumeWithoutSeams) {
       }
 }
 
-TEST(RayCaster, MixedLevelsLeaveNoCracks) {
+TEST(RenderRayCaster, MixedLevelsLeaveNoCracks) {
   // A linear ramp along x is its own 2x2x2 average (level-1 voxel centres sit at the mean of
   // their children's centres) and trilinear interpolation reproduces it exactly, so any frame
   // mixing levels 0 and 1 must render like level 0 alone: no crack may lose opacity. What
@@ -276,7 +276,7 @@ TEST(RayCaster, MixedLevelsLeaveNoCracks) {
   }
 }
 
-TEST(RayCaster, EmptyFrameAndMissingCellsShowTheBackground) {
+TEST(RenderRayCaster, EmptyFrameAndMissingCellsShowTheBackground) {
   const Extent dims{32, 32, 32};
   const ta::OctreeGeometry g(dims, {16, 2});
   lod::FrameBricks none;
@@ -292,7 +292,7 @@ TEST(RayCaster, EmptyFrameAndMissingCellsShowTheBackground) {
   EXPECT_TRUE(j.contains("render") && j.contains("load"));
 }
 
-TEST(RayCaster, RejectsBadOptionsNamingTheField) {
+TEST(RenderRayCaster, RejectsBadOptionsNamingTheField) {
   RenderOptions o;
   o.step = 0;
   EXPECT_EQ(test::error_of([&] { RayCaster(TransferFunction::preset("grayscale"), o); }),
@@ -302,7 +302,7 @@ TEST(RayCaster, RejectsBadOptionsNamingTheField) {
   EXPECT_EQ(test::parameter_of([&] { RayCaster(TransferFunction::preset("grayscale"), o); }), "RenderOptions::background");
 }
 
-TEST(RayCaster, RejectsBricksOutsideTheGeometry) {
+TEST(RenderRayCaster, RejectsBricksOutsideTheGeometry) {
   const ta::OctreeGeometry g({32, 32, 32}, {16, 2});
   lod::FrameBricks f;
   f.bricks.push_back({{0, 5, 0, 0}, 1, nullptr, 0});
@@ -312,7 +312,7 @@ TEST(RayCaster, RejectsBricksOutsideTheGeometry) {
   EXPECT_THROW(rc.render(perspective_camera({32, 32, 32}, 0, 0, 8, 8), FrameInput{&f, &g, {}, 0, 1, nullptr}), Error);
 }
 
-TEST(RayCaster, ThreadCountDoesNotChangeTheImage) {
+TEST(RenderRayCaster, ThreadCountDoesNotChangeTheImage) {
   const Volume v = prisms_volume();
   const BrickedVolume b(v, 16, 2);
   RenderOptions one = options(0.5, true, true), two = one;
@@ -326,7 +326,7 @@ TEST(RayCaster, ThreadCountDoesNotChangeTheImage) {
 // ---- Empty-space skipping inside bricks ------------------------------------------------------
 
 
-TEST(RayCaster, CellRangesHoldEveryDilatedFootprint) {
+TEST(RenderRayCaster, CellRangesHoldEveryDilatedFootprint) {
   // Brute force: cell c's range must hold every voxel within [kCell c - d, kCell (c + 1) + d].
   const std::array<int, 3> n{13, 7, 9};
   std::vector<float> v(std::size_t(n[0] * n[1] * n[2]));
@@ -359,7 +359,7 @@ TEST(RayCaster, CellRangesHoldEveryDilatedFootprint) {
   }
 }
 
-TEST(RayCaster, SkippingEmptyCellsDoesNotChangeTheImage) {
+TEST(RenderRayCaster, SkippingEmptyCellsDoesNotChangeTheImage) {
   // Skipped segments are exactly those whose value range the TF maps to zero, and the front
   // value of a resumed run is re-sampled at the same lattice point, so the image may differ
   // only by float rounding of that position (one level), while far fewer samples are taken.
@@ -396,9 +396,9 @@ TEST(RayCaster, SkippingEmptyCellsDoesNotChangeTheImage) {
 }
 
 // The 8-lane march, per instruction-set level it is compiled for.
-class RayMarchPerIsa : public test::IsaTest {};
+class RenderRayMarchPerIsa : public test::IsaTest {};
 
-TEST_P(RayMarchPerIsa, MatchesTheScalarMarch) {
+TEST_P(RenderRayMarchPerIsa, MatchesTheScalarMarch) {
   // The AVX2 inner loop and its AVX-512 build repeat the scalar per-sample arithmetic operation
   // for operation (no FMA), but composite each 8-sample chunk at once: the transmittance in
   // front of each sample is a prefix product taken in another order, and the colours are summed
@@ -430,7 +430,7 @@ TEST_P(RayMarchPerIsa, MatchesTheScalarMarch) {
         }
 }
 
-TEST_P(RayMarchPerIsa, MatchesTheScalarMarchForAnyExponent) {
+TEST_P(RenderRayMarchPerIsa, MatchesTheScalarMarchForAnyExponent) {
   // The 8-lane march unrolls the default exponent (24) and loops over others; both must agree
   // with the scalar march (within the one level of chunked compositing, see above), and
   // shininess must matter.
@@ -455,9 +455,9 @@ TEST_P(RayMarchPerIsa, MatchesTheScalarMarchForAnyExponent) {
   }
 }
 
-STRATA_INSTANTIATE_PER_ISA(RayMarchPerIsa, Isa::avx2, Isa::avx512);
+STRATA_INSTANTIATE_PER_ISA(RenderRayMarchPerIsa, Isa::avx2, Isa::avx512);
 
-TEST(RayCaster, FixedSpecularExponentEqualsTheGenericLoop) {
+TEST(RenderRayCaster, FixedSpecularExponentEqualsTheGenericLoop) {
   // The unrolled power takes the generic loop's products in the same order: same bits.
   std::uint32_t h = 777;
   for (int i = 0; i < 100000; ++i) {
@@ -475,7 +475,7 @@ TEST(RayCaster, FixedSpecularExponentEqualsTheGenericLoop) {
   }
 }
 
-TEST(RayCaster, RealignedChunksSkipOnlyTransparentSegments) {
+TEST(RenderRayCaster, RealignedChunksSkipOnlyTransparentSegments) {
   // Chunks of the 8-lane march restart at their first non-empty cell; with skipping on and off
   // the images agree within one level (re-sampled fronts) for several step sizes and views.
   const Volume v = prisms_volume();
@@ -495,7 +495,7 @@ TEST(RayCaster, RealignedChunksSkipOnlyTransparentSegments) {
     }
 }
 
-TEST(RayCaster, PreparedVolumeReusesItsCellsPerRayCaster) {
+TEST(RenderRayCaster, PreparedVolumeReusesItsCellsPerRayCaster) {
   // A prepared volume renders exactly as the one-off path, builds its empty-space cells once
   // per ray caster, and rebuilds them when another caster (another transfer function) uses it.
   const Volume v = prisms_volume();

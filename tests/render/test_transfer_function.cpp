@@ -35,7 +35,7 @@ TransferFunction ramp(double x0, double x1, float a1) {
 
 }  // namespace
 
-TEST(TransferFunction, LoadsTheDocumentedFormat) {
+TEST(RenderTransferFunction, LoadsTheDocumentedFormat) {
   test::TempDir dir;
   const auto path = dir / "tf.json";
   std::ofstream(path) << R"({"range": [10, 20], "points": [{"x": 0, "rgba": [0, 0, 0, 0]},
@@ -56,7 +56,7 @@ TEST(TransferFunction, LoadsTheDocumentedFormat) {
   EXPECT_FLOAT_EQ(again.evaluate(0.75).a, tf.evaluate(0.75).a);
 }
 
-TEST(TransferFunction, ErrorsNameTheFileAndTheField) {
+TEST(RenderTransferFunction, ErrorsNameTheFileAndTheField) {
   test::TempDir dir;
   const std::string file = (dir / "tf.json").string();
   struct Case {
@@ -91,7 +91,7 @@ TEST(TransferFunction, ErrorsNameTheFileAndTheField) {
   }
 }
 
-TEST(TransferFunction, PresetsLoadAndUnknownNamesAreListed) {
+TEST(RenderTransferFunction, PresetsLoadAndUnknownNamesAreListed) {
   for (std::string_view name : TransferFunction::preset_names()) {
     const TransferFunction tf = TransferFunction::preset(name);
     EXPECT_NE(tf.visible_bins(0, 1), 0u) << name;
@@ -106,7 +106,7 @@ TEST(TransferFunction, PresetsLoadAndUnknownNamesAreListed) {
   EXPECT_EQ(test::parameter_of([] { TransferFunction::from_argument("no-such-file.json"); }), "preset_or_path");
 }
 
-TEST(TransferFunction, EqualXMakesARightContinuousStep) {
+TEST(RenderTransferFunction, EqualXMakesARightContinuousStep) {
   const TransferFunction tf({{0.5, {1, 0, 0, 0}}, {0.5, {0, 1, 0, 1}}});
   EXPECT_FLOAT_EQ(tf.evaluate(0.4999).a, 0);
   EXPECT_FLOAT_EQ(tf.evaluate(0.5).a, 1);
@@ -115,7 +115,7 @@ TEST(TransferFunction, EqualXMakesARightContinuousStep) {
   EXPECT_FLOAT_EQ(tf.evaluate(7).g, 1);
 }
 
-TEST(TransferFunction, OpacityCorrectionComposesOverSubsteps) {
+TEST(RenderTransferFunction, OpacityCorrectionComposesOverSubsteps) {
   const float a = 0.3f;
   EXPECT_FLOAT_EQ(correct_opacity(a, 1.0), a);
   // Two half steps composite to one full step: 1 - (1 - a')^2 = a.
@@ -126,7 +126,7 @@ TEST(TransferFunction, OpacityCorrectionComposesOverSubsteps) {
   EXPECT_EQ(correct_opacity(0.0f, 100), 0.0f);
 }
 
-TEST(TransferFunction, LookupTableIsPremultipliedAndCorrected) {
+TEST(RenderTransferFunction, LookupTableIsPremultipliedAndCorrected) {
   const TransferFunction tf({{0, {1, 0.5f, 0, 0.2f}}, {1, {1, 0.5f, 0, 0.2f}}});
   const LookupTable lut = tf.lookup_table(64, 2.0);
   const float a = 1 - 0.8f * 0.8f;
@@ -137,7 +137,7 @@ TEST(TransferFunction, LookupTableIsPremultipliedAndCorrected) {
   }
 }
 
-TEST(TransferFunction, PreintegratedTableIntegratesTheRamp) {
+TEST(RenderTransferFunction, PreintegratedTableIntegratesTheRamp) {
   // Opaque-ish white above x = 0.5 only. A segment going from 0 to 1 spends half its length
   // above the step, so its opacity is that of half a segment: 1 - (1 - a)^(ratio / 2).
   const float a = 0.4f;
@@ -158,7 +158,7 @@ TEST(TransferFunction, PreintegratedTableIntegratesTheRamp) {
   EXPECT_NEAR(at(0, 64).r, at(0, 64).a, 1e-6);
 }
 
-TEST(TransferFunction, PreintegratedColourHasSelfAttenuation) {
+TEST(RenderTransferFunction, PreintegratedColourHasSelfAttenuation) {
   // Red for x < 0.5, green above, both fairly opaque: entering red first hides the green.
   const TransferFunction tf({{0, {1, 0, 0, 0.9f}}, {0.5, {1, 0, 0, 0.9f}}, {0.5, {0, 1, 0, 0.9f}}, {1, {0, 1, 0, 0.9f}}});
   const PreintegratedTable t = tf.preintegrated_table(33, 1.0);
@@ -168,7 +168,7 @@ TEST(TransferFunction, PreintegratedColourHasSelfAttenuation) {
   EXPECT_NEAR(red_first.a, green_first.a, 1e-5);
 }
 
-TEST(TransferFunction, VisibleBinsMatchABruteForceScan) {
+TEST(RenderTransferFunction, VisibleBinsMatchABruteForceScan) {
   const std::vector<TransferFunction> tfs = {
       ramp(0.3, 0.6, 0.5f),
       TransferFunction({{0.2, {1, 1, 1, 0}}, {0.25, {1, 1, 1, 0.3f}}, {0.3, {1, 1, 1, 0}}, {0.9, {1, 1, 1, 0}}}),
@@ -206,7 +206,7 @@ TEST(TransferFunction, VisibleBinsMatchABruteForceScan) {
   EXPECT_EQ(TransferFunction({{0, {1, 1, 1, 0}}, {1, {1, 1, 1, 0}}}).visible_bins(0, 100), 0u);
 }
 
-TEST(TransferFunction, VisibleIntervalTest) {
+TEST(RenderTransferFunction, VisibleIntervalTest) {
   const TransferFunction tf = ramp(0.3, 0.6, 0.5f);
   EXPECT_FALSE(tf.visible(0.0, 0.29));
   EXPECT_TRUE(tf.visible(0.29, 0.31));

@@ -25,7 +25,7 @@ using strata::test::error_of;
 
 }  // namespace
 
-TEST(Container, RoundTripsBricksSectionsAndMetadata) {
+TEST(StoreContainer, RoundTripsBricksSectionsAndMetadata) {
   test::TempDir dir;
   auto path = dir / "a.strata";
   auto p1 = random_bytes(1000, 2), p2 = random_bytes(77, 3), sec = random_bytes(500, 4);
@@ -58,7 +58,7 @@ TEST(Container, RoundTripsBricksSectionsAndMetadata) {
   EXPECT_TRUE(is_strata_file(path));
 }
 
-TEST(Container, CorruptPayloadIsReportedWithTheBrick) {
+TEST(StoreContainer, CorruptPayloadIsReportedWithTheBrick) {
   test::TempDir dir;
   auto path = dir / "c.strata";
   auto p1 = random_bytes(256, 5);
@@ -76,7 +76,7 @@ TEST(Container, CorruptPayloadIsReportedWithTheBrick) {
   EXPECT_NE(msg.find("checksum"), std::string::npos) << msg;
 }
 
-TEST(Container, RejectsBadHeadersAndTruncation) {
+TEST(StoreContainer, RejectsBadHeadersAndTruncation) {
   test::TempDir dir;
   auto path = dir / "t.strata";
   {
@@ -101,7 +101,7 @@ TEST(Container, RejectsBadHeadersAndTruncation) {
   EXPECT_NE(msg.find("magic"), std::string::npos) << msg;
 }
 
-TEST(Container, UnfinishedWriterLeavesNothing) {
+TEST(StoreContainer, UnfinishedWriterLeavesNothing) {
   test::TempDir dir;
   {
     ContainerWriter w(dir / "u.strata");

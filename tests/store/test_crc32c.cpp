@@ -11,9 +11,9 @@
 
 namespace strata::store {
 
-class Crc32cPerIsa : public test::IsaTest {};
+class StoreCrc32cPerIsa : public test::IsaTest {};
 
-TEST_P(Crc32cPerIsa, KnownVectors) {
+TEST_P(StoreCrc32cPerIsa, KnownVectors) {
   const ScopedIsaLimit limit(isa());
   EXPECT_EQ(crc32c("123456789", 9), 0xE3069283u);  // the standard CRC-32C check value
   EXPECT_EQ(crc32c("", 0), 0u);
@@ -22,7 +22,7 @@ TEST_P(Crc32cPerIsa, KnownVectors) {
   EXPECT_EQ(crc32c(ones.data(), ones.size()), 0x62A8AB43u);    // RFC 3720 B.4
 }
 
-TEST_P(Crc32cPerIsa, IncrementalUseEqualsOneCall) {
+TEST_P(StoreCrc32cPerIsa, IncrementalUseEqualsOneCall) {
   const ScopedIsaLimit limit(isa());
   std::mt19937 rng(20);
   std::vector<unsigned char> data(1000);
@@ -30,7 +30,7 @@ TEST_P(Crc32cPerIsa, IncrementalUseEqualsOneCall) {
   EXPECT_EQ(crc32c(data.data() + 300, 700, crc32c(data.data(), 300)), crc32c(data.data(), 1000));
 }
 
-TEST_P(Crc32cPerIsa, EqualsTheTablePathForEveryLengthAndAlignment) {
+TEST_P(StoreCrc32cPerIsa, EqualsTheTablePathForEveryLengthAndAlignment) {
   std::mt19937 rng(21);
   std::vector<unsigned char> data(4133);
   for (auto& b : data) b = static_cast<unsigned char>(rng());
@@ -49,6 +49,6 @@ TEST_P(Crc32cPerIsa, EqualsTheTablePathForEveryLengthAndAlignment) {
     }
 }
 
-STRATA_INSTANTIATE_PER_ISA(Crc32cPerIsa, Isa::generic, Isa::sse42);
+STRATA_INSTANTIATE_PER_ISA(StoreCrc32cPerIsa, Isa::generic, Isa::sse42);
 
 }  // namespace strata::store

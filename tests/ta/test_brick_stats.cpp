@@ -44,9 +44,9 @@ BrickStats reference_stats(const std::vector<float>& a, const std::vector<float>
 
 }  // namespace
 
-class BrickStatsPerIsa : public test::IsaTest {};
+class TaBrickStatsPerIsa : public test::IsaTest {};
 
-TEST_P(BrickStatsPerIsa, EqualTheScalarReference) {
+TEST_P(TaBrickStatsPerIsa, EqualTheScalarReference) {
   const ScopedIsaLimit limit(isa());
   const HistogramRange range{100.0, 1100.0};
   // Lengths around every vector width and unroll (4, 8, 16, 32 floats) and a whole brick.
@@ -61,12 +61,12 @@ TEST_P(BrickStatsPerIsa, EqualTheScalarReference) {
     }
 }
 
-TEST_P(BrickStatsPerIsa, AnEmptyRangePutsEveryValueInBinZero) {
+TEST_P(TaBrickStatsPerIsa, AnEmptyRangePutsEveryValueInBinZero) {
   const ScopedIsaLimit limit(isa());
   const std::vector<float> a = test_values(40, 3, false);
   EXPECT_EQ(brick_stats(a, a, HistogramRange{5.0, 5.0}).bits, 1u);
 }
 
-STRATA_INSTANTIATE_PER_ISA(BrickStatsPerIsa, Isa::generic, Isa::avx2, Isa::avx512);
+STRATA_INSTANTIATE_PER_ISA(TaBrickStatsPerIsa, Isa::generic, Isa::avx2, Isa::avx512);
 
 }  // namespace strata::ta

@@ -35,18 +35,18 @@ double gamma(std::int64_t k) { return double(k) * kEps / (1 - double(k) * kEps);
 
 }  // namespace
 
-class DecomposeKernelsPerIsa : public test::IsaTest {
+class TensorDecomposeKernelsPerIsa : public test::IsaTest {
  protected:
   const detail::DecomposeKernels& kernels() const { return detail::decompose_kernels(isa()); }
 };
 
-TEST_P(DecomposeKernelsPerIsa, ReportTheirLevel) {
+TEST_P(TensorDecomposeKernelsPerIsa, ReportTheirLevel) {
   EXPECT_EQ(kernels().isa, isa());
   const ScopedIsaLimit limit(isa());
   EXPECT_EQ(&detail::decompose_kernels(), &kernels());  // the limit picks them
 }
 
-TEST_P(DecomposeKernelsPerIsa, GemmMatchesTheExactProduct) {
+TEST_P(TensorDecomposeKernelsPerIsa, GemmMatchesTheExactProduct) {
   // Shapes not a multiple of any vector width or tile, a batch of two, R read transposed.
   for (const bool lower : {false, true}) {
     const std::int64_t m = 37, n = 19, k = 23, batch = 2;
@@ -76,7 +76,7 @@ TEST_P(DecomposeKernelsPerIsa, GemmMatchesTheExactProduct) {
   }
 }
 
-TEST_P(DecomposeKernelsPerIsa, GemmWidensFloatOperandsExactly) {
+TEST_P(TensorDecomposeKernelsPerIsa, GemmWidensFloatOperandsExactly) {
   // Reading L as float gives the bits of the product with L widened to double first in the
   // vector tiles; the scalar tail rows agree within the rounding bound.
   const std::int64_t m = 29, n = 7, k = 11;
@@ -105,7 +105,7 @@ TEST_P(DecomposeKernelsPerIsa, GemmWidensFloatOperandsExactly) {
     }
 }
 
-TEST_P(DecomposeKernelsPerIsa, GramMatchesTheExactInnerProducts) {
+TEST_P(TensorDecomposeKernelsPerIsa, GramMatchesTheExactInnerProducts) {
   // Mode-2 Gram of a 13 x 10 x 6 tensor: 6 segments of length 13, column stride 13.
   const std::int64_t i1 = 13, i2 = 10, i3 = 6;
   const std::vector<double> x = random_values(std::size_t(i1 * i2 * i3), 5);
@@ -128,7 +128,7 @@ TEST_P(DecomposeKernelsPerIsa, GramMatchesTheExactInnerProducts) {
     }
 }
 
-TEST_P(DecomposeKernelsPerIsa, LeadingEigenvectorsSpanTheKnownSubspace) {
+TEST_P(TensorDecomposeKernelsPerIsa, LeadingEigenvectorsSpanTheKnownSubspace) {
   // A = Q diag(lambda) Q^T with well separated eigenvalues n, n-1, ..., 1: each computed
   // eigenvector must be +-Q's column. Perturbation theory bounds the angle by
   // ~ n eps ||A|| / gap = n^2 eps (gap 1); 1e-9 leaves ample room for n = 24.
@@ -146,7 +146,7 @@ TEST_P(DecomposeKernelsPerIsa, LeadingEigenvectorsSpanTheKnownSubspace) {
   EXPECT_NEAR((u.transpose() * u - Eigen::MatrixXd::Identity(r, r)).norm(), 0.0, 1e-12);
 }
 
-TEST_P(DecomposeKernelsPerIsa, SumOfSquaresMatchesTheExactSum) {
+TEST_P(TensorDecomposeKernelsPerIsa, SumOfSquaresMatchesTheExactSum) {
   for (const std::int64_t n : {std::int64_t(1), std::int64_t(7), std::int64_t(1001)}) {
     const std::vector<double> x = random_values(std::size_t(n), 7);
     const std::vector<float> x_f(x.begin(), x.end());
@@ -160,7 +160,7 @@ TEST_P(DecomposeKernelsPerIsa, SumOfSquaresMatchesTheExactSum) {
   }
 }
 
-TEST_P(DecomposeKernelsPerIsa, HooiUnderTheLimitFitsLikeTheGenericRun) {
+TEST_P(TensorDecomposeKernelsPerIsa, HooiUnderTheLimitFitsLikeTheGenericRun) {
   // The whole decomposition under each level: the same model up to rounding, so the fits agree
   // far more closely than the 1e-6 relative difference asserted.
   Tensor3 t(20, 18, 16);
@@ -179,6 +179,6 @@ TEST_P(DecomposeKernelsPerIsa, HooiUnderTheLimitFitsLikeTheGenericRun) {
   EXPECT_GT(generic, 0.5);
 }
 
-STRATA_INSTANTIATE_PER_ISA(DecomposeKernelsPerIsa, Isa::generic, Isa::avx2, Isa::avx512);
+STRATA_INSTANTIATE_PER_ISA(TensorDecomposeKernelsPerIsa, Isa::generic, Isa::avx2, Isa::avx512);
 
 }  // namespace strata::tensor

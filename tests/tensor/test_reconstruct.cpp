@@ -53,9 +53,9 @@ void expect_close(const Tensor3& actual, const Tensor3d& expected, double core_n
 
 // The reconstruction kernel, per instruction-set level it is compiled for (generic included:
 // every level is compared with the double-precision reference).
-class ReconstructPerIsa : public test::IsaTest {};
+class TensorReconstructPerIsa : public test::IsaTest {};
 
-TEST_P(ReconstructPerIsa, MatchesReferenceForPaperBrick) {
+TEST_P(TensorReconstructPerIsa, MatchesReferenceForPaperBrick) {
   const ScopedIsaLimit limit(isa());
   const Tucker model = random_model({32, 32, 32}, {16, 16, 16}, 1);
   BrickReconstructor rec;
@@ -67,7 +67,7 @@ TEST_P(ReconstructPerIsa, MatchesReferenceForPaperBrick) {
 
 // Extents that are not multiples of any vector width exercise the vector and scalar row tails
 // and the halving column blocks.
-TEST_P(ReconstructPerIsa, HandlesOddExtentsAndRanks) {
+TEST_P(TensorReconstructPerIsa, HandlesOddExtentsAndRanks) {
   const ScopedIsaLimit limit(isa());
   const Tucker model = random_model({17, 9, 23}, {7, 9, 5}, 2);
   BrickReconstructor rec;
@@ -75,14 +75,14 @@ TEST_P(ReconstructPerIsa, HandlesOddExtentsAndRanks) {
   expect_close(rec.reconstruct(model, {3, 2, 4}), reference(model, {3, 2, 4}), model.core.norm());
 }
 
-STRATA_INSTANTIATE_PER_ISA(ReconstructPerIsa, Isa::generic, Isa::avx2, Isa::avx512);
+STRATA_INSTANTIATE_PER_ISA(TensorReconstructPerIsa, Isa::generic, Isa::avx2, Isa::avx512);
 
 // The FMA variants round each multiply-add once, the generic one twice: over a 32^3 brick some
 // voxel differs in its last bits, which shows the limit really switched kernels (the same
 // reconstructor object, so the choice is made per call).
-class ReconstructFmaPerIsa : public test::IsaTest {};
+class TensorReconstructFmaPerIsa : public test::IsaTest {};
 
-TEST_P(ReconstructFmaPerIsa, TheLimitSelectsTheVariant) {
+TEST_P(TensorReconstructFmaPerIsa, TheLimitSelectsTheVariant) {
   const Tucker model = random_model({32, 32, 32}, {16, 16, 16}, 6);
   BrickReconstructor rec;
   auto run = [&](Isa level) {
@@ -93,11 +93,11 @@ TEST_P(ReconstructFmaPerIsa, TheLimitSelectsTheVariant) {
   EXPECT_FALSE(std::equal(wide.values().begin(), wide.values().end(), generic.values().begin()));
 }
 
-STRATA_INSTANTIATE_PER_ISA(ReconstructFmaPerIsa, Isa::avx2, Isa::avx512);
+STRATA_INSTANTIATE_PER_ISA(TensorReconstructFmaPerIsa, Isa::avx2, Isa::avx512);
 
 namespace {
 
-TEST(BrickReconstructor, ReusesScratchAcrossBricksOfDifferentSizes) {
+TEST(TensorBrickReconstructor, ReusesScratchAcrossBricksOfDifferentSizes) {
   BrickReconstructor rec;
   const Tucker big = random_model({32, 32, 32}, {16, 16, 16}, 3);
   const Tucker small = random_model({8, 8, 8}, {4, 4, 4}, 4);
@@ -113,7 +113,7 @@ TEST(BrickReconstructor, ReusesScratchAcrossBricksOfDifferentSizes) {
   expect_close(small_tensor, reference(small, {4, 4, 4}), small.core.norm());
 }
 
-TEST(BrickReconstructor, RejectsBadRanksAndBufferSizes) {
+TEST(TensorBrickReconstructor, RejectsBadRanksAndBufferSizes) {
   const Tucker model = random_model({8, 8, 8}, {4, 4, 4}, 5);
   BrickReconstructor rec;
   std::vector<float> out(8 * 8 * 8);

@@ -55,7 +55,7 @@ double max_abs_difference(const Tensor3d& a, const Tensor3d& b) {
 // Entries are sums of at most 7 products of values in [-1, 1]: double rounding is ~1e-15.
 constexpr double kDoubleTolerance = 1e-12;
 
-TEST(Ttm, MatchesNaiveTripleLoopInEveryMode) {
+TEST(TensorTtm, MatchesNaiveTripleLoopInEveryMode) {
   const Tensor3d x = random_tensor(5, 7, 3, 1);
   for (int mode = 1; mode <= 3; ++mode) {
     const Matrix<double> u = random_matrix(4, x.dim(mode), 10 + mode);
@@ -63,7 +63,7 @@ TEST(Ttm, MatchesNaiveTripleLoopInEveryMode) {
   }
 }
 
-TEST(Ttm, TransposedFormEqualsProductWithTranspose) {
+TEST(TensorTtm, TransposedFormEqualsProductWithTranspose) {
   const Tensor3d x = random_tensor(6, 4, 5, 2);
   for (int mode = 1; mode <= 3; ++mode) {
     const Matrix<double> u = random_matrix(x.dim(mode), 3, 20 + mode);  // a factor matrix, I_n x R
@@ -72,7 +72,7 @@ TEST(Ttm, TransposedFormEqualsProductWithTranspose) {
   }
 }
 
-TEST(Ttm, MatchesUnfoldedMatrixProductEqA6) {
+TEST(TensorTtm, MatchesUnfoldedMatrixProductEqA6) {
   const Tensor3d x = random_tensor(4, 5, 6, 3);
   for (int mode = 1; mode <= 3; ++mode) {
     const Matrix<double> u = random_matrix(3, x.dim(mode), 30 + mode);
@@ -82,7 +82,7 @@ TEST(Ttm, MatchesUnfoldedMatrixProductEqA6) {
   }
 }
 
-TEST(Ttm, GramEqualsUnfoldingTimesItsTranspose) {
+TEST(TensorTtm, GramEqualsUnfoldingTimesItsTranspose) {
   const Tensor3 x = random_tensor(4, 6, 5, 4).cast<float>();
   for (int mode = 1; mode <= 3; ++mode) {
     const Matrix<double> unf = unfold(x, mode).cast<double>();
@@ -90,7 +90,7 @@ TEST(Ttm, GramEqualsUnfoldingTimesItsTranspose) {
   }
 }
 
-TEST(Ttm, ProjectThenReconstructWithOrthogonalFactorsIsIdentity) {
+TEST(TensorTtm, ProjectThenReconstructWithOrthogonalFactorsIsIdentity) {
   const Tensor3d x = random_tensor(5, 4, 6, 5);
   Factors<double> u;
   for (std::size_t n = 0; n < 3; ++n) {
@@ -100,7 +100,7 @@ TEST(Ttm, ProjectThenReconstructWithOrthogonalFactorsIsIdentity) {
   EXPECT_LT(max_abs_difference(reconstruct(project(x, u), u), x), kDoubleTolerance);
 }
 
-TEST(Ttm, FloatProductsAgreeWithDouble) {
+TEST(TensorTtm, FloatProductsAgreeWithDouble) {
   const Tensor3d x = random_tensor(8, 8, 8, 6);
   const Matrix<double> u = random_matrix(8, 8, 7);
   const Tensor3d expected = ttm(x, 2, u);
@@ -109,7 +109,7 @@ TEST(Ttm, FloatProductsAgreeWithDouble) {
   EXPECT_LT(max_abs_difference(expected, actual), 8 * 4 * 6e-8);
 }
 
-TEST(Ttm, RejectsBadModeAndMismatchedMatrix) {
+TEST(TensorTtm, RejectsBadModeAndMismatchedMatrix) {
   const Tensor3d x = random_tensor(3, 4, 5, 8);
   EXPECT_THROW(ttm(x, 0, random_matrix(2, 3, 1)), Error);
   EXPECT_THROW(ttm(x, 4, random_matrix(2, 3, 1)), Error);

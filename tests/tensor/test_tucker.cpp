@@ -68,7 +68,7 @@ double slice_inner_product(const Tensor3& core, int mode, std::int64_t alpha, st
   return sum;
 }
 
-TEST(Hosvd, FactorsAreOrthonormal) {
+TEST(TensorHosvd, FactorsAreOrthonormal) {
   const Tensor3 a = random_tensor({12, 10, 14}, 1);
   for (const Ranks3& r : {Ranks3{12, 10, 14}, Ranks3{4, 5, 6}, Ranks3{1, 1, 1}}) {
     const Tucker t = hosvd(a, r);
@@ -80,7 +80,7 @@ TEST(Hosvd, FactorsAreOrthonormal) {
 
 // Full rank: square orthogonal factors, so Ã = A up to float rounding of core and factors
 // (relative ~1e-7 per product), well below the 1e-5 bound.
-TEST(Hosvd, FullRankReconstructsInput) {
+TEST(TensorHosvd, FullRankReconstructsInput) {
   for (const Tensor3& a : {random_tensor({9, 7, 8}, 2), structured_tensor(16, 3)}) {
     const Tucker t = hosvd(a, {int(a.dims()[0]), int(a.dims()[1]), int(a.dims()[2])});
     EXPECT_LT(relative_error(a, reconstruct(t.core, t.factors)), 1e-5);
@@ -89,7 +89,7 @@ TEST(Hosvd, FullRankReconstructsInput) {
 }
 
 // A tall unfolding (I_n > product of the other extents) goes through the thin-SVD branch.
-TEST(Hosvd, TallUnfoldingsUseSvdAndStayExact) {
+TEST(TensorHosvd, TallUnfoldingsUseSvdAndStayExact) {
   const Tensor3 a = random_tensor({20, 3, 2}, 4);
   const Tucker t = hosvd(a, {6, 3, 2});
   for (const auto& u : t.factors) EXPECT_LT(orthonormality_defect(u), 1e-5);
@@ -99,7 +99,7 @@ TEST(Hosvd, TallUnfoldingsUseSvdAndStayExact) {
 // De Lathauwer et al.: the full HOSVD core is all-orthogonal (slices along any mode are
 // mutually orthogonal) and the slice norms are the mode-n singular values, in decreasing order.
 // Float rounding of the core perturbs inner products by ~1e-7 ‖A‖², hence the 1e-5 ‖A‖² bound.
-TEST(Hosvd, CoreIsAllOrthogonalWithDecreasingSliceNorms) {
+TEST(TensorHosvd, CoreIsAllOrthogonalWithDecreasingSliceNorms) {
   const Tensor3 a = structured_tensor(10, 5);
   const Tucker t = hosvd(a, {10, 10, 10});
   const double energy = a.norm() * a.norm();
@@ -116,7 +116,7 @@ TEST(Hosvd, CoreIsAllOrthogonalWithDecreasingSliceNorms) {
   }
 }
 
-TEST(Hosvd, SeparableRankOneInputIsRecoveredExactly) {
+TEST(TensorHosvd, SeparableRankOneInputIsRecoveredExactly) {
   Tensor3 a(8, 6, 7);
   for (std::int64_t k = 0; k < 7; ++k)
     for (std::int64_t j = 0; j < 6; ++j)
@@ -129,7 +129,7 @@ TEST(Hosvd, SeparableRankOneInputIsRecoveredExactly) {
   }
 }
 
-TEST(Hosvd, ReportedFitMatchesExplicitFit) {
+TEST(TensorHosvd, ReportedFitMatchesExplicitFit) {
   const Tensor3 a = structured_tensor(16, 6);
   const Tucker t = hosvd(a, {4, 4, 4});
   // Both are 1 - ‖A - Ã‖/‖A‖; they differ by float rounding of the stored model only.
@@ -138,7 +138,7 @@ TEST(Hosvd, ReportedFitMatchesExplicitFit) {
 
 // ALS never decreases the fit, and it starts from the truncated HOSVD. Both fits are computed in
 // double from the same ‖A‖; the tolerance covers rounding in the projections (~1e-12).
-TEST(Hooi, FitsAtLeastAsWellAsTruncatedHosvd) {
+TEST(TensorHooi, FitsAtLeastAsWellAsTruncatedHosvd) {
   const Tensor3 inputs[] = {random_tensor({16, 16, 16}, 7), structured_tensor(16, 8), random_tensor({12, 9, 10}, 9)};
   for (const Tensor3& a : inputs) {
     for (const Ranks3& r : {Ranks3{4, 4, 4}, Ranks3{8, 3, 5}}) {
@@ -151,7 +151,7 @@ TEST(Hooi, FitsAtLeastAsWellAsTruncatedHosvd) {
   }
 }
 
-TEST(Hooi, ImprovesOnRandomDataAndStopsOnTolerance) {
+TEST(TensorHooi, ImprovesOnRandomDataAndStopsOnTolerance) {
   const Tensor3 a = random_tensor({16, 16, 16}, 10);
   const Tucker h = hosvd(a, {5, 5, 5});
   const Tucker o = hooi(a, {5, 5, 5}, {.tolerance = 1e-9, .max_iterations = 200});
@@ -161,7 +161,7 @@ TEST(Hooi, ImprovesOnRandomDataAndStopsOnTolerance) {
   EXPECT_EQ(once.iterations, 1);
 }
 
-TEST(Hooi, OrderedCoreIsAllOrthogonalAndFactorsOrthonormal) {
+TEST(TensorHooi, OrderedCoreIsAllOrthogonalAndFactorsOrthonormal) {
   const Tensor3 a = structured_tensor(16, 11);
   const Tucker t = hooi(a, {6, 6, 6});
   for (const auto& u : t.factors) EXPECT_LT(orthonormality_defect(u), 1e-5);
@@ -179,7 +179,7 @@ TEST(Hooi, OrderedCoreIsAllOrthogonalAndFactorsOrthonormal) {
   EXPECT_GT(t.core(0, 0, 0), 0.0f);  // positive data, sign convention: positive hot corner
 }
 
-TEST(Tucker, VoxelwiseEqA5EqualsTtmEqA3) {
+TEST(TensorTucker, VoxelwiseEqA5EqualsTtmEqA3) {
   const Tensor3 a = structured_tensor(12, 12);
   const Tucker t = hooi(a, {5, 4, 6});
   const Tensor3 by_ttm = reconstruct(t.core, t.factors);
@@ -189,7 +189,7 @@ TEST(Tucker, VoxelwiseEqA5EqualsTtmEqA3) {
   EXPECT_NEAR(reconstruct_voxel(t, 3, 7, 2), by_ttm(3, 7, 2), 1e-5 * std::abs(by_ttm(3, 7, 2)) + 1e-6);
 }
 
-TEST(Tucker, TruncateTakesLeadingBlockAndColumns) {
+TEST(TensorTucker, TruncateTakesLeadingBlockAndColumns) {
   const Tensor3 a = structured_tensor(12, 13);
   const Tucker t = hooi(a, {6, 6, 6});
   const Tucker k = truncate(t, {3, 2, 4});
@@ -202,7 +202,7 @@ TEST(Tucker, TruncateTakesLeadingBlockAndColumns) {
   EXPECT_THROW(truncate(t, {7, 1, 1}), Error);
 }
 
-TEST(Tucker, RejectsRanksOutsideDims) {
+TEST(TensorTucker, RejectsRanksOutsideDims) {
   const Tensor3 a = random_tensor({4, 5, 6}, 14);
   EXPECT_THROW(hosvd(a, {0, 2, 2}), Error);
   EXPECT_THROW(hosvd(a, {5, 2, 2}), Error);
@@ -210,7 +210,7 @@ TEST(Tucker, RejectsRanksOutsideDims) {
   EXPECT_THROW(hooi(a, {2, 2, 2}, {.max_iterations = 0}), Error);
 }
 
-TEST(Tucker, ZeroTensorHasPerfectFit) {
+TEST(TensorTucker, ZeroTensorHasPerfectFit) {
   const Tensor3 a(6, 6, 6);
   const Tucker t = hooi(a, {2, 2, 2});
   EXPECT_EQ(t.fit, 1.0);

@@ -101,7 +101,7 @@ using strata::test::error_of;
 // Early termination at 0.99 leaves 1% of the background behind an opaque object.
 constexpr int kOpaqueTolerance = 4;
 
-TEST(LabelRender, OrthographicPixelsShowTheirLabelColour) {
+TEST(RenderLabelRender, OrthographicPixelsShowTheirLabelColour) {
   Encoded e;
   LabelScene scene(*e.labels, box_colors());
   LabelRenderStats stats;
@@ -119,7 +119,7 @@ TEST(LabelRender, OrthographicPixelsShowTheirLabelColour) {
   EXPECT_EQ(stats.rays, 64u * 64u);  // the orthographic frame is exactly the volume's face
 }
 
-TEST(LabelRender, ColourMapChangeRebuildsPaletteWithoutReadingIds) {
+TEST(RenderLabelRender, ColourMapChangeRebuildsPaletteWithoutReadingIds) {
   Encoded e;
   LabelScene scene(*e.labels, box_colors());
   LabelRenderStats first, second;
@@ -148,7 +148,7 @@ TEST(LabelRender, ColourMapChangeRebuildsPaletteWithoutReadingIds) {
   EXPECT_EQ(scene.palette_builds(), 2u);
 }
 
-TEST(LabelRender, AllTransparentRendersBackgroundAndSkipsEverything) {
+TEST(RenderLabelRender, AllTransparentRendersBackgroundAndSkipsEverything) {
   Encoded e;
   LabelScene scene(*e.labels, LabelColorMap::uniform({1, 0, 0, 0}));
   LabelRenderStats stats;
@@ -160,7 +160,7 @@ TEST(LabelRender, AllTransparentRendersBackgroundAndSkipsEverything) {
   EXPECT_EQ(stats.skipped_cubes, stats.rays);  // one jump over the root cube per ray
 }
 
-TEST(LabelRender, SkippingEmptySpaceKeepsTheImage) {
+TEST(RenderLabelRender, SkippingEmptySpaceKeepsTheImage) {
   Encoded e;
   LabelScene scene(*e.labels, box_colors());
   LabelRenderOptions with = options(), without = options();
@@ -187,7 +187,7 @@ TEST(LabelRender, SkippingEmptySpaceKeepsTheImage) {
   EXPECT_LE(worst, 3);  // only where step positions restart after a skipped cube
 }
 
-TEST(LabelRender, CoarserLodBiasKeepsObjectsAndAverageColour) {
+TEST(RenderLabelRender, CoarserLodBiasKeepsObjectsAndAverageColour) {
   Encoded fine_file, coarse_file;
   LabelScene fine(*fine_file.labels, box_colors()), coarse(*coarse_file.labels, box_colors());
   LabelRenderOptions biased = options();
@@ -226,7 +226,7 @@ TEST(LabelRender, CoarserLodBiasKeepsObjectsAndAverageColour) {
   }
 }
 
-TEST(LabelRender, BlendingLevelsAndPerspectiveRender) {
+TEST(RenderLabelRender, BlendingLevelsAndPerspectiveRender) {
   Encoded e;
   LabelScene scene(*e.labels, box_colors());
   LabelRenderOptions o = options();
@@ -240,7 +240,7 @@ TEST(LabelRender, BlendingLevelsAndPerspectiveRender) {
   EXPECT_LE(difference(image.at(0, 0), kBackground), 0);
 }
 
-TEST(LabelRender, SemiTransparentLabelFollowsOpacityCorrection) {
+TEST(RenderLabelRender, SemiTransparentLabelFollowsOpacityCorrection) {
   Encoded e;
   LabelColorMap m = box_colors();
   m.set(kC, {1, 1, 1, 0.1f});
@@ -257,7 +257,7 @@ TEST(LabelRender, SemiTransparentLabelFollowsOpacityCorrection) {
   EXPECT_NEAR(got, expected, 0.06);
 }
 
-TEST(LabelRender, HeadlightShadingDarkensOnlyObliqueSurfaces) {
+TEST(RenderLabelRender, HeadlightShadingDarkensOnlyObliqueSurfaces) {
   Encoded e;
   LabelScene scene(*e.labels, box_colors());
   LabelRenderOptions o = options();
@@ -281,7 +281,7 @@ TEST(LabelRender, HeadlightShadingDarkensOnlyObliqueSurfaces) {
   EXPECT_GT(darker, 100);
 }
 
-TEST(LabelColorMapTest, HashColoursAreDeterministicAndBackgroundIsTransparent) {
+TEST(RenderLabelColorMap, HashColoursAreDeterministicAndBackgroundIsTransparent) {
   const LabelColorMap m;
   EXPECT_EQ(m.color_of(0).a, 0.0f);
   EXPECT_EQ(m.color_of(5), hash_label_color(5));
@@ -296,7 +296,7 @@ TEST(LabelColorMapTest, HashColoursAreDeterministicAndBackgroundIsTransparent) {
   EXPECT_FLOAT_EQ(rows[4], m.color_of(5).r);
 }
 
-TEST(LabelColorMapTest, JsonColoursByOriginalLabelValue) {
+TEST(RenderLabelColorMap, JsonColoursByOriginalLabelValue) {
   const auto j = nlohmann::json::parse(R"({"default": [0.5, 0.5, 0.5, 0.25],
       "labels": {"17": [1, 0, 0], "-3": [0, 1, 0, 0.5], "0": [0, 0, 1, 1]}})");
   const LabelColorMap m = LabelColorMap::from_json(j, "map.json");
@@ -310,7 +310,7 @@ TEST(LabelColorMapTest, JsonColoursByOriginalLabelValue) {
   EXPECT_EQ(hashed.color_of(0).a, 0.0f);
 }
 
-TEST(LabelColorMapTest, JsonErrorsNameFileAndField) {
+TEST(RenderLabelColorMap, JsonErrorsNameFileAndField) {
   const auto parse = [](const char* text) {
     return error_of([&] { LabelColorMap::from_json(nlohmann::json::parse(text), "cmap.json"); });
   };
@@ -333,7 +333,7 @@ TEST(LabelColorMapTest, JsonErrorsNameFileAndField) {
   EXPECT_EQ(LabelColorMap::load(good).color_of(17), (LabelRgba{0.2f, 0.4f, 0.6f, 0.8f}));
 }
 
-TEST(LabelRender, RejectsBadOptions) {
+TEST(RenderLabelRender, RejectsBadOptions) {
   Encoded e;
   LabelScene scene(*e.labels);
   LabelRenderOptions o;
