@@ -1,8 +1,8 @@
-// The body of the ray caster's 8-lane inner loop (raycaster.cpp), included twice: once compiled
+// The body of the ray caster's 8-lane inner loop (march8.cpp), included twice: once compiled
 // for AVX2 and once for AVX-512 (F/VL/BW/DQ: 32 vector registers, EVEX masks), both without
 // FMA contraction so either performs the scalar march's operations exactly. The includer
 // defines STRATA_MARCH8_NAME and STRATA_MARCH8_ATTRS and provides the helpers it uses.
-// No include guard: meant to be included more than once, inside raycaster.cpp's namespace.
+// No include guard: meant to be included more than once, inside march8.cpp's namespace.
 
 template <bool Shade>
 STRATA_MARCH8_ATTRS std::int64_t STRATA_MARCH8_NAME(const GridSampler& s, const Block& b, const LevelParams& lp,

@@ -1,6 +1,11 @@
 #include "render/occupancy.hpp"
 
 #include <algorithm>
+#include <cmath>
+
+#include "render/frame_index.hpp"
+#include "render/ray_sampling.hpp"
+#include "strata/render/raycaster.hpp"
 
 namespace strata::render::detail {
 
@@ -76,6 +81,38 @@ CellRanges compute_cell_ranges(const float* data, const std::array<int, 3>& n, i
     }
   }
   return r;
+}
+
+int skip_dilation(const RenderOptions& o) {
+  if (!o.skip_cells) return 0;
+  const int d = int(std::ceil(o.step - 1e-9));
+  return d <= 2 ? std::max(d, 1) : 0;  // longer steps: cells too coarse to be worth it
+}
+
+std::shared_ptr<const CellFlags> cell_flags(const Block& b, int dilation, const Transparency& tr, float value_lo,
+                                            float value_scale) {
+  const CellRanges r = compute_cell_ranges(b.data, b.n, dilation);
+  auto f = std::make_shared<CellFlags>();
+  f->cells = r.cells;
+  f->empty.resize(r.lo.size() + 3);  // padded for 32-bit gathers (march8)
+  for (std::size_t c = 0; c < r.lo.size(); ++c) {
+    // Normalised exactly as samples are, widened by a few float roundings of the trilinear
+    // interpolation so a sample can never leave the range the flag was decided on.
+    const float nlo = (r.lo[c] - value_lo) * value_scale, nhi = (r.hi[c] - value_lo) * value_scale;
+    const float margin = 1e-5f + 4e-6f * std::max(std::abs(r.lo[c]), std::abs(r.hi[c])) * value_scale;
+    const bool e = tr.next_visible[std::size_t(Transparency::bin(nlo - margin))] > Transparency::bin(nhi + margin);
+    f->empty[c] = e ? 1 : 0;
+    f->empty_count += e ? 1 : 0;
+  }
+  return f;
+}
+
+void attach_flags(Block& b, const std::shared_ptr<const CellFlags>& f, RenderStats& stats) {
+  if (!f) return;
+  stats.cells_total += std::uint64_t(f->cells[0]) * std::uint64_t(f->cells[1]) * std::uint64_t(f->cells[2]);
+  stats.cells_empty += f->empty_count;
+  b.cells = f->cells;
+  b.empty = f->empty_count > 0 ? f->empty.data() : nullptr;
 }
 
 std::shared_ptr<const CellFlags> CellFlagCache::find(const std::shared_ptr<const std::vector<float>>& samples) const {

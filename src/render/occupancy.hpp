@@ -8,8 +8,9 @@
 // contributes nothing and the ray caster may skip it without changing the image.
 //
 // The ranges are turned into one flag per cell under the ray caster's transfer function and
-// value mapping (CellFlags), computed once per brick and memoised (CellFlagCache) for as long as
-// the brick's samples stay alive: 1 byte per 2^3 cell, 1/32 of the brick's float samples.
+// value mapping (CellFlags, by cell_flags), computed once per brick and memoised (CellFlagCache)
+// for as long as the brick's samples stay alive: 1 byte per 2^3 cell, 1/32 of the brick's float
+// samples.
 #include <array>
 #include <cstddef>
 #include <cstdint>
@@ -17,7 +18,15 @@
 #include <unordered_map>
 #include <vector>
 
+namespace strata::render {
+struct RenderOptions;
+struct RenderStats;
+}  // namespace strata::render
+
 namespace strata::render::detail {
+
+struct Block;
+struct Transparency;
 
 constexpr int kCell = 2;  // macro-cell edge in sample positions
 
@@ -36,6 +45,18 @@ struct CellFlags {
   std::size_t empty_count = 0;
   std::vector<std::uint8_t> empty;  // per cell, x fastest (1 = transparent), then 3 bytes of padding
 };
+
+// Macro-cell dilation for a step (in local voxels): a segment is at most one step long per axis.
+// 0 when skipping is off (RenderOptions::skip_cells) or the step is too long for it.
+int skip_dilation(const RenderOptions& o);
+
+// One flag per macro-cell of a block's samples: set where the (dilated) value range is
+// transparent under the TF, i.e. where every segment ending in the cell is transparent.
+std::shared_ptr<const CellFlags> cell_flags(const Block& b, int dilation, const Transparency& tr, float value_lo,
+                                            float value_scale);
+
+// Points block b at the flags (none when `f` is null) and counts its cells in `stats`.
+void attach_flags(Block& b, const std::shared_ptr<const CellFlags>& f, RenderStats& stats);
 
 // Flags of the bricks a frame samples, keyed by the samples' address and kept while the brick
 // lives (an expired weak_ptr marks a dead brick whose address may have been reused). Entries

@@ -1,5 +1,5 @@
 #pragma once
-// Sampling and classification of the ray caster (raycaster.cpp): trilinear values and gradients
+// Sampling and classification of the ray caster (march.cpp): trilinear values and gradients
 // in a block's samples, table lookups of the transfer function, and the transparent-segment test.
 // Everything here is inlined into the scalar march and read by the 8-lane march
 // (march8_body.hpp), which repeats these operations on vectors.
@@ -121,7 +121,7 @@ struct Classifier {
   const Rgbaf* table = nullptr;  // the post-classification lookup table (single)
   int size = 0;                  // entries per axis of the table in use
   float last = 0;  // size - 1
-  // The pre-integrated table (size^2 entries) as bilinear cells (render/raycaster.cpp,
+  // The pre-integrated table (size^2 entries) as bilinear cells (render/level_tables.cpp,
   // bilinear_cells): cell (i, j) holds entries (i, j), (i + 1, j), (i, j + 1), (i + 1, j + 1),
   // 16 floats in a row, so the 8-lane march fetches a lane's four entries with two 8-float loads.
   const float* cells = nullptr;

@@ -1,8 +1,8 @@
 #pragma once
 // Per-ray state and brick traversal of the ray caster. The march over one block's lattice
-// points (scalar and 8-lane, with their target attributes) stays in raycaster.cpp beside
-// march8_body.hpp; the traversal here walks a ray through the frame index and calls it through
-// MarchFns, and run() casts every ray of a frame in tiles and composites over the background.
+// points lives in march.cpp (scalar) and march8.cpp (8-lane, with its target attributes); the
+// traversal here walks a ray through the frame index and calls it through MarchFns, and run()
+// casts every ray of a frame in tiles and composites over the background.
 #include <array>
 #include <cstdint>
 #include <vector>
@@ -51,14 +51,14 @@ struct MarchParams {
   float termination;
 };
 
-// The march of one block (raycaster.cpp): its lattice points (lattice) and the partial
+// The march of one block (march.cpp): its lattice points (lattice) and the partial
 // segment to the volume exit (tail).
 struct MarchFns {
   bool (*lattice)(const Block&, std::int64_t, std::int64_t, const RayContext&, const MarchParams&, RayState&, bool);
   void (*tail)(const Block&, double, const RayContext&, const MarchParams&, RayState&);
 };
 
-// The march of block b's kind (raycaster.cpp).
+// The march of block b's kind (march.cpp).
 MarchFns march_function(const Block& b, bool preint, bool shade);
 
 struct RenderJob {

@@ -1,9 +1,13 @@
 #pragma once
-// Blinn-Phong's specular power: x^n for an integer n >= 0 by repeated squaring. The default
-// exponent (24) also has a compile-time form, unrolled with the same products in the same order
-// (the generic loop's first product 1 * x^(2^i) is exact), so both give the same bits; the
-// ray caster's 8-lane march repeats that sequence on vectors.
+// Shading shared by the ray caster's scalar and 8-lane marches: the opacity below which a
+// segment is not shaded, and Blinn-Phong's specular power: x^n for an integer n >= 0 by repeated
+// squaring. The default exponent (24) also has a compile-time form, unrolled with the same
+// products in the same order (the generic loop's first product 1 * x^(2^i) is exact), so both
+// give the same bits; the ray caster's 8-lane march repeats that sequence on vectors.
 namespace strata::render::detail {
+
+// Samples below this opacity skip the gradient (six extra trilinear taps).
+inline constexpr float kShadeThreshold = 1.0f / 1024.0f;
 
 inline float power(float x, int n) {  // x^n, n >= 0, by repeated squaring
   float r = 1.0f;

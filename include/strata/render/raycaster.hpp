@@ -34,7 +34,7 @@ namespace strata::render {
 
 namespace detail {
 class CellFlagCache;
-struct LevelTables;  // per-level classification tables (raycaster.cpp)
+struct LevelTables;  // per-level classification tables (src/render/level_tables.hpp)
 struct CellFlags;
 struct FrameIndex;
 struct Transparency;
