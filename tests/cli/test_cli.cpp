@@ -51,7 +51,7 @@ TEST(CliProgram, RuntimeErrorsExitWithOneAndNameTheFile) {
 // the flags that set them.
 TEST(CliProgram, RawInputWithoutDimsOrDtypeNamesTheFlag) {
   TempDir dir;
-  const std::string raw = "'" + (dir / "lonely.raw").string() + "'";
+  const std::string raw = strata::test::shell_quoted(dir / "lonely.raw");
   std::ofstream(dir / "lonely.raw") << std::string(64, 'x');
   std::string out;
   EXPECT_EQ(run_command(strata_cmd("info " + raw), &out), 1);

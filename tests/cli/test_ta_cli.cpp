@@ -18,12 +18,7 @@ namespace fs = std::filesystem;
 namespace {
 
 std::string strata_cmd(const std::string& args) { return std::string(STRATA_BINARY) + " --progress none " + args; }
-std::string q(const fs::path& p) {  // shell-quoted (built piecewise: GCC 12 -Wrestrict false positive)
-  std::string s(1, '\'');
-  s += p.string();
-  s += '\'';
-  return s;
-}
+std::string q(const fs::path& p) { return strata::test::shell_quoted(p); }
 bool has(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
 
 // One generated volume and its compression, shared by the tests of this file:

@@ -91,4 +91,11 @@ std::string parameter_of(const std::function<void()>& f) {
   return described_error<ParameterError>(f, [](const ParameterError& e) { return e.parameter(); });
 }
 
+std::string shell_quoted(const std::filesystem::path& path) {
+  std::string s(1, '\'');  // built piecewise: GCC 12 reports a false -Wrestrict for "'" + ... + "'"
+  s += path.string();
+  s += '\'';
+  return s;
+}
+
 }  // namespace strata::test

@@ -35,6 +35,9 @@ std::string error_of(const std::function<void()>& f);
 // (any other exception propagates).
 std::string parameter_of(const std::function<void()>& f);
 
+// `path` in single quotes, for a shell command line.
+std::string shell_quoted(const std::filesystem::path& path);
+
 // Runs a shell command, capturing stdout+stderr; returns the exit code.
 int run_command(const std::string& command, std::string* output = nullptr);
 
