@@ -1,6 +1,7 @@
 #include "ta/brick_stats.hpp"
 
 #include <algorithm>
+#include <limits>
 
 // GCC 12 reports the _mm512_undefined_* pass-through operands inside the AVX-512 intrinsics as
 // maybe-uninitialized (a false positive, fixed in later releases). The warning is located in
@@ -48,9 +49,9 @@ template <int VW>
   using VI = typename VecOf<std::int32_t, VW>::type;
   using VL = typename VecOf<std::int64_t, VW>::type;
   if (n < VW) return accumulate_scalar(v, n, s, st);
-  VF vmin, vmax;
-  __builtin_memcpy(&vmin, v, sizeof(VF));
-  vmax = vmin;
+  // Lanes start empty (+inf, -inf) and `f < vmin ? f : vmin` keeps vmin for a NaN f, so a
+  // NaN never enters a lane and never hides the lane's other values.
+  VF vmin = VF{} + std::numeric_limits<float>::infinity(), vmax = -vmin;
   VL bits{};
   const VL one = VL{} + 1;
   const VD zero{}, top = VD{} + double(store::kHistogramBins - 1);  // s.bin(), lane by lane
@@ -90,17 +91,18 @@ STRATA_TARGET_AVX2 void stats_avx2(const float* v, std::size_t n, const BinScale
   return _mm512_sllv_epi64(_mm512_set1_epi64(1), _mm512_cvtepi32_epi64(_mm512_cvttpd_epi32(x)));
 }
 
-STRATA_TARGET_AVX512 void stats_avx512(const float* v, std::size_t n,
-                                                                        const BinScale& s, BrickStats& st) {
+STRATA_TARGET_AVX512 void stats_avx512(const float* v, std::size_t n, const BinScale& s, BrickStats& st) {
   if (n < 16) return accumulate_scalar(v, n, s, st);
   const __m512d lo = _mm512_set1_pd(s.lo), scale = _mm512_set1_pd(s.scale);
   __m512i bits0 = _mm512_setzero_si512(), bits1 = _mm512_setzero_si512();
-  __m512 vmin = _mm512_loadu_ps(v), vmax = vmin;
+  // min_ps(a, b) returns b when either is NaN: the lane's running value stays (as above).
+  constexpr float kInf = std::numeric_limits<float>::infinity();
+  __m512 vmin = _mm512_set1_ps(kInf), vmax = _mm512_set1_ps(-kInf);
   std::size_t i = 0;
   for (; i + 16 <= n; i += 16) {
     const __m512 f = _mm512_loadu_ps(v + i);
-    vmin = _mm512_min_ps(vmin, f);
-    vmax = _mm512_max_ps(vmax, f);
+    vmin = _mm512_min_ps(f, vmin);
+    vmax = _mm512_max_ps(f, vmax);
     bits0 = _mm512_or_si512(bits0, bin_bits_avx512(_mm256_loadu_ps(v + i), lo, scale));
     bits1 = _mm512_or_si512(bits1, bin_bits_avx512(_mm256_loadu_ps(v + i + 8), lo, scale));
   }
@@ -132,10 +134,14 @@ StatsFn stats_kernel() {
 
 BrickStats brick_stats(std::span<const float> a, std::span<const float> b, const HistogramRange& range) {
   const BinScale s(range.lo, range.hi);
-  BrickStats st{a[0], a[0], 0};
+  // NaN samples are ignored by min and max (std::min keeps its first argument against NaN) and
+  // fall into bin 0; a brick of NaN only reports NaN for both.
+  constexpr float kInf = std::numeric_limits<float>::infinity();
+  BrickStats st{kInf, -kInf, 0};
   const StatsFn fn = stats_kernel();
   fn(a.data(), a.size(), s, st);
   fn(b.data(), b.size(), s, st);
+  if (st.lo > st.hi) st.lo = st.hi = std::numeric_limits<float>::quiet_NaN();
   return st;
 }
 

@@ -20,7 +20,8 @@ struct BrickStats {
 };
 
 /// @brief Min, max and histogram bits over both spans, each non-empty, with the widest kernel
-/// variant active_isa() allows. Every variant gives the same result. Thread-safe.
+/// variant active_isa() allows. NaN samples are ignored by min and max and set bin 0; if every
+/// sample is NaN, min and max are NaN. Every variant gives the same result. Thread-safe.
 BrickStats brick_stats(std::span<const float> a, std::span<const float> b, const HistogramRange& range);
 
 }  // namespace strata::ta

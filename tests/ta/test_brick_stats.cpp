@@ -61,6 +61,32 @@ TEST_P(TaBrickStatsPerIsa, EqualTheScalarReference) {
     }
 }
 
+TEST_P(TaBrickStatsPerIsa, NanSamplesAreIgnoredWhereverTheyStand) {
+  // A NaN in the same vector lane as the minimum (or maximum), after it, before it, or as the
+  // very first sample must not hide the other values of that lane; NaN goes to bin 0 only.
+  const ScopedIsaLimit limit(isa());
+  const HistogramRange range{0.0, 64.0};
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  for (const std::size_t at_nan : {0u, 3u, 19u, 35u, 63u})
+    for (const std::size_t at_extreme : {0u, 3u, 19u, 51u}) {
+      if (at_nan == at_extreme) continue;
+      std::vector<float> v(64, 5.5f);
+      v[at_extreme] = -100.0f;
+      v[(at_extreme + 16) % 64] = 1000.0f;
+      v[at_nan] = nan;
+      if ((at_extreme + 16) % 64 == at_nan) continue;
+      SCOPED_TRACE("NaN at " + std::to_string(at_nan) + ", minimum at " + std::to_string(at_extreme));
+      const BrickStats st = brick_stats(v, std::span<const float>(v).first(1), range);
+      EXPECT_EQ(st.lo, -100.0f);
+      EXPECT_EQ(st.hi, 1000.0f);
+      EXPECT_EQ(st.bits, (std::uint64_t(1) << 0) | (std::uint64_t(1) << 5) | (std::uint64_t(1) << 63));
+    }
+  const std::vector<float> only_nan(20, nan);
+  const BrickStats st = brick_stats(only_nan, only_nan, range);
+  EXPECT_TRUE(std::isnan(st.lo) && std::isnan(st.hi));
+  EXPECT_EQ(st.bits, 1u);
+}
+
 TEST_P(TaBrickStatsPerIsa, AnEmptyRangePutsEveryValueInBinZero) {
   const ScopedIsaLimit limit(isa());
   const std::vector<float> a = test_values(40, 3, false);
