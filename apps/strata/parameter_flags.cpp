@@ -23,6 +23,7 @@ constexpr ParameterFlag kParameterFlags[] = {
     {"RenderOptions::step", "--step"},
     {"RenderOptions::background", "--background"},
     {"box", "--box"},
+    {"isa", "--isa"},
     {"level", "--level"},
     {"preset_or_path", "--tf"},
     {"progress_mode", "--progress"},

@@ -11,7 +11,7 @@ namespace strata {
 namespace {
 
 bool cpu_has(Isa isa) {
-#if defined(__x86_64__) || defined(__i386__)
+#if STRATA_X86_64
   switch (isa) {
     case Isa::generic: return true;
     case Isa::sse42: return __builtin_cpu_supports("sse4.2");
@@ -32,11 +32,11 @@ std::string level_list() {
   return out;
 }
 
-// Throws unless `isa` runs here; `who` names the setting in the message.
-void require_supported(Isa isa, std::string_view who) {
-  if (!isa_supported(isa))
-    throw Error(std::string(who) + ": this CPU does not support " + std::string(isa_name(isa)) + " (it supports up to " +
-                std::string(isa_name(machine_isa())) + ")");
+// Why `isa` cannot be the limit, or "" when this CPU supports it.
+std::string unsupported_reason(Isa isa) {
+  if (isa_supported(isa)) return {};
+  return "this CPU does not support " + std::string(isa_name(isa)) + " (it supports up to " +
+         std::string(isa_name(machine_isa())) + ")";
 }
 
 Isa limit_from_environment() {
@@ -46,7 +46,7 @@ Isa limit_from_environment() {
   if (!isa)
     throw Error("STRATA_ISA: unknown instruction set '" + std::string(value) + "' (expected one of " + level_list() +
                 ")");
-  require_supported(*isa, "STRATA_ISA");
+  if (const std::string reason = unsupported_reason(*isa); !reason.empty()) throw Error("STRATA_ISA: " + reason);
   return *isa;
 }
 
@@ -108,7 +108,7 @@ Isa active_isa() {
 }
 
 void set_isa_limit(Isa isa) {
-  require_supported(isa, "instruction set limit");
+  if (const std::string reason = unsupported_reason(isa); !reason.empty()) throw ParameterError("isa", reason);
   g_limit.store(int(isa), std::memory_order_relaxed);
 }
 

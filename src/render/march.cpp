@@ -110,7 +110,7 @@ struct Marcher {
     }
     const bool use_skip = skip && b.empty;
     bool vectorised = false;
-#if STRATA_RENDER_AVX2
+#if STRATA_X86_64
     if constexpr (std::is_same_v<Sampler, GridSampler> && Preint) {
       if (simd_block && k < k1 && acc.a <= mp.termination) {
         k = mp.avx512 ? march8_avx512<Shade>(sample, b, lp, mp, ray, p, dp, k0, k, k1, use_skip, front, last, acc, taken)

@@ -5,7 +5,7 @@
 
 #include <algorithm>
 #include <cstdint>
-#if STRATA_RENDER_AVX2
+#if STRATA_X86_64
 #include <immintrin.h>
 #endif
 
@@ -21,7 +21,7 @@ namespace strata::render::detail {
 // source (march8_body.hpp) is compiled twice: for AVX2 and for AVX-512 (EVEX, 32 registers),
 // both with fp-contract=off, since GCC would otherwise fuse multiplies and adds into FMA there.
 
-#if STRATA_RENDER_AVX2
+#if STRATA_X86_64
 
 namespace {
 
@@ -119,6 +119,6 @@ template decltype(march8<true>) march8<true>;
 template decltype(march8_avx512<false>) march8_avx512<false>;
 template decltype(march8_avx512<true>) march8_avx512<true>;
 
-#endif  // STRATA_RENDER_AVX2
+#endif  // STRATA_X86_64
 
 }  // namespace strata::render::detail

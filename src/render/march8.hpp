@@ -9,15 +9,9 @@
 #include "render/ray_traversal.hpp"
 #include "strata/core/isa.hpp"
 
-#if defined(__x86_64__) && defined(__GNUC__)
-#define STRATA_RENDER_AVX2 1
-#else
-#define STRATA_RENDER_AVX2 0
-#endif
-
 namespace strata::render::detail {
 
-#if STRATA_RENDER_AVX2
+#if STRATA_X86_64
 // Marches lattice points k..k1-1 (k0: the block's first lattice point, p / dp its local position
 // and step). `front` holds the value at `last` (== k - 1 on entry). Returns where it stopped
 // (k1, or one past the sample that terminated the ray). Instantiated for Shade = false and true.

@@ -39,7 +39,7 @@ std::uint32_t crc32c_table(const unsigned char* p, std::size_t n, std::uint32_t 
   return crc;
 }
 
-#if defined(__x86_64__)
+#if STRATA_X86_64
 STRATA_TARGET_SSE42 std::uint32_t crc32c_sse42(const unsigned char* p, std::size_t n, std::uint32_t crc) {
   std::uint64_t c = crc;
   while (n >= 8) {
@@ -60,7 +60,7 @@ STRATA_TARGET_SSE42 std::uint32_t crc32c_sse42(const unsigned char* p, std::size
 std::uint32_t crc32c(const void* data, std::size_t size, std::uint32_t crc) {
   const auto* p = static_cast<const unsigned char*>(data);
   crc = ~crc;
-#if defined(__x86_64__)
+#if STRATA_X86_64
   crc = active_isa() >= Isa::sse42 ? crc32c_sse42(p, size, crc) : crc32c_table(p, size, crc);
 #else
   crc = crc32c_table(p, size, crc);

@@ -82,11 +82,11 @@ std::uint64_t input_slab_bytes(const OctreeGeometry& geometry, const VolumeInfo&
   // A slab is held in the source type plus its per-slice float copies while pushed.
   const double per_source_byte = 1.0 + double(sizeof(float)) / double(dtype_size(source.dtype));
   const std::uint64_t slice = source.bytes_per_slice();
-  if (params.memory_limit < fixed + std::uint64_t(double(slice) * per_source_byte))
-    throw ParameterError("CompressParams::memory_limit",
-                         "compressing " + source.dims.to_string() + " with brick " + std::to_string(params.layout.brick) +
-                             " needs at least " +
-                             std::to_string((fixed + std::uint64_t(double(slice) * per_source_byte)) >> 20) + " MiB");
+  const std::uint64_t needed = fixed + std::uint64_t(double(slice) * per_source_byte);
+  if (params.memory_limit < needed)
+    throw ParameterError("CompressParams::memory_limit", "compressing " + source.dims.to_string() + " with brick " +
+                                                             std::to_string(params.layout.brick) + " needs at least " +
+                                                             std::to_string(needed >> 20) + " MiB");
   const auto budget = std::uint64_t(double(params.memory_limit - fixed) / per_source_byte);
   return std::min<std::uint64_t>(io::kDefaultSlabBytes, std::max(budget, slice));
 }

@@ -47,14 +47,14 @@ Isa active_isa();
 
 /// @brief Limits every kernel to `isa` and below (the CLI's `--isa`).
 ///
-/// Throws strata::Error if this CPU does not support `isa`. Not meant to be called while
+/// Throws strata::ParameterError("isa") if this CPU does not support `isa`. Not meant to be called while
 /// kernels run on other threads: a kernel in flight may finish on the old level.
 void set_isa_limit(Isa isa);
 
 /// @brief Sets the limit for a scope and restores the previous one (tests, benchmarks).
 class ScopedIsaLimit {
  public:
-  /// Throws strata::Error if this CPU does not support `isa`.
+  /// Throws as set_isa_limit does.
   explicit ScopedIsaLimit(Isa isa);
   ~ScopedIsaLimit();
   ScopedIsaLimit(const ScopedIsaLimit&) = delete;
@@ -65,6 +65,14 @@ class ScopedIsaLimit {
 };
 
 }  // namespace strata
+
+// 1 where the x86-64 variants and <immintrin.h> exist (GCC or Clang targeting x86-64); elsewhere
+// every kernel has its generic variant only and active_isa() is Isa::generic.
+#if defined(__x86_64__) && defined(__GNUC__)
+#define STRATA_X86_64 1
+#else
+#define STRATA_X86_64 0
+#endif
 
 // Function attributes compiling one kernel variant for a level (GCC and Clang). Use only on
 // code reached after checking active_isa() >= that level.
