@@ -1,11 +1,14 @@
 // `strata compress IN -o OUT.strata`: bricked tensor-approximation octree (paper 1).
 #include <cstdio>
+#include <optional>
+#include <tuple>
 
 #include "commands.hpp"
 #include "report.hpp"
 #include "strata/core/error.hpp"
 #include "strata/io/volume_io.hpp"
 #include "strata/ta/compress.hpp"
+#include "strata/ta/target_codec.hpp"
 
 namespace strata::cli {
 
@@ -14,15 +17,37 @@ namespace {
 struct CompressArgs {
   std::string input, output, quant = "u16,b8log+", memory_limit;
   int brick = 32, overlap = 2, rank = 0, hooi = 1, zstd = 3;
+  std::optional<double> psnr, rmse, max_error;
+  double coarse_growth = 2.0;
   RawInputArgs raw;
 };
+
+// The error target the flags ask for, checked here so a bad value names its own flag.
+ta::ErrorTarget to_target(const CompressArgs& args) {
+  ta::ErrorTarget t;
+  t.coarse_growth = args.coarse_growth;
+  const char* flag = "";
+  if (args.psnr) std::tie(t.kind, t.value, flag) = std::tuple(ta::TargetKind::psnr, *args.psnr, "--psnr");
+  if (args.rmse) std::tie(t.kind, t.value, flag) = std::tuple(ta::TargetKind::rmse, *args.rmse, "--rmse");
+  if (args.max_error) std::tie(t.kind, t.value, flag) = std::tuple(ta::TargetKind::max_error, *args.max_error, "--max-error");
+  try {
+    ta::check_target(t);
+  } catch (const ParameterError& e) {
+    if (e.parameter() == "ErrorTarget::value") throw Error(std::string(flag) + ": " + e.problem());
+    throw;
+  }
+  return t;
+}
 
 ta::CompressParams to_params(const CompressArgs& args) {
   ta::CompressParams p;
   p.layout = {args.brick, args.overlap};
   p.layout.validate();
   if (args.rank < 0) throw Error("--rank: must be positive, got " + std::to_string(args.rank));
-  p.codec.rank = args.rank > 0 ? args.rank : args.brick / 2;
+  p.codec.target = to_target(args);
+  // With a target the rank is only a cap: each brick keeps the ranks its error needs.
+  const int default_rank = p.codec.target.kind == ta::TargetKind::none ? args.brick / 2 : args.brick;
+  p.codec.rank = args.rank > 0 ? args.rank : default_rank;
   p.codec.quant = quant::QuantScheme::parse(args.quant);
   p.codec.hooi_iterations = args.hooi;
   p.codec.zstd_level = args.zstd;
@@ -57,14 +82,31 @@ void register_compress(CLI::App& app, const GlobalOptions& global) {
   cmd->add_option("-o,--output", args->output, "Output .strata file")->required();
   cmd->add_option("--brick", args->brick, "Brick width B including overlap")->capture_default_str();
   cmd->add_option("--overlap", args->overlap, "Overlap voxels per side")->capture_default_str();
-  cmd->add_option("--rank", args->rank, "Stored Tucker rank R per mode (default B/2)");
-  cmd->add_option("--quant", args->quant,
-                  "Quantization: f32 | u16,b8log+ | u16,b8log | u8,b8lin | u16,b16lin | u16,b12log+ | u16,b8mu+ ...")
-      ->capture_default_str();
-  cmd->add_option("--hooi", args->hooi, "HOOI sweeps after HOSVD (0 = HOSVD only)")->capture_default_str();
-  cmd->add_option("--zstd", args->zstd, "Lossless zstd level over each quantized brick (0 = off)")
+  cmd->add_option("--rank", args->rank,
+                  "Stored Tucker rank R per mode (default B/2); with --psnr/--rmse/--max-error the most a brick keeps "
+                  "(default B)");
+  auto* quant = cmd->add_option("--quant", args->quant,
+                                "Quantization: f32 | u16,b8log+ | u16,b8log | u8,b8lin | u16,b16lin | u16,b12log+ | "
+                                "u16,b8mu+ ...")
+                    ->capture_default_str();
+  auto* hooi = cmd->add_option("--hooi", args->hooi, "HOOI sweeps after HOSVD (0 = HOSVD only)")->capture_default_str();
+  cmd->add_option("--zstd", args->zstd,
+                  "Lossless zstd level over each quantized brick (0 = off); with a target, of bricks stored losslessly")
       ->capture_default_str()
       ->check(CLI::Range(0, 19));
+  // Error targets: each brick gets the ranks and precision the error needs (docs/format.md).
+  auto* psnr = cmd->add_option("--psnr", args->psnr,
+                               "Error target: PSNR in dB over the value range, for level 0 as a whole");
+  auto* rmse = cmd->add_option("--rmse", args->rmse, "Error target: root mean squared error of level 0 (absolute)");
+  auto* max_error = cmd->add_option("--max-error", args->max_error,
+                                    "Error target: bound on every sample of level 0 (absolute), guaranteed");
+  auto* growth = cmd->add_option("--coarse-growth", args->coarse_growth,
+                                 "With a target: level l is coded to growth^l times level 0's error")
+                     ->capture_default_str();
+  psnr->excludes(rmse)->excludes(max_error)->excludes(quant)->excludes(hooi);
+  rmse->excludes(max_error)->excludes(quant)->excludes(hooi);
+  max_error->excludes(quant)->excludes(hooi);
+  (void)growth;
   cmd->add_option("--memory-limit", args->memory_limit,
                   "Bound the working memory, e.g. 512M or 2G (input slabs shrink to fit; default: 64 MiB slabs)");
   args->raw.add_to(*cmd);

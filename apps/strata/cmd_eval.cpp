@@ -36,6 +36,8 @@ nlohmann::json eval_json(const ta::TaVolume& volume, const ta::StorageReport& s,
             {"bits_per_voxel_cores", s.bits_per_voxel(s.core_bytes, src)},
             {"bits_per_voxel_factors", s.bits_per_voxel(s.factor_bytes, src)},
             {"bits_per_voxel_brick_headers", s.bits_per_voxel(s.brick_header_bytes, src)},
+            {"bits_per_voxel_corrections", s.bits_per_voxel(s.correction_bytes, src)},
+            {"bits_per_voxel_lossless_bricks", s.bits_per_voxel(s.lossless_bytes, src)},
             {"bits_per_voxel_container", s.bits_per_voxel(s.container_bytes, src)},
             {"levels", levels}}},
           {"error",
@@ -53,6 +55,9 @@ void print_report(const nlohmann::json& r) {
               s["bits_per_voxel"].get<double>(), s["bits_per_voxel_cores"].get<double>(),
               s["bits_per_voxel_factors"].get<double>(), s["bits_per_voxel_brick_headers"].get<double>(),
               s["bits_per_voxel_container"].get<double>());
+  if (s["bits_per_voxel_corrections"].get<double>() > 0 || s["bits_per_voxel_lossless_bricks"].get<double>() > 0)
+    std::printf("                 (max-error corrections %.3f, lossless bricks %.3f)\n",
+                s["bits_per_voxel_corrections"].get<double>(), s["bits_per_voxel_lossless_bricks"].get<double>());
   const auto& e = r["error"];
   std::printf("level 0, rank %d: SNR %.2f dB  PSNR %.2f dB  NRMSE %.5f  max error %.4g\n", e["rank"].get<int>(),
               e["snr_db"].get<double>(), e["psnr_db"].get<double>(), e["nrmse"].get<double>(),

@@ -18,6 +18,7 @@ constexpr ParameterFlag kParameterFlags[] = {
     {"BrickLayout::overlap", "--overlap"},
     {"CodecParams::rank", "--rank"},
     {"CompressParams::memory_limit", "--memory-limit"},
+    {"ErrorTarget::coarse_growth", "--coarse-growth"},
     {"ReadOptions::raw_dims", "--dims"},
     {"ReadOptions::raw_dtype", "--dtype"},
     {"RenderOptions::step", "--step"},

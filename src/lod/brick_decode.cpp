@@ -27,9 +27,7 @@ BrickModel fetch_model(const ta::TaVolume& volume, const store::BrickEntry& entr
 
 void reconstruct_at_rank(const quant::DequantizedModel& model, int k, tensor::BrickReconstructor& reconstructor,
                          std::span<float> out) {
-  const int kk = std::max(k, 1);
-  const tensor::Ranks3 leading{std::min(kk, model.ranks[0]), std::min(kk, model.ranks[1]), std::min(kk, model.ranks[2])};
-  reconstructor.reconstruct(model.view(), leading, out);
+  ta::reconstruct_model(model, ta::leading_ranks(model, k), reconstructor, out);
 }
 
 std::string brick_context(const ta::TaVolume& volume, const store::BrickKey& key) {

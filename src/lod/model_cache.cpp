@@ -5,7 +5,8 @@ namespace strata::lod {
 std::uint64_t model_bytes(const quant::DequantizedModel& model) {
   std::uint64_t floats = model.core.size();
   for (const auto& f : model.factors) floats += f.size();
-  return floats * sizeof(float);
+  floats += model.correction_value.size() + model.samples.size();
+  return floats * sizeof(float) + model.correction_index.size() * sizeof(std::uint32_t);
 }
 
 ModelCache::ModelCache(std::uint64_t budget_bytes) : lru_(budget_bytes) {}

@@ -282,6 +282,10 @@ tensor::TuckerView DequantizedModel::view() const {
 void dequantize(const BrickView& brick, const tensor::Ranks3& leading, DequantizedModel& out) {
   out.dims = brick.dims();
   out.ranks = leading;
+  out.offset = 0;
+  out.correction_index.clear();
+  out.correction_value.clear();
+  out.samples.clear();
   out.core.resize(core_count(leading));
   brick.dequantize_core(leading, out.core);
   for (int mode = 1; mode <= 3; ++mode) {

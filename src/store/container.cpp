@@ -76,7 +76,8 @@ BrickEntry decode_entry(std::span<const std::byte, kIndexEntrySize> b) {
 }
 
 bool known_kind(PayloadKind k) {
-  return k == PayloadKind::constant || k == PayloadKind::tucker || k == PayloadKind::tucker_zstd;
+  return k == PayloadKind::constant || k == PayloadKind::tucker || k == PayloadKind::tucker_zstd ||
+         k == PayloadKind::tucker_coded || k == PayloadKind::raw_zstd;
 }
 
 }  // namespace
@@ -88,6 +89,8 @@ const char* payload_kind_name(PayloadKind k) {
     case PayloadKind::constant: return "constant";
     case PayloadKind::tucker: return "tucker";
     case PayloadKind::tucker_zstd: return "tucker_zstd";
+    case PayloadKind::tucker_coded: return "tucker_coded";
+    case PayloadKind::raw_zstd: return "raw_zstd";
   }
   return "unknown";
 }

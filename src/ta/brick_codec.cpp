@@ -6,7 +6,9 @@
 #include "strata/core/error.hpp"
 #include "strata/quant/bitpack.hpp"
 #include "strata/store/zstd_frame.hpp"
+#include "strata/quant/coded_brick.hpp"
 #include "strata/tensor/tucker.hpp"
+#include "ta/raw_brick.hpp"
 
 namespace strata::ta {
 
@@ -29,23 +31,7 @@ bool is_constant(const tensor::Tensor3& samples) {
 
 // 16-bit factor codes compress far better as two byte planes (low bytes, then high bytes):
 // the high bytes of orthonormal-basis codes cluster around the middle of the range.
-void split_byte_planes(std::span<const std::byte> in, std::span<std::byte> out) {
-  const std::size_t n = in.size() / 2;
-  for (std::size_t i = 0; i < n; ++i) {
-    out[i] = in[2 * i];
-    out[n + i] = in[2 * i + 1];
-  }
-  if (in.size() % 2) out[2 * n] = in[2 * n];
-}
-
-void merge_byte_planes(std::span<const std::byte> in, std::span<std::byte> out) {
-  const std::size_t n = in.size() / 2;
-  for (std::size_t i = 0; i < n; ++i) {
-    out[2 * i] = in[i];
-    out[2 * i + 1] = in[n + i];
-  }
-  if (in.size() % 2) out[2 * n] = in[2 * n];
-}
+constexpr std::size_t kFactorPlanes = 2;
 
 // The byte range of the factor codes inside a plain quantized brick, when they are 16-bit.
 std::pair<std::size_t, std::size_t> factor_plane_range(std::span<const std::byte> plain, const quant::QuantScheme& scheme) {
@@ -57,11 +43,21 @@ std::pair<std::size_t, std::size_t> factor_plane_range(std::span<const std::byte
 std::vector<std::byte> deflate_payload(const std::vector<std::byte>& plain, const quant::QuantScheme& scheme, int level) {
   std::vector<std::byte> shuffled(plain);
   auto [f0, f1] = factor_plane_range(plain, scheme);
-  split_byte_planes(std::span(plain).subspan(f0, f1 - f0), std::span(shuffled).subspan(f0, f1 - f0));
+  split_byte_planes(std::span(plain).subspan(f0, f1 - f0), std::span(shuffled).subspan(f0, f1 - f0), kFactorPlanes);
   return store::zstd_compress(shuffled, level);
 }
 
 }  // namespace
+
+const char* target_kind_name(TargetKind kind) {
+  switch (kind) {
+    case TargetKind::none: return "none";
+    case TargetKind::psnr: return "psnr";
+    case TargetKind::rmse: return "rmse";
+    case TargetKind::max_error: return "max_error";
+  }
+  return "?";
+}
 
 // A quantized brick is far below this (32^3 at f32 everywhere: 128 KiB plus factors).
 constexpr std::uint64_t kMaxInflatedBrick = std::uint64_t(64) << 20;
@@ -76,7 +72,7 @@ std::span<const std::byte> plain_payload(store::PayloadKind kind, std::span<cons
   scratch.unshuffled = scratch.inflated;
   auto [f0, f1] = factor_plane_range(scratch.inflated, scheme);
   merge_byte_planes(std::span<const std::byte>(scratch.inflated).subspan(f0, f1 - f0),
-                    std::span(scratch.unshuffled).subspan(f0, f1 - f0));
+                    std::span(scratch.unshuffled).subspan(f0, f1 - f0), kFactorPlanes);
   return scratch.unshuffled;
 }
 
@@ -131,6 +127,18 @@ PayloadParts payload_parts(std::span<const std::byte> payload, const quant::Quan
 void dequantize_brick(store::PayloadKind kind, std::span<const std::byte> payload, const quant::QuantScheme& scheme,
                       int brick_width, int rank, DecodeScratch& scratch, quant::DequantizedModel& model,
                       const std::string& context) {
+  if (kind == store::PayloadKind::tucker_coded) {
+    // The rank slider truncates at reconstruction (reconstruct_model): the model stays whole.
+    quant::dequantize(quant::deserialize_coded(payload, brick_width, context), model);
+    return;
+  }
+  if (kind == store::PayloadKind::raw_zstd) {
+    model = quant::DequantizedModel{};
+    model.dims = {brick_width, brick_width, brick_width};
+    model.samples.resize(std::size_t(brick_width) * std::size_t(brick_width) * std::size_t(brick_width));
+    decode_raw_brick(payload, model.samples, scratch.inflated, context);
+    return;
+  }
   in_context(context, [&] {
     // plain_payload's own errors already name `context`; they get it once more here.
     const quant::BrickView view(plain_payload(kind, payload, scheme, scratch, context), scheme);
@@ -152,7 +160,28 @@ void decode_brick(store::PayloadKind kind, std::span<const std::byte> payload, f
     return;
   }
   dequantize_brick(kind, payload, scheme, brick_width, rank, scratch, scratch.model, context);
-  in_context(context, [&] { reconstructor.reconstruct(scratch.model.view(), out); });
+  in_context(context, [&] { reconstruct_model(scratch.model, leading_ranks(scratch.model, rank), reconstructor, out); });
+}
+
+tensor::Ranks3 leading_ranks(const quant::DequantizedModel& model, int k) {
+  const int kk = std::max(k, 1);
+  return {std::min(kk, model.ranks[0]), std::min(kk, model.ranks[1]), std::min(kk, model.ranks[2])};
+}
+
+void reconstruct_model(const quant::DequantizedModel& model, const tensor::Ranks3& leading,
+                       tensor::BrickReconstructor& reconstructor, std::span<float> out) {
+  if (!model.samples.empty()) {
+    if (out.size() != model.samples.size()) throw Error("reconstruct: buffer does not match the stored brick");
+    std::copy(model.samples.begin(), model.samples.end(), out.begin());
+    return;
+  }
+  if (model.has_tucker()) reconstructor.reconstruct(model.view(), leading, out);
+  else std::fill(out.begin(), out.end(), 0.0f);
+  // Quantized (fixed-rank) bricks carry neither: their samples stay exactly the kernel's.
+  if (model.offset != 0)
+    for (float& v : out) v += model.offset;
+  if (leading == model.ranks)
+    for (std::size_t i = 0; i < model.correction_index.size(); ++i) out[model.correction_index[i]] += model.correction_value[i];
 }
 
 }  // namespace strata::ta

@@ -9,6 +9,7 @@
 #include "strata/core/error.hpp"
 #include "strata/io/slab_stream.hpp"
 #include "strata/store/container.hpp"
+#include "strata/ta/target_codec.hpp"
 #include "ta/level_pipeline.hpp"
 #include "ta/metadata.hpp"
 
@@ -98,6 +99,7 @@ CompressReport compress_volume(io::VolumeSource& source, const std::filesystem::
   if (params.codec.rank < 1 || params.codec.rank > params.layout.brick)
     throw ParameterError("CodecParams::rank", "must be between 1 and the brick width " + std::to_string(params.layout.brick) +
                                                   ", got " + std::to_string(params.codec.rank));
+  check_target(params.codec.target);
   const OctreeGeometry geometry(info.dims, params.layout);
   CompressReport report;
   report.input_voxels = std::uint64_t(info.dims.voxel_count());
@@ -107,6 +109,10 @@ CompressReport compress_volume(io::VolumeSource& source, const std::filesystem::
   const HistogramRange range = value_range(source, progress, slab_bytes);
   report.prepass_seconds = seconds_since(start);
 
+  std::vector<BrickTarget> targets;
+  if (params.codec.target.kind != TargetKind::none)
+    targets = level_targets(params.codec.target, range.lo, range.hi, geometry.level_count(), params.codec.rank,
+                            params.codec.zstd_level);
   store::ContainerWriter writer(out);
   std::mutex report_mutex;
   ProgressTask bricks_task(progress, "compress", std::uint64_t(geometry.total_bricks()), "bricks");
@@ -130,13 +136,15 @@ CompressReport compress_volume(io::VolumeSource& source, const std::filesystem::
   std::vector<std::unique_ptr<LevelPipeline>> levels(std::size_t(geometry.level_count()));
   for (int l = geometry.level_count() - 1; l >= 0; --l) {
     LevelPipeline* next = l + 1 < geometry.level_count() ? levels[std::size_t(l + 1)].get() : nullptr;
-    levels[std::size_t(l)] = std::make_unique<LevelPipeline>(geometry, l, params.codec, range, sink, next);
+    const std::optional<BrickTarget> target =
+        targets.empty() ? std::nullopt : std::optional<BrickTarget>(targets[std::size_t(l)]);
+    levels[std::size_t(l)] = std::make_unique<LevelPipeline>(geometry, l, params.codec, target, range, sink, next);
   }
   io::for_each_slab(source, [&](const Volume& slab, std::int64_t) { push_slab_to_level0(slab, *levels[0]); },
                     silent_progress(), "read", slab_bytes);
   levels[0]->finish();
 
-  report.file_bytes = writer.finish(make_metadata(info, geometry, params, range));
+  report.file_bytes = writer.finish(make_metadata(info, geometry, params, range, targets));
   report.container_bytes = report.file_bytes - report.core_bytes - report.factor_bytes - report.brick_header_bytes;
   report.seconds = seconds_since(start);
   return report;

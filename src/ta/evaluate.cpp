@@ -2,13 +2,38 @@
 
 #include <chrono>
 
+#include <algorithm>
+
 #include "strata/core/error.hpp"
+#include "strata/quant/coded_brick.hpp"
 
 namespace strata::ta {
 
 double StorageReport::bits_per_voxel(std::uint64_t bytes, const VolumeInfo& source) const {
   return 8.0 * double(bytes) / double(source.dims.voxel_count());
 }
+
+namespace {
+
+// The range-coded stream cannot be split exactly; it is attributed to the core and the factors
+// in proportion to their non-zero codes (zeros cost a small fraction of a bit).
+void add_coded_parts(const quant::CodedBrick& b, StorageReport& r) {
+  const std::size_t header = quant::coded_header_bytes(b);
+  const auto nonzero = [](const std::vector<std::int32_t>& v) {
+    return double(std::count_if(v.begin(), v.end(), [](std::int32_t x) { return x != 0; }));
+  };
+  const double core = nonzero(b.core_codes), factors = nonzero(b.factor_codes), corrections = double(b.correction_codes.size());
+  const double total = core + factors + corrections;
+  const std::size_t stream = quant::serialize(b).size() - header;
+  const auto core_bytes = std::uint64_t(total > 0 ? double(stream) * core / total : 0);
+  const auto factor_bytes = std::uint64_t(total > 0 ? double(stream) * factors / total : 0);
+  r.core_bytes += core_bytes;
+  r.factor_bytes += factor_bytes;
+  r.correction_bytes += stream - core_bytes - factor_bytes;
+  r.brick_header_bytes += header;
+}
+
+}  // namespace
 
 StorageReport storage_report(const TaVolume& volume) {
   const auto& c = volume.container();
@@ -26,6 +51,14 @@ StorageReport storage_report(const TaVolume& volume) {
       continue;
     }
     const auto stored = c.payload(e);
+    if (e.kind == store::PayloadKind::raw_zstd) {
+      r.lossless_bytes += stored.size();
+      continue;
+    }
+    if (e.kind == store::PayloadKind::tucker_coded) {
+      add_coded_parts(quant::deserialize_coded(stored, volume.geometry().layout().brick, c.path().string()), r);
+      continue;
+    }
     const auto plain = plain_payload(e.kind, stored, volume.quant_scheme(), scratch, c.path().string());
     const auto parts = payload_parts(plain, volume.quant_scheme(), c.path().string());
     const double ratio = double(stored.size()) / double(plain.size());

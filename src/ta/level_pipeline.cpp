@@ -40,9 +40,20 @@ void downsample_xy(const float* slice, const Extent& dims, float* out) {
 }  // namespace
 
 LevelPipeline::LevelPipeline(const OctreeGeometry& geometry, int level, const CodecParams& codec,
-                             HistogramRange range, BrickSink sink, LevelPipeline* next)
-    : geometry_(geometry), level_(level), dims_(geometry.level(level)), codec_(codec), range_(range),
+                             std::optional<BrickTarget> target, HistogramRange range, BrickSink sink, LevelPipeline* next)
+    : geometry_(geometry), level_(level), dims_(geometry.level(level)), codec_(codec), target_(target), range_(range),
       sink_(std::move(sink)), next_(next) {}
+
+CoreRegion LevelPipeline::core_region(std::int64_t bx, std::int64_t by, std::int64_t bz) const {
+  const Box core = geometry_.brick_core_box(level_, bx, by, bz);
+  const int overlap = geometry_.layout().overlap;
+  CoreRegion r;
+  const Extent size = core.size();
+  r.lo = {overlap, overlap, overlap};
+  r.hi = {overlap + int(size.x), overlap + int(size.y), overlap + int(size.z)};
+  r.margin = overlap;
+  return r;
+}
 
 bool LevelPipeline::row_ready(std::int64_t row) const {
   const BrickLayout& l = geometry_.layout();
@@ -160,6 +171,21 @@ void LevelPipeline::downsample_core(std::span<const float> decoded, std::int64_t
   }
 }
 
+bool LevelPipeline::encode_and_decode(std::int64_t bx, std::int64_t by, std::int64_t bz, const tensor::Tensor3& samples,
+                                      std::vector<float>& decoded, EncodedBrick& encoded,
+                                      tensor::BrickReconstructor& reconstructor, DecodeScratch& scratch) const {
+  if (target_) {
+    encoded = encode_brick_to_target(samples, core_region(bx, by, bz), *target_, decoded);
+    return encoded.kind == store::PayloadKind::constant;
+  }
+  encoded = encode_brick(samples, codec_);
+  const bool constant = encoded.kind == store::PayloadKind::constant;
+  if (!constant || next_)
+    decode_brick(encoded.kind, encoded.payload, encoded.constant_value, codec_.quant, geometry_.layout().brick,
+                 codec_.rank, reconstructor, scratch, decoded, "compress");
+  return constant;
+}
+
 void LevelPipeline::encode_row(std::int64_t row) {
   const BrickLayout& l = geometry_.layout();
   const Extent& d = dims_.dims;
@@ -193,13 +219,10 @@ void LevelPipeline::encode_row(std::int64_t row) {
         const std::int64_t bx = i % dims_.bricks.x, by = i / dims_.bricks.x;
         gather_samples(bx, by, row, samples);
         RowResult& r = results[std::size_t(i)];
-        r.encoded = encode_brick(samples, codec_);
         // Culling metadata covers what a renderer may sample: original and decoded values. A
-        // constant brick decodes to its value, which is also every sample.
-        const bool constant = r.encoded.kind == store::PayloadKind::constant;
-        if (!constant || next_)
-          decode_brick(r.encoded.kind, r.encoded.payload, r.encoded.constant_value, codec_.quant, l.brick,
-                       codec_.rank, reconstructor, scratch, decoded, "compress");
+        // constant brick decodes to its value, which stands for every sample (an error-target
+        // brick may be constant within its bound).
+        const bool constant = encode_and_decode(bx, by, row, samples, decoded, r.encoded, reconstructor, scratch);
         const float c = r.encoded.constant_value;
         r.stats = constant ? brick_stats(std::span(&c, 1), std::span(&c, 1), range_)
                            : brick_stats(decoded, samples.values(), range_);

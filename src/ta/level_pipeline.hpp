@@ -8,12 +8,14 @@
 #include <deque>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <span>
 #include <vector>
 
 #include "strata/store/container.hpp"
 #include "strata/ta/brick_codec.hpp"
 #include "strata/ta/octree.hpp"
+#include "strata/ta/target_codec.hpp"
 #include "ta/brick_stats.hpp"
 
 namespace strata::ta {
@@ -24,8 +26,9 @@ using BrickSink = std::function<void(const store::BrickKey&, const EncodedBrick&
 
 class LevelPipeline {
  public:
-  LevelPipeline(const OctreeGeometry& geometry, int level, const CodecParams& codec, HistogramRange range,
-                BrickSink sink, LevelPipeline* next);
+  // `target`: this level's brick target in error-target mode (ta/target_codec.hpp), else empty.
+  LevelPipeline(const OctreeGeometry& geometry, int level, const CodecParams& codec, std::optional<BrickTarget> target,
+                HistogramRange range, BrickSink sink, LevelPipeline* next);
 
   // Appends the next slice (dims.x * dims.y floats) of this level.
   void push_slice(std::vector<float> slice);
@@ -35,6 +38,11 @@ class LevelPipeline {
  private:
   bool row_ready(std::int64_t row) const;
   void encode_row(std::int64_t row);
+  // Encodes one brick and leaves its decoded samples in `decoded` (not for a constant brick of a
+  // last level: nobody reads them). Returns whether the brick became a constant brick.
+  bool encode_and_decode(std::int64_t bx, std::int64_t by, std::int64_t bz, const tensor::Tensor3& samples,
+                         std::vector<float>& decoded, EncodedBrick& encoded, tensor::BrickReconstructor& reconstructor,
+                         DecodeScratch& scratch) const;
   void gather_samples(std::int64_t bx, std::int64_t by, std::int64_t bz, tensor::Tensor3& out) const;
   // Feeds decoded slices [z0, z1) (in decoded_row_) to `next` as 2x2x2 averages.
   void emit_decoded_slices(std::int64_t z0, std::int64_t z1);
@@ -42,11 +50,14 @@ class LevelPipeline {
   // of the next level's slices (next_slices_) directly from its decoded voxels.
   void downsample_core(std::span<const float> decoded, std::int64_t bx, std::int64_t by, std::int64_t bz);
   void drop_unneeded_slices(std::int64_t next_row);
+  // The brick-local voxels of the brick's core (what the level's output takes from it).
+  CoreRegion core_region(std::int64_t bx, std::int64_t by, std::int64_t bz) const;
 
   const OctreeGeometry& geometry_;
   int level_;
   LevelGeometry dims_;
   CodecParams codec_;
+  std::optional<BrickTarget> target_;
   HistogramRange range_;
   BrickSink sink_;
   LevelPipeline* next_;

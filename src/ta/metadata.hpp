@@ -8,7 +8,8 @@
 
 namespace strata::ta {
 
+// `targets`: the per-level brick targets of an error-target file (empty in fixed-rank mode).
 nlohmann::json make_metadata(const VolumeInfo& source, const OctreeGeometry& geometry, const CompressParams& params,
-                             const HistogramRange& range);
+                             const HistogramRange& range, const std::vector<BrickTarget>& targets);
 
 }  // namespace strata::ta

@@ -5,6 +5,7 @@
 
 #include "strata/core/error.hpp"
 #include "strata/core/threads.hpp"
+#include "strata/ta/target_codec.hpp"
 
 namespace strata::ta {
 
@@ -66,7 +67,8 @@ TaVolume::TaVolume(std::unique_ptr<store::ContainerReader> container) : containe
   if (rank_ < 1 || rank_ > layout.brick) throw FormatError(file, "metadata.rank", "out of range 1..brick width");
   quant_ = required<std::string>(m, "quant", file);
   try {
-    scheme_ = quant::QuantScheme::parse(quant_);
+    // Error-target files code every brick with its own steps; the default scheme is never used.
+    if (quant_ != kCodedQuantName) scheme_ = quant::QuantScheme::parse(quant_);
   } catch (const Error& e) {
     throw FormatError(file, "metadata.quant", e.what());
   }

@@ -82,11 +82,19 @@ class BrickView {
 
 // Float buffers a decoder fills for BrickReconstructor; reusing one instance across bricks of
 // the same size allocates nothing.
+// Coded bricks (coded_brick.hpp) add an offset, a sparse correction and, for bricks stored
+// losslessly, the samples themselves; quantized bricks leave those empty.
 struct DequantizedModel {
   std::vector<float> core;                  // ranks[0] x ranks[1] x ranks[2]
   std::array<std::vector<float>, 3> factors;  // dims[n] x ranks[n], column-major
   tensor::Dims3 dims{0, 0, 0};
-  tensor::Ranks3 ranks{0, 0, 0};                    // the leading ranks that were decoded
+  tensor::Ranks3 ranks{0, 0, 0};  // the leading ranks that were decoded; {0, 0, 0}: no Tucker part
+  float offset = 0;               // added to every voxel
+  // Added to voxel correction_index[i] when the model is reconstructed at its full ranks.
+  std::vector<std::uint32_t> correction_index;
+  std::vector<float> correction_value;
+  std::vector<float> samples;  // non-empty: a losslessly stored brick (no Tucker part)
+  bool has_tucker() const { return ranks[0] > 0 && ranks[1] > 0 && ranks[2] > 0; }
   tensor::TuckerView view() const;
 };
 

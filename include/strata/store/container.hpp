@@ -18,7 +18,7 @@
 namespace strata::store {
 
 inline constexpr std::uint16_t kFormatVersionMajor = 1;
-inline constexpr std::uint16_t kFormatVersionMinor = 0;
+inline constexpr std::uint16_t kFormatVersionMinor = 1;
 inline constexpr std::size_t kHeaderSize = 64;
 inline constexpr std::size_t kIndexEntrySize = 64;
 inline constexpr std::size_t kPayloadAlignment = 64;
@@ -28,6 +28,8 @@ enum class PayloadKind : std::uint8_t {
   constant = 1,  // no payload bytes: every voxel equals `min` (== `max`)
   tucker = 2,    // quantized rank-reduced Tucker brick (ta module, docs/format.md)
   tucker_zstd = 3,  // the same bytes, factor codes split into byte planes, then zstd-compressed
+  tucker_coded = 4,  // Tucker brick coded to an error target (quant/coded_brick.hpp), format 1.1
+  raw_zstd = 5,      // the float samples, byte planes, zstd: lossless (ta/raw_brick.hpp), format 1.1
 };
 const char* payload_kind_name(PayloadKind k);
 

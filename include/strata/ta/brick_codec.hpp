@@ -11,6 +11,7 @@
 /// Thread safety: the functions keep no shared state. They may run concurrently as long as each
 /// thread passes its own DecodeScratch, BrickReconstructor and output buffers.
 #include <cstddef>
+#include <cstdint>
 #include <span>
 #include <string>
 #include <vector>
@@ -23,15 +24,33 @@
 
 namespace strata::ta {
 
-/// @brief Encoder settings (the `compress` options --rank, --quant, --hooi and --zstd).
+/// @brief A quality target for the error-target codec (ta/target_codec.hpp), instead of a rank.
+enum class TargetKind : std::uint8_t {
+  none,       // fixed-rank mode: CodecParams::rank and ::quant decide
+  psnr,       // dB over the volume's value range, at level 0 (the whole volume's mean squared error)
+  rmse,       // absolute root mean squared error at level 0
+  max_error,  // absolute bound on every sample of level 0
+};
+const char* target_kind_name(TargetKind kind);
+
+struct ErrorTarget {
+  TargetKind kind = TargetKind::none;
+  double value = 0;
+  // Level l is coded to growth^l times level 0's error: coarse levels are seen at one voxel per
+  // pixel and hold averages, so they need less precision (>= 1).
+  double coarse_growth = 2.0;
+};
+
+/// @brief Encoder settings (the `compress` options --rank, --quant, --hooi, --zstd and the targets).
 struct CodecParams {
-  int rank = 16;                 // R: stored rank per mode, in [1, brick width]
+  int rank = 16;                 // R: stored rank per mode, in [1, brick width]; with a target, the cap
   quant::QuantScheme quant;      // how cores and factors are stored
   int hooi_iterations = 1;       // most HOOI sweeps after the truncated HOSVD; 0 = HOSVD only
   double hooi_tolerance = 1e-4;  // HOOI stops when the fit changes by less than this per sweep
   // Lossless zstd stage over each quantized brick (0 = off); kept only where it makes the
   // payload smaller.
   int zstd_level = 3;
+  ErrorTarget target;  // kind none: fixed-rank mode
 };
 
 /// @brief One encoded brick: payload kind and bytes, constant value, size breakdown.
@@ -74,6 +93,16 @@ std::span<const std::byte> plain_payload(store::PayloadKind kind, std::span<cons
 void dequantize_brick(store::PayloadKind kind, std::span<const std::byte> payload, const quant::QuantScheme& scheme,
                       int brick_width, int rank, DecodeScratch& scratch, quant::DequantizedModel& model,
                       const std::string& context);
+
+/// @brief The leading ranks min(K, R_n) (K clamped to >= 1) at which `model` is reconstructed
+/// for rank K.
+tensor::Ranks3 leading_ranks(const quant::DequantizedModel& model, int k);
+
+/// @brief `out` (B^3 floats) = the model at `leading` ranks plus its offset; the sparse
+/// correction of a coded brick is added when `leading` are its full ranks (the max-error
+/// guarantee holds there); a losslessly stored brick is copied. Every decoder goes through here.
+void reconstruct_model(const quant::DequantizedModel& model, const tensor::Ranks3& leading,
+                       tensor::BrickReconstructor& reconstructor, std::span<float> out);
 
 /// @brief A tucker payload's size split into header, core and factor bytes (for `strata eval`).
 struct PayloadParts {

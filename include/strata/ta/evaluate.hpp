@@ -14,6 +14,8 @@ struct StorageReport {
   std::uint64_t file_bytes = 0;
   // Stored bytes by part; entropy-coded bricks attribute their bytes to the parts in proportion.
   std::uint64_t core_bytes = 0, factor_bytes = 0, brick_header_bytes = 0, container_bytes = 0;
+  // Error-target files: sparse max-error corrections, and bricks stored losslessly.
+  std::uint64_t correction_bytes = 0, lossless_bytes = 0;
   std::vector<std::int64_t> bricks_per_level, constant_per_level;
   double bits_per_voxel(std::uint64_t bytes, const VolumeInfo& source) const;
 };

@@ -1,0 +1,71 @@
+#pragma once
+/// @file
+/// @brief The error-target brick encoder: a brick coded to an error budget instead of a fixed rank.
+///
+/// Per brick (paper 1 §7 names adaptive ranks and better coefficient coding as its next steps):
+///  1. the brick mean becomes the offset; a brick its offset already represents within the
+///     target becomes a constant brick (no payload);
+///  2. a full HOSVD of the rest; every core coefficient is quantized with one uniform step Δ (the
+///     same in every brick of a level: equal slopes, the rate–distortion-optimal split of a mean
+///     squared error budget across bricks), and each mode keeps the leading slices that still
+///     hold a non-zero code: empty, smooth and busy bricks get the ranks they need;
+///  3. column r of U^(n) is quantized with step Δ / σ_r (σ_r its singular value), so each factor
+///     entry adds about as much error as a core coefficient; the core is then re-fitted to the
+///     quantized factors (least squares) and quantized;
+///  4. if a brick's mean squared error over its core voxels exceeds the cap, Δ shrinks for that
+///     brick and it is coded again;
+///  5. with a max-error target, voxels the model misses by more than the bound (thin bright
+///     structures) get a sparse correction, quantized so every voxel ends within the bound;
+///  6. the coded payload (quant/coded_brick.hpp) is kept only when smaller than the brick stored
+///     losslessly (payload kind raw_zstd).
+/// Results depend only on the brick and the target: the same on any thread count.
+#include <array>
+#include <limits>
+#include <span>
+#include <vector>
+
+#include "strata/ta/brick_codec.hpp"
+#include "strata/tensor/tensor3.hpp"
+
+namespace strata::ta {
+
+/// @brief The metadata "quant" of an error-target file: its bricks carry their own steps.
+inline constexpr const char* kCodedQuantName = "coded";
+
+/// @brief What one brick must hold (one per octree level, from the user's ErrorTarget).
+struct BrickTarget {
+  double core_step = 1;                                            // Δ of the core codes
+  double mse_cap = std::numeric_limits<double>::infinity();        // over the brick's core voxels
+  double max_error = std::numeric_limits<double>::infinity();      // on every voxel of the brick
+  int max_rank = 256;                                              // per mode
+  int zstd_level = 3;                                              // of the lossless fallback
+};
+
+/// @brief Throws ParameterError("ErrorTarget::value") unless the value is finite and positive (a
+/// PSNR at most 300 dB), and ParameterError("ErrorTarget::coarse_growth") unless it is >= 1.
+void check_target(const ErrorTarget& target);
+
+/// @brief Level 0's absolute root mean squared error for an rmse or psnr target over a volume
+/// whose values span [lo, hi] (0 for the other kinds).
+double target_rmse(const ErrorTarget& target, double lo, double hi);
+
+/// @brief The brick target of each of `level_count` levels: level 0 holds the user's target,
+/// level l growth^l times it.
+std::vector<BrickTarget> level_targets(const ErrorTarget& target, double lo, double hi, int level_count, int max_rank,
+                                       int zstd_level);
+
+/// @brief The brick-local voxels [lo, hi) the level takes from this brick (its core, clipped to
+/// the level); the mean squared error is capped over these.
+struct CoreRegion {
+  std::array<int, 3> lo{0, 0, 0}, hi{0, 0, 0};
+  // The model is fitted on [margin, B - margin)^3 (the unclipped core: the brick overlap); the
+  // overlap voxels get a least-squares continuation of it, so shared voxels are not paid twice.
+  int margin = 0;
+};
+
+/// @brief Encodes `samples` (B^3, first index fastest) to `target`; writes the samples a decoder
+/// reconstructs at full rank into `decoded` (B^3 floats). Throws Error for non-finite samples.
+EncodedBrick encode_brick_to_target(const tensor::Tensor3& samples, const CoreRegion& core, const BrickTarget& target,
+                                    std::span<float> decoded);
+
+}  // namespace strata::ta

@@ -1,0 +1,341 @@
+#include "strata/quant/coded_brick.hpp"
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cmath>
+#include <limits>
+
+#include "strata/core/bytes.hpp"
+#include "strata/core/error.hpp"
+#include "strata/core/range_coder.hpp"
+
+namespace strata::quant {
+namespace {
+
+constexpr std::uint8_t kLayout = 1;
+constexpr std::uint8_t kHasCorrection = 1;
+constexpr std::uint8_t kBlockDct = 2;
+constexpr std::int64_t kMaxExtent = 65535;
+
+// 2^(-k/8) for k = 0..7 as literals, so a step never depends on the platform's exp2.
+constexpr std::array<float, 8> kEighthPowers{1.0f,         0.917004043f, 0.840896415f, 0.771105413f,
+                                              0.707106781f, 0.648419777f, 0.594603558f, 0.545253866f};
+
+std::size_t core_count(const tensor::Ranks3& r) { return std::size_t(r[0]) * std::size_t(r[1]) * std::size_t(r[2]); }
+std::size_t column_count(const tensor::Ranks3& r) { return std::size_t(r[0] + r[1] + r[2]); }
+std::size_t factor_count(const CodedBrick& b) {
+  std::size_t n = 0;
+  for (int mode = 0; mode < 3; ++mode) n += std::size_t(coded_rows(b, mode) * b.ranks[std::size_t(mode)]);
+  return n;
+}
+int max_rank(const tensor::Ranks3& r) { return std::max({r[0], r[1], r[2]}); }
+bool no_model(const tensor::Ranks3& r) { return r[0] == 0 && r[1] == 0 && r[2] == 0; }
+
+// ---- the adaptive models of the range-coded stream -------------------------------------------
+// Encoder and decoder derive the same context from codes already coded, so the two functions
+// below stay mirror images: change one, change the other.
+
+// Core coefficients of an HOSVD core shrink away from the hot corner and look like their
+// neighbours, so a coefficient's context is the size of its three causal neighbours (previous
+// along each mode) and how far it lies from the corner.
+struct CoreModels {
+  static constexpr int kNeighbourClasses = 7, kDistanceClasses = 4, kMagnitudeClasses = 12;
+  std::array<BitModel, kNeighbourClasses * kDistanceClasses> zero{};
+  std::array<UIntModel, kMagnitudeClasses> magnitude{};
+};
+
+// Factor entries of a column are at most 1 / step in magnitude; columns with similar steps share
+// statistics.
+struct FactorModels {
+  static constexpr int kScaleClasses = 32;
+  std::array<BitModel, kScaleClasses> zero{};
+  std::array<UIntModel, kScaleClasses> magnitude{};
+};
+
+struct CorrectionModels {
+  std::array<BitModel, 2> flag{};  // by whether the previous voxel was corrected
+  UIntModel magnitude{};
+};
+
+struct CoreContext {
+  int zero = 0, magnitude = 0;
+};
+
+CoreContext core_context(const std::int32_t* codes, const tensor::Ranks3& r, int i, int j, int k) {
+  const std::size_t at = std::size_t(i) + std::size_t(r[0]) * (std::size_t(j) + std::size_t(r[1]) * std::size_t(k));
+  const std::uint32_t a = i > 0 ? std::uint32_t(std::abs(codes[at - 1])) : 0;
+  const std::uint32_t b = j > 0 ? std::uint32_t(std::abs(codes[at - std::size_t(r[0])])) : 0;
+  const std::uint32_t c = k > 0 ? std::uint32_t(std::abs(codes[at - std::size_t(r[0]) * std::size_t(r[1])])) : 0;
+  const int neighbours = int(std::min(a, 2u) + std::min(b, 2u) + std::min(c, 2u));
+  const int d = i + j + k;
+  const int distance = d == 0 ? 0 : d < 4 ? 1 : d < 12 ? 2 : 3;
+  const int sum_bits = std::bit_width(std::min<std::uint64_t>(std::uint64_t(a) + b + c, 1u << 30));
+  return {distance * CoreModels::kNeighbourClasses + neighbours,
+          std::min(sum_bits, CoreModels::kMagnitudeClasses - 1)};
+}
+
+int factor_scale_class(std::uint8_t step_code) { return std::min<int>(step_code / 8, FactorModels::kScaleClasses - 1); }
+
+// The factor codes in stream order: visit(index, scale class of its column).
+template <class Visit>
+void for_each_factor_code(const CodedBrick& b, Visit&& visit) {
+  std::size_t at = 0, column = 0;
+  for (int n = 0; n < 3; ++n)
+    for (int r = 0; r < b.ranks[std::size_t(n)]; ++r, ++column) {
+      const int cls = factor_scale_class(b.factor_step_codes[column]);
+      for (std::int64_t i = 0; i < coded_rows(b, n); ++i, ++at) visit(at, cls);
+    }
+}
+
+// The core codes in stream order (first index fastest): visit(index, context). The context
+// reads only codes visited before, so a decoder can call it on the codes it has so far.
+template <class Visit>
+void for_each_core_code(const CodedBrick& b, Visit&& visit) {
+  const tensor::Ranks3& r = b.ranks;
+  std::size_t at = 0;
+  for (int k = 0; k < r[2]; ++k)
+    for (int j = 0; j < r[1]; ++j)
+      for (int i = 0; i < r[0]; ++i, ++at) visit(at, core_context(b.core_codes.data(), r, i, j, k));
+}
+
+void encode_signed(RangeEncoder& enc, BitModel& zero, UIntModel& magnitude, std::int32_t v) {
+  enc.encode_bit(zero, v != 0);
+  if (v != 0) encode_nonzero(enc, magnitude, v);
+}
+
+std::int32_t decode_signed(RangeDecoder& dec, BitModel& zero, UIntModel& magnitude) {
+  return dec.decode_bit(zero) ? decode_nonzero(dec, magnitude) : 0;
+}
+
+void encode_stream(const CodedBrick& b, RangeEncoder& enc) {
+  FactorModels fm;
+  for_each_factor_code(b, [&](std::size_t at, int cls) {
+    encode_signed(enc, fm.zero[std::size_t(cls)], fm.magnitude[std::size_t(cls)], b.factor_codes[at]);
+  });
+  CoreModels cm;
+  for_each_core_code(b, [&](std::size_t at, const CoreContext& ctx) {
+    encode_signed(enc, cm.zero[std::size_t(ctx.zero)], cm.magnitude[std::size_t(ctx.magnitude)], b.core_codes[at]);
+  });
+  if (b.correction_step == 0) return;
+  CorrectionModels xm;
+  const std::size_t voxels = std::size_t(b.dims[0] * b.dims[1] * b.dims[2]);
+  std::size_t next = 0;
+  int previous = 0;
+  for (std::size_t v = 0; v < voxels; ++v) {
+    const bool corrected = next < b.correction_index.size() && b.correction_index[next] == v;
+    enc.encode_bit(xm.flag[std::size_t(previous)], corrected);
+    if (corrected) encode_nonzero(enc, xm.magnitude, b.correction_codes[next++]);
+    previous = corrected;
+  }
+}
+
+void decode_stream(RangeDecoder& dec, CodedBrick& b) {
+  b.factor_codes.resize(factor_count(b));
+  FactorModels fm;
+  for_each_factor_code(b, [&](std::size_t at, int cls) {
+    b.factor_codes[at] = decode_signed(dec, fm.zero[std::size_t(cls)], fm.magnitude[std::size_t(cls)]);
+  });
+  b.core_codes.resize(core_count(b.ranks));
+  CoreModels cm;
+  for_each_core_code(b, [&](std::size_t at, const CoreContext& ctx) {
+    b.core_codes[at] = decode_signed(dec, cm.zero[std::size_t(ctx.zero)], cm.magnitude[std::size_t(ctx.magnitude)]);
+  });
+  b.correction_index.clear();
+  b.correction_codes.clear();
+  if (b.correction_step == 0) return;
+  CorrectionModels xm;
+  const std::size_t voxels = std::size_t(b.dims[0] * b.dims[1] * b.dims[2]);
+  int previous = 0;
+  for (std::size_t v = 0; v < voxels; ++v) {
+    const int corrected = dec.decode_bit(xm.flag[std::size_t(previous)]);
+    if (corrected) {
+      b.correction_index.push_back(std::uint32_t(v));
+      b.correction_codes.push_back(decode_nonzero(dec, xm.magnitude));
+    }
+    previous = corrected;
+  }
+}
+
+bool dct_layout_ok(const CodedBrick& b) {
+  for (std::int64_t d : b.dims) {
+    const std::int64_t fitted = d - 2 * std::int64_t(b.margin);
+    if (fitted < 1 || fitted % b.dct_block != 0) return false;
+  }
+  return true;
+}
+
+void check_brick(const CodedBrick& b) {
+  for (std::size_t n = 0; n < 3; ++n)
+    if (b.dims[n] < 1 || b.dims[n] > kMaxExtent || b.ranks[n] < 0 || b.ranks[n] > b.dims[n])
+      throw Error("coded brick: extents must be in [1, 65535] and ranks in [0, extent], got " + tensor::to_string(b.dims));
+  const bool none = no_model(b.ranks);
+  if (!none && (b.ranks[0] == 0 || b.ranks[1] == 0 || b.ranks[2] == 0))
+    throw Error("coded brick: ranks must be all zero or all positive");
+  if (!std::isfinite(b.offset) || !std::isfinite(b.core_step) || (!none && !(b.core_step > 0)))
+    throw Error("coded brick: offset and core step must be finite, the step positive");
+  if (b.factor_step_codes.size() != column_count(b.ranks) || b.core_codes.size() != core_count(b.ranks) ||
+      b.factor_codes.size() != factor_count(b) || b.error_table.size() != std::size_t(max_rank(b.ranks)))
+    throw Error("coded brick: code counts do not match the extents and ranks");
+  if (b.dct_block > 0 && !dct_layout_ok(b)) throw Error("coded brick: the DCT blocks must tile the fitted rows");
+  if (!std::isfinite(b.correction_step) || b.correction_step < 0)
+    throw Error("coded brick: the correction step must be finite and non-negative");
+  if (b.correction_index.size() != b.correction_codes.size() || (b.correction_step == 0 && !b.correction_index.empty()))
+    throw Error("coded brick: corrections need a step and one code per index");
+  const std::uint64_t voxels = std::uint64_t(b.dims[0] * b.dims[1] * b.dims[2]);
+  for (std::size_t i = 0; i < b.correction_index.size(); ++i) {
+    if (b.correction_index[i] >= voxels || (i > 0 && b.correction_index[i] <= b.correction_index[i - 1]) ||
+        b.correction_codes[i] == 0)
+      throw Error("coded brick: correction indices must ascend inside the brick, with non-zero codes");
+  }
+}
+
+}  // namespace
+
+float factor_step(std::uint8_t code) { return std::ldexp(kEighthPowers[code % 8], -int(code / 8)); }
+
+std::uint8_t factor_step_code(double max_step) {
+  // The steps decrease with the code; find the first one that is small enough.
+  if (!(max_step < double(factor_step(0)))) return 0;
+  const double guess = std::floor(-8.0 * std::log2(std::max(max_step, 1e-300)));
+  int code = int(std::clamp(guess, 0.0, double(kMaxFactorStepCode)));
+  while (code > 0 && double(factor_step(std::uint8_t(code - 1))) <= max_step) --code;
+  while (code < kMaxFactorStepCode && double(factor_step(std::uint8_t(code))) > max_step) ++code;
+  return std::uint8_t(code);
+}
+
+std::uint8_t error_code(double bound, float core_step) {
+  if (!(bound > 0)) return 0;
+  const double steps = bound / double(core_step);
+  const double c = std::ceil(64.0 + 4.0 * std::log2(steps));
+  if (!(c < 255.0)) return 255;
+  int code = int(std::max(c, 1.0));
+  while (code < 255 && error_value(std::uint8_t(code), core_step) < bound) ++code;  // log2 rounding
+  return std::uint8_t(code);
+}
+
+double error_value(std::uint8_t code, float core_step) {
+  if (code == 0) return 0;
+  if (code == 255) return std::numeric_limits<double>::infinity();
+  return double(core_step) * std::exp2((double(code) - 64.0) / 4.0);
+}
+
+std::vector<std::byte> serialize(const CodedBrick& b) {
+  check_brick(b);
+  ByteWriter out(64 + column_count(b.ranks) + std::size_t(max_rank(b.ranks)));
+  out.put(kLayout);
+  out.put(std::uint8_t((b.correction_step > 0 ? kHasCorrection : 0) | (b.dct_block > 0 ? kBlockDct : 0)));
+  for (std::int64_t d : b.dims) out.put(std::uint16_t(d));
+  for (int r : b.ranks) out.put(std::uint16_t(r));
+  out.put(b.offset);
+  out.put(b.core_step);
+  if (b.dct_block > 0) {
+    out.put(b.dct_block);
+    out.put(b.margin);
+  }
+  if (b.correction_step > 0) out.put(b.correction_step);
+  for (std::uint8_t c : b.factor_step_codes) out.put(c);
+  for (std::uint8_t c : b.error_table) out.put(c);
+  RangeEncoder enc;
+  encode_stream(b, enc);
+  const std::vector<std::byte> stream = enc.finish();
+  out.put_bytes(stream);
+  return out.take();
+}
+
+CodedBrick deserialize_coded(std::span<const std::byte> bytes, int brick_width, const std::string& context) {
+  ByteReader in(bytes, context);
+  CodedBrick b;
+  const auto layout = in.get<std::uint8_t>("coded brick layout");
+  if (layout != kLayout)
+    throw FormatError(context, "coded brick layout", "expected " + std::to_string(kLayout) + ", found " + std::to_string(layout));
+  const auto flags = in.get<std::uint8_t>("coded brick flags");
+  if (flags & ~(kHasCorrection | kBlockDct)) throw FormatError(context, "coded brick flags", "unknown bits set");
+  for (auto& d : b.dims) d = in.get<std::uint16_t>("coded brick extents");
+  for (auto& r : b.ranks) r = in.get<std::uint16_t>("coded brick ranks");
+  b.offset = in.get<float>("coded brick offset");
+  b.core_step = in.get<float>("coded brick core step");
+  if (flags & kBlockDct) {
+    b.dct_block = in.get<std::uint8_t>("coded brick DCT block");
+    b.margin = in.get<std::uint8_t>("coded brick margin");
+    if (b.dct_block == 0 || !dct_layout_ok(b))
+      throw FormatError(context, "coded brick DCT block", "blocks of " + std::to_string(b.dct_block) +
+                                                              " do not tile the rows inside a margin of " +
+                                                              std::to_string(b.margin));
+  }
+  if (flags & kHasCorrection) {
+    b.correction_step = in.get<float>("coded brick correction step");
+    if (!(b.correction_step > 0) || !std::isfinite(b.correction_step))
+      throw FormatError(context, "coded brick correction step", "must be finite and positive");
+  }
+  // Checked before anything is sized from the header: a forged extent must not allocate.
+  if (b.dims[0] != brick_width || b.dims[1] != brick_width || b.dims[2] != brick_width)
+    throw FormatError(context, "coded brick extents",
+                      "expected " + std::to_string(brick_width) + " along every axis, found " + tensor::to_string(b.dims));
+  for (std::size_t n = 0; n < 3; ++n)
+    if (b.ranks[n] > b.dims[n]) throw FormatError(context, "coded brick ranks", "expected ranks in [0, extent]");
+  if (!no_model(b.ranks) && (b.ranks[0] == 0 || b.ranks[1] == 0 || b.ranks[2] == 0))
+    throw FormatError(context, "coded brick ranks", "must be all zero or all positive");
+  if (!std::isfinite(b.offset) || !std::isfinite(b.core_step) || (!no_model(b.ranks) && !(b.core_step > 0)))
+    throw FormatError(context, "coded brick core step", "offset and step must be finite, the step positive");
+  const auto steps = in.bytes(column_count(b.ranks), "coded brick factor steps");
+  b.factor_step_codes.assign(reinterpret_cast<const std::uint8_t*>(steps.data()),
+                             reinterpret_cast<const std::uint8_t*>(steps.data()) + steps.size());
+  for (std::uint8_t c : b.factor_step_codes)
+    if (c > kMaxFactorStepCode) throw FormatError(context, "coded brick factor steps", "step code above 240");
+  const auto table = in.bytes(std::size_t(max_rank(b.ranks)), "coded brick error table");
+  b.error_table.assign(reinterpret_cast<const std::uint8_t*>(table.data()),
+                       reinterpret_cast<const std::uint8_t*>(table.data()) + table.size());
+  RangeDecoder dec(in.bytes(in.remaining(), "coded brick stream"), context, "coded brick stream");
+  decode_stream(dec, b);
+  dec.finish_check();
+  return b;
+}
+
+std::size_t coded_header_bytes(const CodedBrick& b) {
+  return 22 + (b.dct_block > 0 ? 2 : 0) + (b.correction_step > 0 ? sizeof(float) : 0) + b.factor_step_codes.size() +
+         b.error_table.size();
+}
+
+float block_dct_entry(int rows, int block, int row, int column) {
+  const int blocks = rows / block;
+  const int frequency = column / blocks, which = column % blocks;
+  if (row / block != which) return 0.0f;
+  const double t = row % block;
+  const double scale = std::sqrt((frequency == 0 ? 1.0 : 2.0) / block);
+  return float(scale * std::cos(3.14159265358979323846 * (2 * t + 1) * frequency / (2.0 * block)));
+}
+
+std::int64_t coded_rows(const CodedBrick& b, int mode) {
+  return b.dct_block > 0 ? 2 * std::int64_t(b.margin) : b.dims[std::size_t(mode)];
+}
+
+void dequantize(const CodedBrick& b, DequantizedModel& out) {
+  out.dims = b.dims;
+  out.ranks = b.ranks;
+  out.offset = b.offset;
+  out.samples.clear();
+  out.core.resize(b.core_codes.size());
+  for (std::size_t i = 0; i < b.core_codes.size(); ++i) out.core[i] = float(b.core_codes[i]) * b.core_step;
+  std::size_t at = 0, column = 0;
+  for (std::size_t n = 0; n < 3; ++n) {
+    auto& f = out.factors[n];
+    f.resize(std::size_t(b.dims[n]) * std::size_t(b.ranks[n]));
+    const std::int64_t rows = b.dims[n], margin = b.dct_block > 0 ? b.margin : 0;
+    for (int r = 0; r < b.ranks[n]; ++r, ++column) {
+      const float step = factor_step(b.factor_step_codes[column]);
+      float* col = f.data() + std::size_t(r) * std::size_t(rows);
+      for (std::int64_t i = 0; i < rows; ++i) {
+        const bool basis = b.dct_block > 0 && i >= margin && i < rows - margin;
+        col[i] = basis ? block_dct_entry(int(rows - 2 * margin), b.dct_block, int(i - margin), r)
+                       : float(b.factor_codes[at++]) * step;
+      }
+    }
+  }
+  out.correction_index = b.correction_index;
+  out.correction_value.resize(b.correction_codes.size());
+  for (std::size_t i = 0; i < b.correction_codes.size(); ++i)
+    out.correction_value[i] = float(b.correction_codes[i]) * b.correction_step;
+}
+
+}  // namespace strata::quant

@@ -1,0 +1,618 @@
+#include "strata/ta/target_codec.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <optional>
+
+#include <Eigen/Cholesky>
+
+#include "strata/core/error.hpp"
+#include "strata/quant/coded_brick.hpp"
+#include "strata/tensor/reconstruct.hpp"
+#include "strata/tensor/ttm.hpp"
+#include "strata/tensor/tucker.hpp"
+#include "ta/raw_brick.hpp"
+
+namespace strata::ta {
+
+namespace {
+
+// Codes stay below 2^30 in magnitude: the range coder's integers, with room for the sign.
+constexpr double kMaxCode = double(1 << 30);
+// Shrink factor of Δ when a brick misses its mean squared error cap, and the most retries.
+constexpr double kRetryShrink = 1.4;
+constexpr int kMaxRetries = 12;
+constexpr double kUnitRoundoff = 0x1p-24;  // float32
+
+struct CodedModel {
+  quant::CodedBrick coded;
+  quant::DequantizedModel model;
+  std::array<double, 3> factor_error{0, 0, 0};  // ‖Û_n - U_n‖_F of the kept columns
+};
+
+std::size_t index3(const tensor::Dims3& d, std::int64_t i, std::int64_t j, std::int64_t k) {
+  return std::size_t(i + d[0] * (j + d[1] * k));
+}
+
+// Calls f(index) for the brick's core voxels, in ascending index order.
+template <class F>
+void for_each_core_voxel(const tensor::Dims3& d, const CoreRegion& core, F&& f) {
+  for (int k = core.lo[2]; k < core.hi[2]; ++k)
+    for (int j = core.lo[1]; j < core.hi[1]; ++j)
+      for (int i = core.lo[0]; i < core.hi[0]; ++i) f(index3(d, i, j, k));
+}
+
+double max_residual(std::span<const float> samples, std::span<const float> decoded, const tensor::Dims3& d,
+                    const CoreRegion& core) {
+  double m = 0;
+  for_each_core_voxel(d, core, [&](std::size_t i) { m = std::max(m, std::abs(double(samples[i]) - double(decoded[i]))); });
+  return m;
+}
+
+// The leading ranks that still hold a coefficient of magnitude >= Δ/2 (a non-zero code).
+tensor::Ranks3 significant_ranks(const tensor::Tensor3& core, double step, int max_rank) {
+  const tensor::Dims3& d = core.dims();
+  const float threshold = float(0.5 * step);
+  tensor::Ranks3 r{0, 0, 0};
+  for (std::int64_t k = 0; k < d[2]; ++k)
+    for (std::int64_t j = 0; j < d[1]; ++j)
+      for (std::int64_t i = 0; i < d[0]; ++i)
+        if (std::abs(core(i, j, k)) >= threshold) {
+          r[0] = std::max(r[0], int(i) + 1);
+          r[1] = std::max(r[1], int(j) + 1);
+          r[2] = std::max(r[2], int(k) + 1);
+        }
+  for (int& rn : r) rn = std::min(rn, max_rank);
+  return r;
+}
+
+// Singular value of each kept column: the norm of its slice of the kept core block.
+std::array<std::vector<double>, 3> slice_norms(const tensor::Tensor3& core, const tensor::Ranks3& r) {
+  std::array<std::vector<double>, 3> s{std::vector<double>(std::size_t(r[0])), std::vector<double>(std::size_t(r[1])),
+                                       std::vector<double>(std::size_t(r[2]))};
+  for (int k = 0; k < r[2]; ++k)
+    for (int j = 0; j < r[1]; ++j)
+      for (int i = 0; i < r[0]; ++i) {
+        const double c = core(i, j, k);
+        s[0][std::size_t(i)] += c * c;
+        s[1][std::size_t(j)] += c * c;
+        s[2][std::size_t(k)] += c * c;
+      }
+  for (auto& v : s)
+    for (double& x : v) x = std::sqrt(x);
+  return s;
+}
+
+// Quantizes the first r columns of `u` (step Δ/σ per column, never coarser than the column's
+// largest entry, so no column vanishes). Returns the dequantized columns.
+tensor::Matrix<float> quantize_factor(const tensor::Matrix<float>& u, int r, const std::vector<double>& sigma,
+                                      double step, std::vector<std::uint8_t>& step_codes,
+                                      std::vector<std::int32_t>& codes, double& error) {
+  tensor::Matrix<float> q(u.rows(), r);
+  error = 0;
+  for (int c = 0; c < r; ++c) {
+    const double largest = u.col(c).cwiseAbs().maxCoeff();
+    const double wanted = std::min(step / std::max(sigma[std::size_t(c)], 1e-300), largest);
+    const std::uint8_t code = quant::factor_step_code(wanted);
+    const float fs = quant::factor_step(code);
+    step_codes.push_back(code);
+    for (std::int64_t i = 0; i < u.rows(); ++i) {
+      const auto v = std::int32_t(std::lround(double(u(i, c)) / double(fs)));
+      codes.push_back(v);
+      q(i, c) = float(v) * fs;
+      error += std::pow(double(q(i, c)) - double(u(i, c)), 2);
+    }
+  }
+  error = std::sqrt(error);
+  return q;
+}
+
+// Left pseudo-inverse, transposed: P = Û (ÛᵀÛ)^-1, so x ×n Pᵀ is the least-squares core.
+tensor::Matrix<float> pseudo_inverse_transposed(const tensor::Matrix<float>& q) {
+  const Eigen::MatrixXd qd = q.cast<double>();
+  const Eigen::MatrixXd gram = qd.transpose() * qd;
+  const Eigen::MatrixXd p = gram.ldlt().solve(qd.transpose()).transpose();
+  return p.cast<float>();
+}
+
+// Drops trailing slices whose codes are all zero, with their factor columns.
+void trim_zero_slices(quant::CodedBrick& b) {
+  auto slice_zero = [&](int mode, int index) {
+    const tensor::Ranks3& r = b.ranks;
+    for (int k = 0; k < r[2]; ++k)
+      for (int j = 0; j < r[1]; ++j)
+        for (int i = 0; i < r[0]; ++i) {
+          const int at_mode = mode == 0 ? i : mode == 1 ? j : k;
+          if (at_mode == index && b.core_codes[std::size_t(i + r[0] * (j + r[1] * k))] != 0) return false;
+        }
+    return true;
+  };
+  tensor::Ranks3 keep = b.ranks;
+  for (int n = 0; n < 3; ++n)
+    while (keep[std::size_t(n)] > 0 && slice_zero(n, keep[std::size_t(n)] - 1)) --keep[std::size_t(n)];
+  if (keep == b.ranks) return;
+  if (keep[0] == 0 || keep[1] == 0 || keep[2] == 0) keep = {0, 0, 0};
+  std::vector<std::int32_t> core(std::size_t(keep[0]) * std::size_t(keep[1]) * std::size_t(keep[2]));
+  for (int k = 0; k < keep[2]; ++k)
+    for (int j = 0; j < keep[1]; ++j)
+      for (int i = 0; i < keep[0]; ++i)
+        core[std::size_t(i + keep[0] * (j + keep[1] * k))] = b.core_codes[std::size_t(i + b.ranks[0] * (j + b.ranks[1] * k))];
+  std::vector<std::int32_t> factors;
+  std::vector<std::uint8_t> steps;
+  std::size_t at = 0, column = 0;
+  for (std::size_t n = 0; n < 3; ++n)
+    for (int c = 0; c < b.ranks[n]; ++c, ++column, at += std::size_t(quant::coded_rows(b, int(n)))) {
+      if (c >= keep[n]) continue;
+      steps.push_back(b.factor_step_codes[column]);
+      factors.insert(factors.end(), b.factor_codes.begin() + std::ptrdiff_t(at),
+                     b.factor_codes.begin() + std::ptrdiff_t(at + std::size_t(quant::coded_rows(b, int(n)))));
+    }
+  b.ranks = keep;
+  b.core_codes = std::move(core);
+  b.factor_codes = std::move(factors);
+  b.factor_step_codes = std::move(steps);
+}
+
+// Steps 2 and 3 of the header: ranks, quantized factors, re-fitted and quantized core.
+CodedModel code_model(const tensor::Tensor3& x0, const tensor::Tucker& full, double step, int max_rank, float offset) {
+  CodedModel out;
+  quant::CodedBrick& b = out.coded;
+  b.dims = x0.dims();
+  b.offset = offset;
+  const double largest = std::max(double(full.core.values().empty() ? 0.f : std::abs(full.core.values()[0])), 0.0);
+  double max_abs = largest;
+  for (float c : full.core.values()) max_abs = std::max(max_abs, double(std::abs(c)));
+  step = std::max(step, 2 * max_abs / kMaxCode);  // codes must fit; finer is beyond float anyway
+  b.core_step = float(step);
+  step = double(b.core_step);
+  tensor::Ranks3 r = significant_ranks(full.core, step, max_rank);
+  if (r[0] > 0) {
+    const auto sigma = slice_norms(full.core, r);
+    tensor::Factors<float> pinv;
+    for (std::size_t n = 0; n < 3; ++n) {
+      const tensor::Matrix<float> q =
+          quantize_factor(full.factors[n], r[n], sigma[n], step, b.factor_step_codes, b.factor_codes, out.factor_error[n]);
+      pinv[n] = pseudo_inverse_transposed(q);
+    }
+    const tensor::Tensor3 core = tensor::project(x0, pinv);
+    b.ranks = r;
+    b.core_codes.resize(std::size_t(core.size()));
+    for (std::size_t i = 0; i < b.core_codes.size(); ++i) {
+      const double v = std::clamp(double(core.values()[i]) / step, -kMaxCode, kMaxCode);
+      b.core_codes[i] = std::int32_t(std::lround(v));
+    }
+    trim_zero_slices(b);
+  }
+  if (b.ranks[0] == 0) {
+    b.ranks = {0, 0, 0};
+    b.core_codes.clear();
+    b.factor_codes.clear();
+    b.factor_step_codes.clear();
+  }
+  b.error_table.assign(std::size_t(std::max({b.ranks[0], b.ranks[1], b.ranks[2]})), 0);
+  quant::dequantize(b, out.model);
+  return out;
+}
+
+// The DCT block for a fitted width: the divisor nearest 8 within [4, 16] (zfp-like locality
+// without zfp's 4^3 block overhead), or 0 when there is none.
+int dct_block_for(std::int64_t fitted) {
+  int best = 0;
+  for (int w = 4; w <= 16; ++w)
+    if (fitted % w == 0 && (best == 0 || std::abs(w - 8) < std::abs(best - 8))) best = w;
+  return best;
+}
+
+// The fixed alternative to step 2–3: a block-DCT basis (no factor bits for the fitted rows; the
+// rank slider then keeps the lowest frequencies of every block).
+CodedModel code_model_dct(const tensor::Tensor3& x0, int block, double step, int max_rank, float offset) {
+  CodedModel out;
+  quant::CodedBrick& b = out.coded;
+  b.dims = x0.dims();
+  b.offset = offset;
+  b.dct_block = std::uint8_t(block);
+  tensor::Factors<float> basis;
+  for (std::size_t n = 0; n < 3; ++n) {
+    const int rows = int(b.dims[n]);
+    basis[n].resize(rows, rows);
+    for (int c = 0; c < rows; ++c)
+      for (int r = 0; r < rows; ++r) basis[n](r, c) = quant::block_dct_entry(rows, block, r, c);
+  }
+  const tensor::Tensor3 coefficients = tensor::project(x0, basis);
+  double max_abs = 0;
+  for (float c : coefficients.values()) max_abs = std::max(max_abs, double(std::abs(c)));
+  b.core_step = float(std::max(step, 2 * max_abs / kMaxCode));
+  step = double(b.core_step);
+  const tensor::Ranks3 r = significant_ranks(coefficients, step, max_rank);
+  if (r[0] > 0) {
+    const auto sigma = slice_norms(coefficients, r);
+    b.ranks = r;
+    for (std::size_t n = 0; n < 3; ++n)
+      for (int c = 0; c < r[n]; ++c)
+        b.factor_step_codes.push_back(quant::factor_step_code(std::min(1.0, step / std::max(sigma[n][std::size_t(c)], 1e-300))));
+    b.core_codes.resize(std::size_t(r[0]) * std::size_t(r[1]) * std::size_t(r[2]));
+    for (int k = 0; k < r[2]; ++k)
+      for (int j = 0; j < r[1]; ++j)
+        for (int i = 0; i < r[0]; ++i)
+          b.core_codes[std::size_t(i + r[0] * (j + r[1] * k))] = std::int32_t(std::lround(coefficients(i, j, k) / step));
+    trim_zero_slices(b);
+  }
+  if (b.ranks[0] == 0) {
+    b.ranks = {0, 0, 0};
+    b.core_codes.clear();
+    b.factor_step_codes.clear();
+  }
+  b.error_table.assign(std::size_t(std::max({b.ranks[0], b.ranks[1], b.ranks[2]})), 0);
+  quant::dequantize(b, out.model);
+  // The basis is exact up to its float rounding.
+  for (std::size_t n = 0; n < 3; ++n) out.factor_error[n] = std::sqrt(double(b.dims[n] * b.ranks[n])) * kUnitRoundoff;
+  return out;
+}
+
+// The samples the model is fitted on: [margin, B - margin) along every mode.
+tensor::Tensor3 fitted_region(const tensor::Tensor3& x, int margin) {
+  const tensor::Dims3& d = x.dims();
+  tensor::Tensor3 out(d[0] - 2 * margin, d[1] - 2 * margin, d[2] - 2 * margin);
+  for (std::int64_t k = 0; k < out.dims()[2]; ++k)
+    for (std::int64_t j = 0; j < out.dims()[1]; ++j)
+      for (std::int64_t i = 0; i < out.dims()[0]; ++i) out(i, j, k) = x(i + margin, j + margin, k + margin);
+  return out;
+}
+
+// The sample at position p of mode n (0-based) and in-region positions a, b of the other two
+// modes (lower mode first), matching the column order of tensor::unfold.
+float overlap_sample(const tensor::Tensor3& x, int mode, std::int64_t p, std::int64_t a, std::int64_t b, int margin) {
+  if (mode == 0) return x(p, a + margin, b + margin);
+  if (mode == 1) return x(a + margin, p, b + margin);
+  return x(a + margin, b + margin, p);
+}
+
+// The overlap voxels (shared with the neighbours for interpolation) are not fitted: each
+// factor gets rows for them by least squares against the samples there, given the core model.
+// They cost 2·margin factor rows per mode instead of (B/(B - 2·margin))^3 more coefficients.
+void extend_factors(CodedModel& cm, const tensor::Tensor3& x0, int margin) {
+  quant::CodedBrick& b = cm.coded;
+  const tensor::Dims3 region = b.dims;
+  b.dims = x0.dims();
+  if (b.dct_block > 0) b.margin = std::uint8_t(margin);
+  if (b.ranks[0] == 0 || margin == 0) {
+    quant::dequantize(b, cm.model);
+    return;
+  }
+  const tensor::Ranks3 r = b.ranks;
+  tensor::Tensor3 core(r[0], r[1], r[2]);
+  std::copy(cm.model.core.begin(), cm.model.core.end(), core.values().begin());
+  tensor::Factors<float> u;
+  for (std::size_t n = 0; n < 3; ++n)
+    u[n] = Eigen::Map<const tensor::Matrix<float>>(cm.model.factors[n].data(), region[n], r[n]);
+  std::vector<std::int32_t> codes;
+  std::size_t column = 0, old_at = 0;
+  for (int n = 0; n < 3; ++n) {
+    const std::size_t sn = std::size_t(n);
+    tensor::Tensor3 g = core;  // the model with mode n left in coefficient space
+    for (int other = 0; other < 3; ++other)
+      if (other != n) g = tensor::ttm(g, other + 1, u[std::size_t(other)]);
+    const Eigen::MatrixXd gm = tensor::unfold(g, n + 1).cast<double>();  // r_n x (region^2)
+    // Ridge: weak columns would otherwise fit the overlap's noise with huge entries. The weight
+    // is the quantization noise per sample over the spread of an orthonormal basis entry.
+    const double ridge = double(b.core_step) * double(b.core_step) * double(region[sn]) / 12.0;
+    const auto solver =
+        (gm * gm.transpose() + ridge * Eigen::MatrixXd::Identity(gm.rows(), gm.rows())).ldlt();
+    const std::int64_t m = region[sn];
+    Eigen::MatrixXd rows(x0.dims()[sn], r[sn]);  // new factor, filled below
+    const std::int64_t other_a = region[n == 0 ? 1 : 0], other_b = region[n == 2 ? 1 : 2];
+    for (std::int64_t p = 0; p < x0.dims()[sn]; ++p) {
+      if (p >= margin && p < margin + m) continue;
+      Eigen::VectorXd target(other_a * other_b);
+      for (std::int64_t bb = 0; bb < other_b; ++bb)
+        for (std::int64_t aa = 0; aa < other_a; ++aa) target(aa + other_a * bb) = overlap_sample(x0, n, p, aa, bb, margin);
+      rows.row(p) = solver.solve(gm * target).transpose();
+    }
+    // A continuation far larger than any basis row would amplify rounding; such a row repeats
+    // the nearest fitted row instead (what clamped edge samples look like anyway).
+    const double largest_fitted = u[sn].rowwise().norm().maxCoeff();
+    for (std::int64_t p = 0; p < x0.dims()[sn]; ++p) {
+      if (p >= margin && p < margin + m) continue;
+      if (rows.row(p).norm() > 2 * largest_fitted)
+        rows.row(p) = u[sn].row(p < margin ? 0 : m - 1).cast<double>();
+    }
+    for (int c = 0; c < r[sn]; ++c, ++column) {
+      const double step = double(quant::factor_step(b.factor_step_codes[column]));
+      for (std::int64_t p = 0; p < x0.dims()[sn]; ++p) {
+        const bool fitted = p >= margin && p < margin + m;
+        if (fitted && b.dct_block > 0) continue;  // the basis itself, not coded
+        const double value = rows(p, c) / step;
+        codes.push_back(fitted ? b.factor_codes[old_at + std::size_t(p - margin)]
+                               : std::int32_t(std::lround(std::clamp(value, -kMaxCode, kMaxCode))));
+      }
+      if (b.dct_block == 0) old_at += std::size_t(m);
+    }
+  }
+  b.factor_codes = std::move(codes);
+  if (b.dct_block > 0) b.margin = std::uint8_t(margin);
+  quant::dequantize(b, cm.model);
+  // The factor error bound of the decoder slack and the error table covers the fitted rows
+  // only; the overlap rows widen it by their norm (they are not near an orthonormal basis).
+  for (std::size_t n = 0; n < 3; ++n) {
+    const Eigen::Map<const tensor::Matrix<float>> full(cm.model.factors[n].data(), x0.dims()[n], r[n]);
+    double extra = 0;
+    for (std::int64_t p = 0; p < x0.dims()[n]; ++p)
+      if (p < margin || p >= margin + region[n]) extra += double(full.row(p).squaredNorm());
+    cm.factor_error[n] += std::sqrt(extra);
+  }
+}
+
+double core_mse(std::span<const float> samples, std::span<const float> decoded, const tensor::Dims3& d,
+                const CoreRegion& core) {
+  double sum = 0;
+  std::int64_t count = 0;
+  for (int k = core.lo[2]; k < core.hi[2]; ++k)
+    for (int j = core.lo[1]; j < core.hi[1]; ++j)
+      for (int i = core.lo[0]; i < core.hi[0]; ++i) {
+        const std::size_t at = index3(d, i, j, k);
+        const double e = double(samples[at]) - double(decoded[at]);
+        sum += e * e;
+        ++count;
+      }
+  return count ? sum / double(count) : 0;
+}
+
+// A bound on how far two decoders (another instruction set, another summation order) can land
+// from the encoder's own reconstruction of `m`: the TTM chain's rounding, γ_(R1+R2+R3+2) times
+// the largest voxel magnitude ‖B‖_F Π max_i ‖row i of Û_n‖ (Cauchy–Schwarz on a row of the
+// Kronecker product), twice, plus the roundings of the offset and correction additions.
+double decoder_slack(const CodedModel& m, double max_correction) {
+  double core_norm = 0;
+  for (float c : m.model.core) core_norm += double(c) * double(c);
+  double magnitude = std::sqrt(core_norm);
+  for (std::size_t n = 0; n < 3 && m.model.has_tucker(); ++n) {
+    const Eigen::Map<const tensor::Matrix<float>> u(m.model.factors[n].data(), m.model.dims[n], m.model.ranks[n]);
+    magnitude *= double(u.rowwise().norm().maxCoeff());
+  }
+  const double rounds = double(m.coded.ranks[0] + m.coded.ranks[1] + m.coded.ranks[2] + 2);
+  return 2 * rounds * kUnitRoundoff * magnitude +
+         4 * kUnitRoundoff * (std::abs(double(m.coded.offset)) + magnitude + max_correction);
+}
+
+void reconstruct_coded(const CodedModel& m, tensor::BrickReconstructor& reconstructor, std::span<float> out) {
+  reconstruct_model(m.model, m.model.ranks, reconstructor, out);
+}
+
+// Adds the sparse correction that brings every voxel within `bound` of its sample (step 2·bound,
+// so the remainder of a rounded quotient is at most `bound`). False when a correction would not
+// fit in a code.
+bool add_corrections(std::span<const float> samples, std::span<float> decoded, const tensor::Dims3& d,
+                     const CoreRegion& core, double bound, CodedModel& m) {
+  quant::CodedBrick& b = m.coded;
+  const float step = float(2 * bound);
+  b.correction_step = 0;
+  b.correction_index.clear();
+  b.correction_codes.clear();
+  bool fits = true;
+  for_each_core_voxel(d, core, [&](std::size_t i) {
+    const double miss = double(samples[i]) - double(decoded[i]);
+    if (!fits || std::abs(miss) <= bound) return;
+    const double quotient = miss / double(step);
+    if (!(std::abs(quotient) < kMaxCode)) {
+      fits = false;
+      return;
+    }
+    auto code = std::int32_t(std::lround(quotient));
+    // The float sum the decoder forms; nudge the code if its rounding lands outside the bound.
+    float corrected = decoded[i] + float(code) * step;
+    for (int tries = 0; tries < 2 && std::abs(double(samples[i]) - double(corrected)) > bound; ++tries) {
+      code += double(samples[i]) > double(corrected) ? 1 : -1;
+      corrected = decoded[i] + float(code) * step;
+    }
+    if (code == 0 || std::abs(double(samples[i]) - double(corrected)) > bound) {
+      fits = false;
+      return;
+    }
+    b.correction_index.push_back(std::uint32_t(i));
+    b.correction_codes.push_back(code);
+    decoded[i] = corrected;
+  });
+  if (!fits) return false;
+  if (!b.correction_index.empty()) b.correction_step = step;
+  m.model.correction_index = b.correction_index;
+  m.model.correction_value.resize(b.correction_codes.size());
+  for (std::size_t i = 0; i < b.correction_codes.size(); ++i) m.model.correction_value[i] = float(b.correction_codes[i]) * step;
+  return true;
+}
+
+// Upper bounds of the brick's RMSE at leading ranks K = 1..max(R_n), rounded up into codes:
+// ‖X - X̂_K‖ <= ‖X - X̂‖ + ‖B - B_K‖_F Π‖Û_n‖_2 and ‖Û_n‖_2 <= 1 + ‖Û_n - U_n‖_F. At full rank
+// the measured error (with the correction) is exact.
+void fill_error_table(CodedModel& m, double error_without_correction, double error_full, double slack,
+                      std::int64_t voxels) {
+  quant::CodedBrick& b = m.coded;
+  const tensor::Ranks3& r = b.ranks;
+  const int rmax = std::max({r[0], r[1], r[2]});
+  std::vector<double> energy_by_shell(std::size_t(rmax), 0.0);  // coefficients with max(i, j, k) = s
+  double total = 0;
+  for (int k = 0; k < r[2]; ++k)
+    for (int j = 0; j < r[1]; ++j)
+      for (int i = 0; i < r[0]; ++i) {
+        const double c = m.model.core[std::size_t(i + r[0] * (j + r[1] * k))];
+        energy_by_shell[std::size_t(std::max({i, j, k}))] += c * c;
+        total += c * c;
+      }
+  double gain = 1;
+  for (double e : m.factor_error) gain *= 1 + e;
+  const double n = std::sqrt(double(voxels));
+  double kept = 0;
+  for (int k = 1; k <= rmax; ++k) {
+    kept += energy_by_shell[std::size_t(k - 1)];
+    const double rmse = k == rmax ? error_full / n
+                                  : (error_without_correction + std::sqrt(std::max(total - kept, 0.0)) * gain) / n;
+    b.error_table[std::size_t(k - 1)] = quant::error_code((rmse + slack) * (1 + 1e-6), b.core_step);
+  }
+}
+
+double residual_norm(std::span<const float> samples, std::span<const float> decoded) {
+  double sum = 0;
+  for (std::size_t i = 0; i < samples.size(); ++i) sum += std::pow(double(samples[i]) - double(decoded[i]), 2);
+  return std::sqrt(sum);
+}
+
+void check_finite_samples(std::span<const float> v) {
+  for (float x : v)
+    if (!std::isfinite(x)) throw Error("encode: non-finite sample in the brick");
+}
+
+// The brick as one value: its mean, when that already meets the target.
+bool fits_offset(std::span<const float> v, float offset, const tensor::Dims3& d, const CoreRegion& core,
+                 const BrickTarget& t) {
+  const std::vector<float> flat(v.size(), offset);
+  if (std::isfinite(t.max_error) && max_residual(v, flat, d, core) > t.max_error) return false;
+  return core_mse(v, flat, d, core) <= t.mse_cap;
+}
+
+EncodedBrick constant_brick(float value, std::span<float> decoded) {
+  EncodedBrick out;
+  out.kind = store::PayloadKind::constant;
+  out.constant_value = value;
+  std::fill(decoded.begin(), decoded.end(), value);
+  return out;
+}
+
+EncodedBrick lossless_brick(std::span<const float> samples, int zstd_level, std::span<float> decoded) {
+  EncodedBrick out;
+  out.kind = store::PayloadKind::raw_zstd;
+  out.payload = encode_raw_brick(samples, zstd_level);
+  out.header_bytes = out.payload.size();
+  std::copy(samples.begin(), samples.end(), decoded.begin());
+  return out;
+}
+
+// Steps 4–6 for one basis: codes the brick with `make(Δ)`, shrinking Δ until the brick's mean
+// squared error fits, adds the max-error correction and the error table. `decoded` receives the
+// decoder's samples. Nothing when only a lossless brick meets the target.
+template <class MakeModel>
+std::optional<std::vector<std::byte>> code_with_basis(MakeModel&& make, std::span<const float> v,
+                                                      const tensor::Tensor3& x0, const CoreRegion& core,
+                                                      const BrickTarget& target, std::span<float> decoded) {
+  thread_local tensor::BrickReconstructor reconstructor;
+  const tensor::Dims3& d = x0.dims();
+  double step = target.core_step;
+  CodedModel m;
+  for (int attempt = 0;; ++attempt) {
+    m = make(step);
+    extend_factors(m, x0, core.margin);
+    reconstruct_coded(m, reconstructor, decoded);
+    if (attempt == kMaxRetries || core_mse(v, decoded, d, core) <= target.mse_cap) break;
+    step /= kRetryShrink;
+  }
+  const double error_without_correction = residual_norm(v, decoded);
+  if (std::isfinite(target.max_error)) {
+    // A correction is at most the largest miss plus the bound.
+    const double slack = decoder_slack(m, max_residual(v, decoded, d, core) + target.max_error);
+    const double bound = target.max_error - slack;
+    if (!(bound > 0) || !add_corrections(v, decoded, d, core, bound, m)) return std::nullopt;
+  } else if (core_mse(v, decoded, d, core) > target.mse_cap) {
+    return std::nullopt;
+  }
+  double max_correction = 0;
+  for (float c : m.model.correction_value) max_correction = std::max(max_correction, double(std::abs(c)));
+  fill_error_table(m, error_without_correction, residual_norm(v, decoded), decoder_slack(m, max_correction), x0.size());
+  return quant::serialize(m.coded);
+}
+
+// Δ per unit of the target. Uniform quantization adds Δ²/12 per coded coefficient; coefficients
+// below Δ/2 are dropped and add less, so Δ = √12 · RMSE keeps the mean squared error under the
+// target and the per-brick cap catches the exceptions. Under a max-error target, Δ = E leaves
+// a model error of about E/√12 RMS, so only the rare voxels beyond E need a correction.
+constexpr double kStepPerRmse = 3.4641016151377544;  // √12
+constexpr double kStepPerMaxError = 1.0;
+
+}  // namespace
+
+void check_target(const ErrorTarget& t) {
+  if (t.kind == TargetKind::none) return;
+  const double limit = t.kind == TargetKind::psnr ? 300.0 : std::numeric_limits<double>::max();
+  if (!std::isfinite(t.value) || !(t.value > 0) || t.value > limit)
+    throw ParameterError("ErrorTarget::value", std::string("the ") + target_kind_name(t.kind) +
+                                                   " target must be finite and positive" +
+                                                   (t.kind == TargetKind::psnr ? " (at most 300 dB)" : "") + ", got " +
+                                                   std::to_string(t.value));
+  if (!std::isfinite(t.coarse_growth) || !(t.coarse_growth >= 1))
+    throw ParameterError("ErrorTarget::coarse_growth", "must be at least 1, got " + std::to_string(t.coarse_growth));
+}
+
+double target_rmse(const ErrorTarget& t, double lo, double hi) {
+  if (t.kind == TargetKind::rmse) return t.value;
+  if (t.kind != TargetKind::psnr) return 0;
+  // A constant volume has no range; every brick is then constant and the value is never used.
+  const double range = hi > lo ? hi - lo : 1.0;
+  return range * std::pow(10.0, -t.value / 20.0);
+}
+
+std::vector<BrickTarget> level_targets(const ErrorTarget& t, double lo, double hi, int level_count, int max_rank,
+                                       int zstd_level) {
+  check_target(t);
+  if (t.kind == TargetKind::none) throw Error("level_targets: no target");
+  std::vector<BrickTarget> out;
+  for (int l = 0; l < level_count; ++l) {
+    const double scale = std::pow(t.coarse_growth, l);
+    BrickTarget b;
+    b.max_rank = max_rank;
+    b.zstd_level = zstd_level;
+    if (t.kind == TargetKind::max_error) {
+      b.max_error = t.value * scale;
+      b.core_step = b.max_error * kStepPerMaxError;
+    } else {
+      const double rmse = target_rmse(t, lo, hi) * scale;
+      b.mse_cap = rmse * rmse;
+      b.core_step = rmse * kStepPerRmse;
+    }
+    out.push_back(b);
+  }
+  return out;
+}
+
+EncodedBrick encode_brick_to_target(const tensor::Tensor3& samples, const CoreRegion& core, const BrickTarget& target,
+                                    std::span<float> decoded) {
+  const std::span<const float> v = samples.values();
+  if (decoded.size() != v.size()) throw Error("encode: decode buffer does not match the brick");
+  check_finite_samples(v);
+  if (std::all_of(v.begin(), v.end(), [first = v[0]](float x) { return x == first; })) return constant_brick(v[0], decoded);
+  double sum = 0;
+  for (float x : v) sum += x;
+  const auto offset = float(sum / double(v.size()));
+  if (fits_offset(v, offset, samples.dims(), core, target)) return constant_brick(offset, decoded);
+
+  tensor::Tensor3 x0(samples.dims());
+  for (std::size_t i = 0; i < v.size(); ++i) x0.values()[i] = v[i] - offset;
+  const tensor::Tensor3 fitted = fitted_region(x0, core.margin);
+  const tensor::Tucker full =
+      tensor::hosvd(fitted, {int(fitted.dims()[0]), int(fitted.dims()[1]), int(fitted.dims()[2])});
+  const std::optional<std::vector<std::byte>> tucker = code_with_basis(
+      [&](double step) { return code_model(fitted, full, step, target.max_rank, offset); }, v, x0, core, target, decoded);
+  std::vector<float> dct_decoded(v.size());
+  const int block = dct_block_for(fitted.dims()[0]);
+  const std::optional<std::vector<std::byte>> dct =
+      block == 0 ? std::nullopt
+                 : code_with_basis([&](double step) { return code_model_dct(fitted, block, step, target.max_rank, offset); },
+                                   v, x0, core, target, dct_decoded);
+  const std::vector<std::byte>* best = tucker ? &*tucker : nullptr;
+  if (dct && (!best || dct->size() < best->size())) {
+    best = &*dct;
+    std::copy(dct_decoded.begin(), dct_decoded.end(), decoded.begin());
+  }
+  if (!best) return lossless_brick(v, target.zstd_level, decoded);
+
+  EncodedBrick out;
+  out.kind = store::PayloadKind::tucker_coded;
+  out.payload = *best;
+  if (out.payload.size() >= v.size() * sizeof(float) / 2) {
+    // Possibly beaten by the lossless brick: try it.
+    std::vector<std::byte> raw = encode_raw_brick(v, target.zstd_level);
+    if (raw.size() <= out.payload.size()) return lossless_brick(v, target.zstd_level, decoded);
+  }
+  out.header_bytes = out.payload.size();  // split in `strata eval` (ta/evaluate.cpp)
+  return out;
+}
+
+}  // namespace strata::ta
