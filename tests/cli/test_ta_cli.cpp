@@ -320,3 +320,38 @@ TEST_F(CliTa, IsaOptionLimitsTheKernelsAndRejectsUnknownLevels) {
   EXPECT_TRUE(has(out, "STRATA_ISA") && has(out, "avx3")) << out;
   EXPECT_EQ(run_command("STRATA_ISA=generic " + strata_cmd("info " + q(original())), &out), 0) << out;
 }
+
+// Error targets from the command line: the bound holds in what `decompress` writes and `eval`
+// reports; a bad target names its flag; fixed-rank options are refused beside a target.
+TEST_F(CliTa, ErrorTargetsCompressToTheirBoundAndRejectBadValues) {
+  std::string out;
+  const std::string in = q(original()), t = q(file("t.strata"));
+  ASSERT_EQ(run_command(strata_cmd("compress " + in + " -o " + t + " --brick 16 --max-error 3"), &out), 0) << out;
+  ASSERT_EQ(run_command(strata_cmd("eval " + in + " " + t + " --json"), &out), 0) << out;
+  const nlohmann::json e = nlohmann::json::parse(out);
+  EXPECT_LE(e["error"]["max_abs_error"].get<double>(), 3.0);
+  EXPECT_GT(e["error"]["max_abs_error"].get<double>(), 0.0);
+  ASSERT_EQ(run_command(strata_cmd("decompress " + t + " -o " + q(file("t.nrrd"))), &out), 0) << out;
+  const strata::ErrorMetrics m =
+      strata::compare_volumes(strata::io::read_volume(original()), strata::io::read_volume(file("t.nrrd")));
+  EXPECT_LE(m.max_abs_error, 3.0);  // integer output: rounding keeps an integer bound
+
+  ASSERT_EQ(run_command(strata_cmd("compress " + in + " -o " + t + " --brick 16 --psnr 45"), &out), 0) << out;
+  ASSERT_EQ(run_command(strata_cmd("eval " + in + " " + t + " --json"), &out), 0) << out;
+  EXPECT_GE(nlohmann::json::parse(out)["error"]["psnr_db"].get<double>(), 45.0);
+
+  EXPECT_EQ(run_command(strata_cmd("compress " + in + " -o " + q(file("bad.strata")) + " --psnr -3"), &out), 1) << out;
+  EXPECT_TRUE(has(out, "error: --psnr: ")) << out;
+  EXPECT_EQ(run_command(strata_cmd("compress " + in + " -o " + q(file("bad.strata")) + " --max-error 0"), &out), 1) << out;
+  EXPECT_TRUE(has(out, "error: --max-error: ")) << out;
+  EXPECT_EQ(run_command(strata_cmd("compress " + in + " -o " + q(file("bad.strata")) + " --rmse 1 --coarse-growth 0.5"), &out),
+            1)
+      << out;
+  EXPECT_TRUE(has(out, "error: --coarse-growth: ")) << out;
+  EXPECT_EQ(run_command(strata_cmd("compress " + in + " -o " + q(file("bad.strata")) + " --psnr 40 --quant u8,b8lin"), &out),
+            2)
+      << out;
+  EXPECT_EQ(run_command(strata_cmd("compress " + in + " -o " + q(file("bad.strata")) + " --psnr 40 --rmse 2"), &out), 2)
+      << out;
+  EXPECT_FALSE(fs::exists(file("bad.strata")));
+}
