@@ -15,6 +15,7 @@ struct StorageReport {
   // Stored bytes by part; entropy-coded bricks attribute their bytes to the parts in proportion.
   std::uint64_t core_bytes = 0, factor_bytes = 0, brick_header_bytes = 0, container_bytes = 0;
   std::vector<std::int64_t> bricks_per_level, constant_per_level;
+  std::vector<std::uint64_t> payload_bytes_per_level;  // stored brick payloads (as in the file) per level
   double bits_per_voxel(std::uint64_t bytes, const VolumeInfo& source) const;
 };
 
