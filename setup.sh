@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Installs every Debian package Strata uses, then configures and builds the release preset.
 # Idempotent: on a machine that is already set up it only runs an incremental build.
+#   ./setup.sh           the library, CLI, tests and benchmarks
+#   ./setup.sh --bench   also the opt-in rate-distortion comparison with zfp (bench/rd)
 set -euo pipefail
 cd "$(dirname "$0")"
 
@@ -14,6 +16,14 @@ PACKAGES=(
   libgtest-dev libbenchmark-dev               # tests and benchmarks
   mricron-data                                # sample MRI and brain atlases
 )
+BENCH_PACKAGES=(zfp python3-numpy python3-matplotlib)  # bench/rd only (--bench); never the library
+
+for arg in "$@"; do
+  case "$arg" in
+    --bench) PACKAGES+=("${BENCH_PACKAGES[@]}") ;;
+    *) echo "usage: $0 [--bench]" >&2; exit 2 ;;
+  esac
+done
 
 missing=()
 for p in "${PACKAGES[@]}"; do

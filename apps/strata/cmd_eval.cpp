@@ -26,7 +26,9 @@ nlohmann::json eval_json(const ta::TaVolume& volume, const ta::StorageReport& s,
     levels.push_back({{"level", l},
                       {"dims", {g.dims.x, g.dims.y, g.dims.z}},
                       {"bricks", s.bricks_per_level[l]},
-                      {"constant", s.constant_per_level[l]}});
+                      {"constant", s.constant_per_level[l]},
+                      {"payload_bytes", s.payload_bytes_per_level[l]},
+                      {"bits_per_voxel", s.bits_per_voxel(s.payload_bytes_per_level[l], src)}});
   }
   const ErrorMetrics& m = e.metrics;
   return {{"file", volume.container().path().string()},

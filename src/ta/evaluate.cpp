@@ -41,11 +41,13 @@ StorageReport storage_report(const TaVolume& volume) {
   r.file_bytes = c.file_size();
   r.bricks_per_level.assign(std::size_t(volume.geometry().level_count()), 0);
   r.constant_per_level = r.bricks_per_level;
+  r.payload_bytes_per_level.assign(r.bricks_per_level.size(), 0);
   DecodeScratch scratch;
   std::uint64_t payload_total = 0;
   for (const auto& e : c.bricks()) {
     ++r.bricks_per_level.at(e.key.level);
     payload_total += e.size;
+    r.payload_bytes_per_level[e.key.level] += e.size;
     if (e.kind == store::PayloadKind::constant) {
       ++r.constant_per_level[e.key.level];
       continue;

@@ -133,6 +133,17 @@ TEST_F(CliTa, EvalJsonReportsStorageAndError) {
   std::int64_t tucker = 0;
   for (const auto& l : s["levels"]) tucker += l["bricks"].get<std::int64_t>() - l["constant"].get<std::int64_t>();
   EXPECT_EQ(tucker, 45);  // prisms has no flat brick
+  // Per-level payload bytes: every level stores some, they sum to the file's payloads (the rest
+  // is index, metadata and alignment), and each level's bits/voxel is over the source's voxels.
+  double payload = 0;
+  for (const auto& l : s["levels"]) {
+    EXPECT_GT(l["payload_bytes"].get<double>(), 0.0);
+    EXPECT_NEAR(l["bits_per_voxel"].get<double>(), 8 * l["payload_bytes"].get<double>() / voxels, 1e-9);
+    payload += l["payload_bytes"].get<double>();
+  }
+  EXPECT_LT(payload, file_bytes);
+  EXPECT_GT(s["levels"][0]["payload_bytes"].get<double>(), s["levels"][1]["payload_bytes"].get<double>());
+  EXPECT_NEAR(8 * (file_bytes - payload) / voxels, s["bits_per_voxel_container"].get<double>(), 1e-9);
   // The zstd stage (on by default) is attributed to the parts in proportion to their plain
   // sizes: u16,b8log+ at B = 16, R = 8 has 8^3 one-byte core codes and 3 * 16 * 8 two-byte
   // factor codes per brick, so cores : factors = 512 : 768 up to per-brick rounding.

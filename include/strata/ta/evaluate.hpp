@@ -17,6 +17,7 @@ struct StorageReport {
   // Error-target files: sparse max-error corrections, and bricks stored losslessly.
   std::uint64_t correction_bytes = 0, lossless_bytes = 0;
   std::vector<std::int64_t> bricks_per_level, constant_per_level;
+  std::vector<std::uint64_t> payload_bytes_per_level;  // stored brick payloads (as in the file) per level
   double bits_per_voxel(std::uint64_t bytes, const VolumeInfo& source) const;
 };
 
