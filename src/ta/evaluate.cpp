@@ -17,14 +17,14 @@ namespace {
 
 // The range-coded stream cannot be split exactly; it is attributed to the core and the factors
 // in proportion to their non-zero codes (zeros cost a small fraction of a bit).
-void add_coded_parts(const quant::CodedBrick& b, StorageReport& r) {
+void add_coded_parts(const quant::CodedBrick& b, std::size_t payload_bytes, StorageReport& r) {
   const std::size_t header = quant::coded_header_bytes(b);
   const auto nonzero = [](const std::vector<std::int32_t>& v) {
     return double(std::count_if(v.begin(), v.end(), [](std::int32_t x) { return x != 0; }));
   };
   const double core = nonzero(b.core_codes), factors = nonzero(b.factor_codes), corrections = double(b.correction_codes.size());
   const double total = core + factors + corrections;
-  const std::size_t stream = quant::serialize(b).size() - header;
+  const std::size_t stream = payload_bytes - header;
   const auto core_bytes = std::uint64_t(total > 0 ? double(stream) * core / total : 0);
   const auto factor_bytes = std::uint64_t(total > 0 ? double(stream) * factors / total : 0);
   r.core_bytes += core_bytes;
@@ -58,7 +58,8 @@ StorageReport storage_report(const TaVolume& volume) {
       continue;
     }
     if (e.kind == store::PayloadKind::tucker_coded) {
-      add_coded_parts(quant::deserialize_coded(stored, volume.geometry().layout().brick, c.path().string()), r);
+      add_coded_parts(quant::deserialize_coded(stored, volume.geometry().layout().brick, c.path().string()), stored.size(),
+                      r);
       continue;
     }
     const auto plain = plain_payload(e.kind, stored, volume.quant_scheme(), scratch, c.path().string());

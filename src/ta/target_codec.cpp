@@ -51,6 +51,13 @@ double max_residual(std::span<const float> samples, std::span<const float> decod
   return m;
 }
 
+// The stored core step: Δ, or coarser where codes of Δ would not fit (finer is beyond float).
+float guarded_step(const tensor::Tensor3& coefficients, double step) {
+  double max_abs = 0;
+  for (float c : coefficients.values()) max_abs = std::max(max_abs, double(std::abs(c)));
+  return float(std::max(step, 2 * max_abs / kMaxCode));
+}
+
 // The leading ranks that still hold a coefficient of magnitude >= Δ/2 (a non-zero code).
 tensor::Ranks3 significant_ranks(const tensor::Tensor3& core, double step, int max_rank) {
   const tensor::Dims3& d = core.dims();
@@ -161,11 +168,7 @@ CodedModel code_model(const tensor::Tensor3& x0, const tensor::Tucker& full, dou
   quant::CodedBrick& b = out.coded;
   b.dims = x0.dims();
   b.offset = offset;
-  const double largest = std::max(double(full.core.values().empty() ? 0.f : std::abs(full.core.values()[0])), 0.0);
-  double max_abs = largest;
-  for (float c : full.core.values()) max_abs = std::max(max_abs, double(std::abs(c)));
-  step = std::max(step, 2 * max_abs / kMaxCode);  // codes must fit; finer is beyond float anyway
-  b.core_step = float(step);
+  b.core_step = guarded_step(full.core, step);
   step = double(b.core_step);
   tensor::Ranks3 r = significant_ranks(full.core, step, max_rank);
   if (r[0] > 0) {
@@ -221,9 +224,7 @@ CodedModel code_model_dct(const tensor::Tensor3& x0, int block, double step, int
       for (int r = 0; r < rows; ++r) basis[n](r, c) = quant::block_dct_entry(rows, block, r, c);
   }
   const tensor::Tensor3 coefficients = tensor::project(x0, basis);
-  double max_abs = 0;
-  for (float c : coefficients.values()) max_abs = std::max(max_abs, double(std::abs(c)));
-  b.core_step = float(std::max(step, 2 * max_abs / kMaxCode));
+  b.core_step = guarded_step(coefficients, step);
   step = double(b.core_step);
   const tensor::Ranks3 r = significant_ranks(coefficients, step, max_rank);
   if (r[0] > 0) {
@@ -348,14 +349,11 @@ double core_mse(std::span<const float> samples, std::span<const float> decoded, 
                 const CoreRegion& core) {
   double sum = 0;
   std::int64_t count = 0;
-  for (int k = core.lo[2]; k < core.hi[2]; ++k)
-    for (int j = core.lo[1]; j < core.hi[1]; ++j)
-      for (int i = core.lo[0]; i < core.hi[0]; ++i) {
-        const std::size_t at = index3(d, i, j, k);
-        const double e = double(samples[at]) - double(decoded[at]);
-        sum += e * e;
-        ++count;
-      }
+  for_each_core_voxel(d, core, [&](std::size_t at) {
+    const double e = double(samples[at]) - double(decoded[at]);
+    sum += e * e;
+    ++count;
+  });
   return count ? sum / double(count) : 0;
 }
 
@@ -374,10 +372,6 @@ double decoder_slack(const CodedModel& m, double max_correction) {
   const double rounds = double(m.coded.ranks[0] + m.coded.ranks[1] + m.coded.ranks[2] + 2);
   return 2 * rounds * kUnitRoundoff * magnitude +
          4 * kUnitRoundoff * (std::abs(double(m.coded.offset)) + magnitude + max_correction);
-}
-
-void reconstruct_coded(const CodedModel& m, tensor::BrickReconstructor& reconstructor, std::span<float> out) {
-  reconstruct_model(m.model, m.model.ranks, reconstructor, out);
 }
 
 // Adds the sparse correction that brings every voxel within `bound` of its sample (step 2·bound,
@@ -465,9 +459,15 @@ void check_finite_samples(std::span<const float> v) {
 // The brick as one value: its mean, when that already meets the target.
 bool fits_offset(std::span<const float> v, float offset, const tensor::Dims3& d, const CoreRegion& core,
                  const BrickTarget& t) {
-  const std::vector<float> flat(v.size(), offset);
-  if (std::isfinite(t.max_error) && max_residual(v, flat, d, core) > t.max_error) return false;
-  return core_mse(v, flat, d, core) <= t.mse_cap;
+  double sum = 0, worst = 0;
+  std::int64_t count = 0;
+  for_each_core_voxel(d, core, [&](std::size_t i) {
+    const double e = double(v[i]) - double(offset);
+    sum += e * e;
+    worst = std::max(worst, std::abs(e));
+    ++count;
+  });
+  return worst <= t.max_error && (count == 0 || sum / double(count) <= t.mse_cap);
 }
 
 EncodedBrick constant_brick(float value, std::span<float> decoded) {
@@ -498,11 +498,13 @@ std::optional<std::vector<std::byte>> code_with_basis(MakeModel&& make, std::spa
   const tensor::Dims3& d = x0.dims();
   double step = target.core_step;
   CodedModel m;
+  double mse = 0;
   for (int attempt = 0;; ++attempt) {
     m = make(step);
     extend_factors(m, x0, core.margin);
-    reconstruct_coded(m, reconstructor, decoded);
-    if (attempt == kMaxRetries || core_mse(v, decoded, d, core) <= target.mse_cap) break;
+    reconstruct_model(m.model, m.model.ranks, reconstructor, decoded);
+    mse = core_mse(v, decoded, d, core);
+    if (attempt == kMaxRetries || mse <= target.mse_cap) break;
     step /= kRetryShrink;
   }
   const double error_without_correction = residual_norm(v, decoded);
@@ -511,7 +513,7 @@ std::optional<std::vector<std::byte>> code_with_basis(MakeModel&& make, std::spa
     const double slack = decoder_slack(m, max_residual(v, decoded, d, core) + target.max_error);
     const double bound = target.max_error - slack;
     if (!(bound > 0) || !add_corrections(v, decoded, d, core, bound, m)) return std::nullopt;
-  } else if (core_mse(v, decoded, d, core) > target.mse_cap) {
+  } else if (mse > target.mse_cap) {
     return std::nullopt;
   }
   double max_correction = 0;
