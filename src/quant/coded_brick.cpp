@@ -41,7 +41,8 @@ bool no_model(const tensor::Ranks3& r) { return r[0] == 0 && r[1] == 0 && r[2] =
 // along each mode) and how far it lies from the corner.
 struct CoreModels {
   static constexpr int kNeighbourClasses = 7, kDistanceClasses = 4, kMagnitudeClasses = 12;
-  std::array<BitModel, kNeighbourClasses * kDistanceClasses> zero{};
+  static constexpr int kLowerClasses = 4, kFrequencyClasses = 6;  // block-DCT cores
+  std::array<BitModel, kNeighbourClasses * kLowerClasses * kFrequencyClasses> zero{};
   std::array<UIntModel, kMagnitudeClasses> magnitude{};
 };
 
@@ -75,6 +76,26 @@ CoreContext core_context(const std::int32_t* codes, const tensor::Ranks3& r, int
           std::min(sum_bits, CoreModels::kMagnitudeClasses - 1)};
 }
 
+// Block-DCT cores hold, along each mode, index = frequency · blocks + block. A coefficient
+// looks like the same frequency in the neighbouring blocks coded before it and like the next
+// lower frequency of its own block, and shrinks as the frequencies add up.
+CoreContext dct_context(const std::int32_t* codes, const tensor::Ranks3& r, int blocks, int i, int j, int k) {
+  const std::size_t sj = std::size_t(r[0]), sk = std::size_t(r[0]) * std::size_t(r[1]);
+  const std::size_t at = std::size_t(i) + sj * std::size_t(j) + sk * std::size_t(k);
+  auto size_at = [&](bool exists, std::size_t back) { return exists ? std::uint32_t(std::abs(codes[at - back])) : 0u; };
+  const int fi = i / blocks, fj = j / blocks, fk = k / blocks;
+  const std::uint32_t a = size_at(i % blocks > 0, 1), b = size_at(j % blocks > 0, sj), c = size_at(k % blocks > 0, sk);
+  const std::uint32_t d = size_at(fi > 0, std::size_t(blocks)), e = size_at(fj > 0, std::size_t(blocks) * sj),
+                      f = size_at(fk > 0, std::size_t(blocks) * sk);
+  const int neighbours = int(std::min(a, 2u) + std::min(b, 2u) + std::min(c, 2u));
+  const int lower = int(std::min(d + e + f, 3u));
+  const int sum = fi + fj + fk;
+  const int frequency = sum < 3 ? sum : sum < 5 ? 3 : sum < 8 ? 4 : 5;
+  const int sum_bits = std::bit_width(std::min<std::uint64_t>(std::uint64_t(a) + b + c + d + e + f, 1u << 30));
+  return {(frequency * CoreModels::kLowerClasses + lower) * CoreModels::kNeighbourClasses + neighbours,
+          std::min(sum_bits, CoreModels::kMagnitudeClasses - 1)};
+}
+
 int factor_scale_class(std::uint8_t step_code) { return std::min<int>(step_code / 8, FactorModels::kScaleClasses - 1); }
 
 // The factor codes in stream order: visit(index, scale class of its column).
@@ -93,10 +114,13 @@ void for_each_factor_code(const CodedBrick& b, Visit&& visit) {
 template <class Visit>
 void for_each_core_code(const CodedBrick& b, Visit&& visit) {
   const tensor::Ranks3& r = b.ranks;
+  const int blocks = b.dct_block > 0 ? int((b.dims[0] - 2 * std::int64_t(b.margin)) / b.dct_block) : 0;
   std::size_t at = 0;
   for (int k = 0; k < r[2]; ++k)
     for (int j = 0; j < r[1]; ++j)
-      for (int i = 0; i < r[0]; ++i, ++at) visit(at, core_context(b.core_codes.data(), r, i, j, k));
+      for (int i = 0; i < r[0]; ++i, ++at)
+        visit(at, blocks > 0 ? dct_context(b.core_codes.data(), r, blocks, i, j, k)
+                             : core_context(b.core_codes.data(), r, i, j, k));
 }
 
 void encode_signed(RangeEncoder& enc, BitModel& zero, UIntModel& magnitude, std::int32_t v) {

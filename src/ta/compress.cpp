@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <mutex>
+#include <optional>
 
 #include "strata/core/error.hpp"
 #include "strata/io/slab_stream.hpp"
@@ -12,14 +13,18 @@
 #include "strata/ta/target_codec.hpp"
 #include "ta/level_pipeline.hpp"
 #include "ta/metadata.hpp"
+#include "ta/step_calibration.hpp"
 
 namespace strata::ta {
 
 namespace {
 
 using Clock = std::chrono::steady_clock;
-HistogramRange value_range(io::VolumeSource& source, ProgressSink& progress, std::uint64_t slab_bytes) {
+// The value range, and the level-0 spectrum for `calibrator` when there is one.
+HistogramRange value_range(io::VolumeSource& source, ProgressSink& progress, std::uint64_t slab_bytes,
+                           StepCalibrator* calibrator) {
   double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  std::vector<float> slice;
   io::for_each_slab(source, [&](const Volume& slab, std::int64_t) {
     visit_dtype(slab.dtype(), [&](auto tag) {
       using T = decltype(tag);
@@ -39,6 +44,12 @@ HistogramRange value_range(io::VolumeSource& source, ProgressSink& progress, std
       }
       lo = std::min(lo, double(mn));
       hi = std::max(hi, double(mx));
+      const std::size_t slice_size = std::size_t(slab.dims().x * slab.dims().y);
+      for (std::int64_t z = 0; calibrator && z < slab.dims().z; ++z) {
+        const T* src = values.data() + std::size_t(z) * slice_size;
+        slice.assign(src, src + slice_size);
+        calibrator->push_slice(slice);
+      }
     });
   }, progress, "scan range", slab_bytes);
   if (!std::isfinite(lo) || !std::isfinite(hi))
@@ -63,6 +74,57 @@ void push_slab_to_level0(const Volume& slab, LevelPipeline& level0) {
 // Allowance for everything not proportional to the volume: code, per-thread brick scratch,
 // container index entries, allocator slack.
 constexpr std::uint64_t kBaselineBytes = 48ull << 20;
+
+// One encoding pass: a writer holding every brick (not yet finished) and the level pipelines
+// with their measured errors.
+struct EncodedLevels {
+  std::unique_ptr<store::ContainerWriter> writer;
+  std::vector<std::unique_ptr<LevelPipeline>> levels;
+};
+
+EncodedLevels encode_levels(io::VolumeSource& source, const std::filesystem::path& out, const CompressParams& params,
+                            const OctreeGeometry& geometry, const HistogramRange& range,
+                            const std::vector<BrickTarget>& targets, std::uint64_t slab_bytes, CompressReport& report,
+                            ProgressSink& progress) {
+  EncodedLevels result;
+  result.writer = std::make_unique<store::ContainerWriter>(out);
+  store::ContainerWriter& writer = *result.writer;
+  std::mutex report_mutex;
+  ProgressTask bricks_task(progress, "compress", std::uint64_t(geometry.total_bricks()), "bricks");
+  BrickSink sink = [&](const store::BrickKey& key, const EncodedBrick& b, float lo, float hi, std::uint64_t hist) {
+    store::BrickEntry entry{key, b.kind, 0, 0, 0, lo, hi, hist};
+    if (b.kind == store::PayloadKind::constant) entry.min = entry.max = b.constant_value;
+    writer.add_brick(entry, b.payload);
+    {
+      std::lock_guard lock(report_mutex);
+      LevelCounts& counts = report.levels[key.level];
+      ++counts.bricks;
+      counts.constant += b.kind == store::PayloadKind::constant;
+      report.core_bytes += b.core_bytes;
+      report.factor_bytes += b.factor_bytes;
+      report.brick_header_bytes += b.header_bytes;
+    }
+    bricks_task.advance(1);
+  };
+
+  // Coarsest level first so each level can point at its parent-level pipeline.
+  result.levels.resize(std::size_t(geometry.level_count()));
+  for (int l = geometry.level_count() - 1; l >= 0; --l) {
+    LevelPipeline* next = l + 1 < geometry.level_count() ? result.levels[std::size_t(l + 1)].get() : nullptr;
+    const std::optional<BrickTarget> target =
+        targets.empty() ? std::nullopt : std::optional<BrickTarget>(targets[std::size_t(l)]);
+    result.levels[std::size_t(l)] = std::make_unique<LevelPipeline>(geometry, l, params.codec, target, range, sink, next);
+  }
+  io::for_each_slab(source, [&](const Volume& slab, std::int64_t) { push_slab_to_level0(slab, *result.levels[0]); },
+                    silent_progress(), "read", slab_bytes);
+  result.levels[0]->finish();
+  return result;
+}
+
+// The calibrated Δ aims at this fraction of the budget (0.2 dB), so that the spectrum's
+// approximations rarely cost a second pass; and the passes before the per-brick caps.
+constexpr double kCalibrationAim = 0.955;
+constexpr int kCalibratedAttempts = 3;
 
 }  // namespace
 
@@ -106,45 +168,46 @@ CompressReport compress_volume(io::VolumeSource& source, const std::filesystem::
   report.levels.resize(std::size_t(geometry.level_count()));
 
   const std::uint64_t slab_bytes = input_slab_bytes(geometry, info, params);
-  const HistogramRange range = value_range(source, progress, slab_bytes);
+  const ErrorTarget& target = params.codec.target;
+  const bool budget = target.kind == TargetKind::psnr || target.kind == TargetKind::rmse;
+  std::optional<StepCalibrator> calibrator;
+  const int calibration_block = dct_block_width(params.layout.core());
+  if (budget) calibrator.emplace(info.dims, calibration_block > 0 ? calibration_block : 8);
+  const HistogramRange range = value_range(source, progress, slab_bytes, calibrator ? &*calibrator : nullptr);
   report.prepass_seconds = seconds_since(start);
 
-  std::vector<BrickTarget> targets;
-  if (params.codec.target.kind != TargetKind::none)
-    targets = level_targets(params.codec.target, range.lo, range.hi, geometry.level_count(), params.codec.rank,
-                            params.codec.zstd_level);
-  store::ContainerWriter writer(out);
-  std::mutex report_mutex;
-  ProgressTask bricks_task(progress, "compress", std::uint64_t(geometry.total_bricks()), "bricks");
-  BrickSink sink = [&](const store::BrickKey& key, const EncodedBrick& b, float lo, float hi, std::uint64_t hist) {
-    store::BrickEntry entry{key, b.kind, 0, 0, 0, lo, hi, hist};
-    if (b.kind == store::PayloadKind::constant) entry.min = entry.max = b.constant_value;
-    writer.add_brick(entry, b.payload);
-    {
-      std::lock_guard lock(report_mutex);
-      LevelCounts& counts = report.levels[key.level];
-      ++counts.bricks;
-      counts.constant += b.kind == store::PayloadKind::constant;
-      report.core_bytes += b.core_bytes;
-      report.factor_bytes += b.factor_bytes;
-      report.brick_header_bytes += b.header_bytes;
-    }
-    bricks_task.advance(1);
-  };
-
-  // Coarsest level first so each level can point at its parent-level pipeline.
-  std::vector<std::unique_ptr<LevelPipeline>> levels(std::size_t(geometry.level_count()));
-  for (int l = geometry.level_count() - 1; l >= 0; --l) {
-    LevelPipeline* next = l + 1 < geometry.level_count() ? levels[std::size_t(l + 1)].get() : nullptr;
-    const std::optional<BrickTarget> target =
-        targets.empty() ? std::nullopt : std::optional<BrickTarget>(targets[std::size_t(l)]);
-    levels[std::size_t(l)] = std::make_unique<LevelPipeline>(geometry, l, params.codec, target, range, sink, next);
+  // A global budget: Δ from the spectrum, aimed a little under the budget; if the measured error
+  // still exceeds it, encode again with a smaller Δ, and after kCalibratedAttempts with the
+  // per-brick caps that cannot miss.
+  const double budget_mse = budget ? std::pow(target_rmse(target, range.lo, range.hi), 2) : 0;
+  double step = 0;
+  if (calibrator) {
+    calibrator->finish();
+    step = calibrator->step_for_mse(kCalibrationAim * budget_mse, kMseZeroThreshold);
   }
-  io::for_each_slab(source, [&](const Volume& slab, std::int64_t) { push_slab_to_level0(slab, *levels[0]); },
-                    silent_progress(), "read", slab_bytes);
-  levels[0]->finish();
-
-  report.file_bytes = writer.finish(make_metadata(info, geometry, params, range, targets));
+  for (int attempt = 0;; ++attempt) {
+    std::vector<BrickTarget> targets;
+    if (target.kind != TargetKind::none)
+      targets = level_targets(target, range.lo, range.hi, geometry.level_count(), params.codec.rank,
+                              params.codec.zstd_level, step);
+    report.levels.assign(std::size_t(geometry.level_count()), LevelCounts{});
+    report.core_bytes = report.factor_bytes = report.brick_header_bytes = 0;
+    EncodedLevels encoded = encode_levels(source, out, params, geometry, range, targets, slab_bytes, report, progress);
+    const double mse = encoded.levels.empty() ? 0 : encoded.levels[0]->measured_error().mse();
+    if (step > 0 && mse > budget_mse) {
+      // Abandoned: the writer's temporary goes with it.
+      step = attempt + 1 < kCalibratedAttempts ? step * std::min(0.95, 0.98 * std::sqrt(budget_mse / mse)) : 0;
+      continue;
+    }
+    report.attempts = attempt + 1;
+    for (std::size_t l = 0; l < encoded.levels.size() && !targets.empty(); ++l) {
+      const auto& e = encoded.levels[l]->measured_error();
+      report.levels[l].rmse = std::sqrt(e.mse());
+      report.levels[l].max_error = e.max_abs;
+    }
+    report.file_bytes = encoded.writer->finish(make_metadata(info, geometry, params, range, targets, report.levels));
+    break;
+  }
   report.container_bytes = report.file_bytes - report.core_bytes - report.factor_bytes - report.brick_header_bytes;
   report.seconds = seconds_since(start);
   return report;

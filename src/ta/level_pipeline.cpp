@@ -39,6 +39,22 @@ void downsample_xy(const float* slice, const Extent& dims, float* out) {
 
 }  // namespace
 
+LevelPipeline::MeasuredError LevelPipeline::core_error(std::span<const float> samples, std::span<const float> decoded,
+                                                       const CoreRegion& core) const {
+  const std::int64_t b = geometry_.layout().brick;
+  MeasuredError e;
+  for (int k = core.lo[2]; k < core.hi[2]; ++k)
+    for (int j = core.lo[1]; j < core.hi[1]; ++j)
+      for (int i = core.lo[0]; i < core.hi[0]; ++i) {
+        const std::size_t at = std::size_t(i + b * (j + b * k));
+        const double d = double(samples[at]) - double(decoded[at]);
+        e.squared += d * d;
+        e.max_abs = std::max(e.max_abs, std::abs(d));
+        ++e.voxels;
+      }
+  return e;
+}
+
 LevelPipeline::LevelPipeline(const OctreeGeometry& geometry, int level, const CodecParams& codec,
                              std::optional<BrickTarget> target, HistogramRange range, BrickSink sink, LevelPipeline* next)
     : geometry_(geometry), level_(level), dims_(geometry.level(level)), codec_(codec), target_(target), range_(range),
@@ -203,6 +219,7 @@ void LevelPipeline::encode_row(std::int64_t row) {
   struct RowResult {
     EncodedBrick encoded;
     BrickStats stats;
+    MeasuredError error;
   };
   std::vector<RowResult> results(static_cast<std::size_t>(bricks_in_row));
   std::exception_ptr failure;
@@ -226,6 +243,7 @@ void LevelPipeline::encode_row(std::int64_t row) {
         const float c = r.encoded.constant_value;
         r.stats = constant ? brick_stats(std::span(&c, 1), std::span(&c, 1), range_)
                            : brick_stats(decoded, samples.values(), range_);
+        if (target_) r.error = core_error(samples.values(), decoded, core_region(bx, by, row));
         if (per_brick) {
           downsample_core(decoded, bx, by, row);
         } else if (next_) {
@@ -251,6 +269,9 @@ void LevelPipeline::encode_row(std::int64_t row) {
     const store::BrickKey key{std::uint8_t(level_), std::int32_t(bx), std::int32_t(by), std::int32_t(row)};
     RowResult& r = results[std::size_t(i)];
     sink_(key, r.encoded, r.stats.lo, r.stats.hi, r.stats.bits);
+    measured_.squared += r.error.squared;
+    measured_.max_abs = std::max(measured_.max_abs, r.error.max_abs);
+    measured_.voxels += r.error.voxels;
   }
   if (per_brick) {
     const std::size_t half_size = std::size_t(half.x * half.y);

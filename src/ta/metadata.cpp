@@ -7,12 +7,20 @@ namespace strata::ta {
 namespace {
 
 // What each level holds, so a reader can tell its error without the source.
-nlohmann::json target_metadata(const ErrorTarget& target, const std::vector<BrickTarget>& targets) {
+// Bounds ("rmse": every brick's cap, "max_error": every voxel's) where the encoder guarantees
+// them per brick, and the error measured over the whole level.
+nlohmann::json target_metadata(const ErrorTarget& target, const std::vector<BrickTarget>& targets,
+                               const std::vector<LevelCounts>& measured) {
   nlohmann::json levels = nlohmann::json::array();
-  for (const BrickTarget& t : targets) {
+  for (std::size_t i = 0; i < targets.size(); ++i) {
+    const BrickTarget& t = targets[i];
     nlohmann::json l{{"core_step", t.core_step}};
     if (std::isfinite(t.mse_cap)) l["rmse"] = std::sqrt(t.mse_cap);
     if (std::isfinite(t.max_error)) l["max_error"] = t.max_error;
+    if (i < measured.size()) {
+      l["measured_rmse"] = measured[i].rmse;
+      l["measured_max_error"] = measured[i].max_error;
+    }
     levels.push_back(l);
   }
   return {{"kind", target_kind_name(target.kind)},
@@ -24,7 +32,8 @@ nlohmann::json target_metadata(const ErrorTarget& target, const std::vector<Bric
 }  // namespace
 
 nlohmann::json make_metadata(const VolumeInfo& source, const OctreeGeometry& geometry, const CompressParams& params,
-                             const HistogramRange& range, const std::vector<BrickTarget>& targets) {
+                             const HistogramRange& range, const std::vector<BrickTarget>& targets,
+                             const std::vector<LevelCounts>& measured) {
   nlohmann::json levels = nlohmann::json::array();
   for (int l = 0; l < geometry.level_count(); ++l) {
     const LevelGeometry& g = geometry.level(l);
@@ -48,7 +57,7 @@ nlohmann::json make_metadata(const VolumeInfo& source, const OctreeGeometry& geo
     // Error-target bricks carry their own steps; no fixed quantization scheme applies.
     m["quant"] = kCodedQuantName;
     m.erase("hooi_iterations");
-    m["target"] = target_metadata(params.codec.target, targets);
+    m["target"] = target_metadata(params.codec.target, targets, measured);
   }
   return m;
 }

@@ -8,8 +8,10 @@
 
 namespace strata::ta {
 
-// `targets`: the per-level brick targets of an error-target file (empty in fixed-rank mode).
+// `targets`: the per-level brick targets of an error-target file (empty in fixed-rank mode);
+// `measured`: the error each level was measured to hold (error-target files).
 nlohmann::json make_metadata(const VolumeInfo& source, const OctreeGeometry& geometry, const CompressParams& params,
-                             const HistogramRange& range, const std::vector<BrickTarget>& targets);
+                             const HistogramRange& range, const std::vector<BrickTarget>& targets,
+                             const std::vector<LevelCounts>& measured);
 
 }  // namespace strata::ta

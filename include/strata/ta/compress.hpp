@@ -29,6 +29,7 @@ std::uint64_t input_slab_bytes(const OctreeGeometry& geometry, const VolumeInfo&
 
 struct LevelCounts {
   std::int64_t bricks = 0, constant = 0;
+  double rmse = 0, max_error = 0;  // error-target mode: measured over the level's voxels
 };
 
 struct CompressReport {
@@ -36,6 +37,7 @@ struct CompressReport {
   std::uint64_t file_bytes = 0, core_bytes = 0, factor_bytes = 0, brick_header_bytes = 0, container_bytes = 0;
   double seconds = 0, prepass_seconds = 0;
   std::uint64_t input_voxels = 0;
+  int attempts = 1;  // encoding passes (a PSNR/RMSE budget the calibrated step missed takes another)
 };
 
 // Reads `source` slab by slab (twice: a first pass for the value range that the per-brick

@@ -37,6 +37,7 @@ struct BrickTarget {
   double core_step = 1;                                            // Δ of the core codes
   double mse_cap = std::numeric_limits<double>::infinity();        // over the brick's core voxels
   double max_error = std::numeric_limits<double>::infinity();      // on every voxel of the brick
+  double zero_threshold = 0.5;                                     // codes below it (in steps) are 0
   int max_rank = 256;                                              // per mode
   int zstd_level = 3;                                              // of the lossless fallback
 };
@@ -50,9 +51,20 @@ void check_target(const ErrorTarget& target);
 double target_rmse(const ErrorTarget& target, double lo, double hi);
 
 /// @brief The brick target of each of `level_count` levels: level 0 holds the user's target,
-/// level l growth^l times it.
+/// level l growth^l times it. For an rmse or psnr target, `level0_step` > 0 is level 0's
+/// calibrated Δ (ta/step_calibration.hpp): the levels use growth^l times it and no per-brick cap
+/// (the budget is global; the caller checks it). With `level0_step` = 0 every brick is capped at
+/// the level's mean squared error (Δ = √12 · RMSE, shrunk per brick until the cap holds, else
+/// stored losslessly): the guaranteed fallback.
 std::vector<BrickTarget> level_targets(const ErrorTarget& target, double lo, double hi, int level_count, int max_rank,
-                                       int zstd_level);
+                                       int zstd_level, double level0_step = 0);
+
+/// @brief The block of the block-DCT basis for a fitted width: the divisor of `fitted` nearest 8
+/// within [4, 16], or 0 when there is none.
+int dct_block_width(std::int64_t fitted);
+
+/// @brief The dead zone of rmse and psnr targets: codes below it (in steps) are zero.
+inline constexpr double kMseZeroThreshold = 0.65;
 
 /// @brief The brick-local voxels [lo, hi) the level takes from this brick (its core, clipped to
 /// the level); the mean squared error is capped over these.

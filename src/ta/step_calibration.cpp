@@ -1,0 +1,137 @@
+#include "ta/step_calibration.hpp"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+
+#include "strata/core/error.hpp"
+#include "strata/quant/coded_brick.hpp"
+
+namespace strata::ta {
+
+namespace {
+
+float bin_edge(std::uint32_t bin) { return std::bit_cast<float>(bin << 19); }
+
+// Squared error of quantizing the coefficients of one bin (magnitudes in [lo, hi)) with step Δ.
+double bin_error(std::uint64_t n, double sum_abs, double sum_sq, double lo, double hi, double step,
+                 double zero_threshold) {
+  const double nd = double(n), mean = sum_abs / nd;
+  if (hi <= zero_threshold * step || (lo < zero_threshold * step && mean < zero_threshold * step)) return sum_sq;
+  const double m_lo = std::max(1.0, std::round(lo / step)), m_hi = std::max(1.0, std::round(hi / step));
+  if (m_lo == m_hi || hi < 32 * step) {
+    // One reconstruction level m for the whole bin (or the one of its mean, when the bin is
+    // narrower than Δ): Σ(|c| - mΔ)² from the bin's moments.
+    const double m = m_lo == m_hi ? m_lo : std::max(1.0, std::round(mean / step));
+    return std::max(0.0, sum_sq - 2 * m * step * sum_abs + nd * m * m * step * step);
+  }
+  return nd * step * step / 12;  // a wide bin: the rounding error is uniform over the step
+}
+
+}  // namespace
+
+StepCalibrator::StepCalibrator(const Extent& dims, int block)
+    : dims_(dims), block_(block), basis_(std::size_t(block * block)),
+      sparse_(dims.voxel_count() / (std::int64_t(block) * block * block) > kDenseBlocks) {
+  if (block < 2 || dims.voxel_count() <= 0) throw Error("StepCalibrator: needs a block of at least 2 and a non-empty level");
+  for (int f = 0; f < block; ++f)
+    for (int t = 0; t < block; ++t) basis_[std::size_t(t + block * f)] = quant::block_dct_entry(block, block, t, f);
+}
+
+void StepCalibrator::push_slice(std::span<const float> slice) {
+  if (std::int64_t(slice.size()) != dims_.x * dims_.y) throw Error("StepCalibrator: slice of the wrong size");
+  layer_.emplace_back(slice.begin(), slice.end());
+  ++slices_seen_;
+  if (int(layer_.size()) == block_) transform_layer();
+}
+
+void StepCalibrator::finish() {
+  if (layer_.empty()) return;
+  while (int(layer_.size()) < block_) layer_.push_back(layer_.back());  // the edge slice repeats
+  transform_layer();
+}
+
+void StepCalibrator::transform_layer() {
+  const std::int64_t w = block_;
+  std::vector<float> samples(std::size_t(w * w * w));
+  const std::int64_t bz = slices_seen_ > 0 ? (slices_seen_ - 1) / w : 0;
+  for (std::int64_t by = 0; by * w < dims_.y; ++by)
+    for (std::int64_t bx = 0; bx * w < dims_.x; ++bx) {
+      // Large levels: every other block (a checkerboard) predicts as well at half the cost.
+      if (sparse_ && (bx + by + bz) % 2 != 0) continue;
+      for (std::int64_t k = 0; k < w; ++k)
+        for (std::int64_t j = 0; j < w; ++j) {
+          const float* row = layer_[std::size_t(k)].data() + std::min(by * w + j, dims_.y - 1) * dims_.x;
+          for (std::int64_t i = 0; i < w; ++i) samples[std::size_t(i + w * (j + w * k))] = row[std::min(bx * w + i, dims_.x - 1)];
+        }
+      add_block(samples.data());
+    }
+  layer_.clear();
+}
+
+void StepCalibrator::add_block(const float* samples) {
+  const std::size_t w = std::size_t(block_), plane = w * w;
+  thread_local std::vector<float> a, b;
+  a.assign(samples, samples + w * plane);
+  b.resize(w * plane);
+  // Along x, then y, then z: coefficient (f_x, f_y, f_z) = Σ basis(t, f) · sample, per axis.
+  auto along = [&](const std::vector<float>& in, std::vector<float>& out, std::size_t stride) {
+    for (std::size_t at = 0; at < w * plane; ++at) {
+      const std::size_t f = (at / stride) % w, base = at - f * stride;
+      float sum = 0;
+      for (std::size_t t = 0; t < w; ++t) sum += basis_[t + w * f] * in[base + t * stride];
+      out[at] = sum;
+    }
+  };
+  along(a, b, 1);
+  along(b, a, w);
+  along(a, b, plane);
+  bool flat = true;
+  for (std::size_t i = 1; i < b.size() && flat; ++i) flat = b[i] == 0.0f;
+  ++blocks_;
+  // The DC coefficient holds the block mean less the brick mean, unknown here: it is counted as
+  // a uniform rounding error (predicted_mse) unless the block is flat, which its brick codes exactly.
+  if (!flat) ++bins_[0].count;  // bin 0 (magnitudes below 2^-126) doubles as the DC tally
+  for (std::size_t i = 1; i < b.size(); ++i) {
+    const float m = std::abs(b[i]);
+    if (m == 0.0f) continue;
+    Bin& bin = bins_[std::min<std::uint32_t>(std::bit_cast<std::uint32_t>(m) >> 19, kBins - 1)];
+    ++bin.count;
+    bin.sum_abs += m;
+    bin.sum_sq += double(m) * double(m);
+  }
+}
+
+double StepCalibrator::predicted_mse(double step, double zero_threshold) const {
+  if (blocks_ == 0) return 0;
+  double error = double(bins_[0].count) * step * step / 12;  // the DC tally
+  for (std::uint32_t i = 1; i < kBins; ++i) {
+    const Bin& bin = bins_[i];
+    if (bin.count == 0) continue;
+    error += bin_error(bin.count, bin.sum_abs, bin.sum_sq, bin_edge(i), bin_edge(i + 1), step, zero_threshold);
+  }
+  return error / (double(blocks_) * double(block_) * double(block_) * double(block_));
+}
+
+double StepCalibrator::step_for_mse(double mse, double zero_threshold) const {
+  if (!(mse > 0)) throw Error("StepCalibrator: the mean squared error budget must be positive");
+  // Bracket: a step far above every coefficient zeroes them all; a step far below meets any
+  // budget the data allows (the error then falls as Δ²).
+  double largest = 0;
+  for (std::uint32_t i = kBins; i-- > 1;)
+    if (bins_[i].count) {
+      largest = bin_edge(i + 1);
+      break;
+    }
+  double hi = std::max(4 * largest / zero_threshold, std::sqrt(12 * mse));
+  if (predicted_mse(hi, zero_threshold) <= mse) return hi;
+  double lo = hi;
+  while (predicted_mse(lo, zero_threshold) > mse && lo > 1e-30) lo /= 4;
+  while (hi / lo > 1.001) {
+    const double mid = std::sqrt(lo * hi);
+    (predicted_mse(mid, zero_threshold) <= mse ? lo : hi) = mid;
+  }
+  return lo;
+}
+
+}  // namespace strata::ta
