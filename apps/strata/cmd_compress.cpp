@@ -71,6 +71,9 @@ void run_compress(const CompressArgs& args, const GlobalOptions& global) {
               args.output.c_str(), (long long)bricks, r.levels.size(), (long long)constant,
               human_bytes(r.file_bytes).c_str(), 8.0 * double(r.file_bytes) / double(r.input_voxels), r.seconds,
               double(r.input_voxels) / r.seconds / 1e6);
+  if (params.codec.target.kind != ta::TargetKind::none && !r.levels.empty())
+    std::printf("level 0: RMSE %.6g, max error %.6g (measured; %d encoding pass%s)\n", r.levels[0].rmse,
+                r.levels[0].max_error, r.attempts, r.attempts == 1 ? "" : "es");
 }
 
 }  // namespace

@@ -13,7 +13,6 @@
 namespace strata::quant {
 namespace {
 
-constexpr std::uint8_t kLayout = 1;
 constexpr std::uint8_t kHasCorrection = 1;
 constexpr std::uint8_t kBlockDct = 2;
 constexpr std::int64_t kMaxExtent = 65535;
@@ -111,10 +110,12 @@ void for_each_factor_code(const CodedBrick& b, Visit&& visit) {
 
 // The core codes in stream order (first index fastest): visit(index, context). The context
 // reads only codes visited before, so a decoder can call it on the codes it has so far.
+// Layout 1 (format 1.1) coded block-DCT cores with the Tucker contexts.
 template <class Visit>
-void for_each_core_code(const CodedBrick& b, Visit&& visit) {
+void for_each_core_code(const CodedBrick& b, std::uint8_t layout, Visit&& visit) {
   const tensor::Ranks3& r = b.ranks;
-  const int blocks = b.dct_block > 0 ? int((b.dims[0] - 2 * std::int64_t(b.margin)) / b.dct_block) : 0;
+  const int blocks =
+      b.dct_block > 0 && layout >= 2 ? int((b.dims[0] - 2 * std::int64_t(b.margin)) / b.dct_block) : 0;
   std::size_t at = 0;
   for (int k = 0; k < r[2]; ++k)
     for (int j = 0; j < r[1]; ++j)
@@ -132,13 +133,13 @@ std::int32_t decode_signed(RangeDecoder& dec, BitModel& zero, UIntModel& magnitu
   return dec.decode_bit(zero) ? decode_nonzero(dec, magnitude) : 0;
 }
 
-void encode_stream(const CodedBrick& b, RangeEncoder& enc) {
+void encode_stream(const CodedBrick& b, std::uint8_t layout, RangeEncoder& enc) {
   FactorModels fm;
   for_each_factor_code(b, [&](std::size_t at, int cls) {
     encode_signed(enc, fm.zero[std::size_t(cls)], fm.magnitude[std::size_t(cls)], b.factor_codes[at]);
   });
   CoreModels cm;
-  for_each_core_code(b, [&](std::size_t at, const CoreContext& ctx) {
+  for_each_core_code(b, layout, [&](std::size_t at, const CoreContext& ctx) {
     encode_signed(enc, cm.zero[std::size_t(ctx.zero)], cm.magnitude[std::size_t(ctx.magnitude)], b.core_codes[at]);
   });
   if (b.correction_step == 0) return;
@@ -154,7 +155,7 @@ void encode_stream(const CodedBrick& b, RangeEncoder& enc) {
   }
 }
 
-void decode_stream(RangeDecoder& dec, CodedBrick& b) {
+void decode_stream(RangeDecoder& dec, std::uint8_t layout, CodedBrick& b) {
   b.factor_codes.resize(factor_count(b));
   FactorModels fm;
   for_each_factor_code(b, [&](std::size_t at, int cls) {
@@ -162,7 +163,7 @@ void decode_stream(RangeDecoder& dec, CodedBrick& b) {
   });
   b.core_codes.resize(core_count(b.ranks));
   CoreModels cm;
-  for_each_core_code(b, [&](std::size_t at, const CoreContext& ctx) {
+  for_each_core_code(b, layout, [&](std::size_t at, const CoreContext& ctx) {
     b.core_codes[at] = decode_signed(dec, cm.zero[std::size_t(ctx.zero)], cm.magnitude[std::size_t(ctx.magnitude)]);
   });
   b.correction_index.clear();
@@ -244,10 +245,13 @@ double error_value(std::uint8_t code, float core_step) {
   return double(core_step) * std::exp2((double(code) - 64.0) / 4.0);
 }
 
-std::vector<std::byte> serialize(const CodedBrick& b) {
+std::vector<std::byte> serialize(const CodedBrick& b, std::uint8_t layout) {
+  if (layout < kOldestCodedLayout || layout > kCodedLayout)
+    throw ParameterError("layout", "coded brick layouts are " + std::to_string(kOldestCodedLayout) + " to " +
+                                       std::to_string(kCodedLayout) + ", got " + std::to_string(layout));
   check_brick(b);
   ByteWriter out(64 + column_count(b.ranks) + std::size_t(max_rank(b.ranks)));
-  out.put(kLayout);
+  out.put(layout);
   out.put(std::uint8_t((b.correction_step > 0 ? kHasCorrection : 0) | (b.dct_block > 0 ? kBlockDct : 0)));
   for (std::int64_t d : b.dims) out.put(std::uint16_t(d));
   for (int r : b.ranks) out.put(std::uint16_t(r));
@@ -261,7 +265,7 @@ std::vector<std::byte> serialize(const CodedBrick& b) {
   for (std::uint8_t c : b.factor_step_codes) out.put(c);
   for (std::uint8_t c : b.error_table) out.put(c);
   RangeEncoder enc;
-  encode_stream(b, enc);
+  encode_stream(b, layout, enc);
   const std::vector<std::byte> stream = enc.finish();
   out.put_bytes(stream);
   return out.take();
@@ -271,8 +275,10 @@ CodedBrick deserialize_coded(std::span<const std::byte> bytes, int brick_width, 
   ByteReader in(bytes, context);
   CodedBrick b;
   const auto layout = in.get<std::uint8_t>("coded brick layout");
-  if (layout != kLayout)
-    throw FormatError(context, "coded brick layout", "expected " + std::to_string(kLayout) + ", found " + std::to_string(layout));
+  if (layout < kOldestCodedLayout || layout > kCodedLayout)
+    throw FormatError(context, "coded brick layout",
+                      "expected " + std::to_string(kOldestCodedLayout) + " to " + std::to_string(kCodedLayout) +
+                          ", found " + std::to_string(layout));
   const auto flags = in.get<std::uint8_t>("coded brick flags");
   if (flags & ~(kHasCorrection | kBlockDct)) throw FormatError(context, "coded brick flags", "unknown bits set");
   for (auto& d : b.dims) d = in.get<std::uint16_t>("coded brick extents");
@@ -311,7 +317,7 @@ CodedBrick deserialize_coded(std::span<const std::byte> bytes, int brick_width, 
   b.error_table.assign(reinterpret_cast<const std::uint8_t*>(table.data()),
                        reinterpret_cast<const std::uint8_t*>(table.data()) + table.size());
   RangeDecoder dec(in.bytes(in.remaining(), "coded brick stream"), context, "coded brick stream");
-  decode_stream(dec, b);
+  decode_stream(dec, layout, b);
   dec.finish_check();
   return b;
 }

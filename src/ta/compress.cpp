@@ -125,6 +125,8 @@ EncodedLevels encode_levels(io::VolumeSource& source, const std::filesystem::pat
 // approximations rarely cost a second pass; and the passes before the per-brick caps.
 constexpr double kCalibrationAim = 0.955;
 constexpr int kCalibratedAttempts = 3;
+// A first pass more than 1 dB under the budget is encoded again with a larger step.
+constexpr double kRaiseBelow = 0.79;
 
 }  // namespace
 
@@ -176,11 +178,14 @@ CompressReport compress_volume(io::VolumeSource& source, const std::filesystem::
   const HistogramRange range = value_range(source, progress, slab_bytes, calibrator ? &*calibrator : nullptr);
   report.prepass_seconds = seconds_since(start);
 
-  // A global budget: Δ from the spectrum, aimed a little under the budget; if the measured error
-  // still exceeds it, encode again with a smaller Δ, and after kCalibratedAttempts with the
-  // per-brick caps that cannot miss.
+  // A global budget: Δ from the spectrum, aimed a little under the budget. The spectrum is the
+  // block-DCT basis's; where the encoder's HOSVD basis wins (smooth fields) the error lands far
+  // under the budget, and one more pass with a larger Δ spends it (kept only if it holds). If
+  // the measured error exceeds the budget, the volume is encoded again with a smaller Δ, and
+  // after kCalibratedAttempts with the per-brick caps that cannot miss.
   const double budget_mse = budget ? std::pow(target_rmse(target, range.lo, range.hi), 2) : 0;
-  double step = 0;
+  double step = 0, holding_step = 0;
+  bool raised = false;
   if (calibrator) {
     calibrator->finish();
     step = calibrator->step_for_mse(kCalibrationAim * budget_mse, kMseZeroThreshold);
@@ -194,9 +199,16 @@ CompressReport compress_volume(io::VolumeSource& source, const std::filesystem::
     report.core_bytes = report.factor_bytes = report.brick_header_bytes = 0;
     EncodedLevels encoded = encode_levels(source, out, params, geometry, range, targets, slab_bytes, report, progress);
     const double mse = encoded.levels.empty() ? 0 : encoded.levels[0]->measured_error().mse();
+    // Each `continue` abandons this pass: the writer's temporary goes with it.
     if (step > 0 && mse > budget_mse) {
-      // Abandoned: the writer's temporary goes with it.
-      step = attempt + 1 < kCalibratedAttempts ? step * std::min(0.95, 0.98 * std::sqrt(budget_mse / mse)) : 0;
+      if (holding_step > 0) step = holding_step;  // the raised step missed: back to the one that held
+      else step = attempt + 1 < kCalibratedAttempts ? step * std::min(0.95, 0.98 * std::sqrt(budget_mse / mse)) : 0;
+      continue;
+    }
+    if (step > 0 && !raised && mse > 0 && mse < kRaiseBelow * budget_mse) {
+      raised = true;
+      holding_step = step;
+      step *= std::min(4.0, std::sqrt(kCalibrationAim * budget_mse / mse));
       continue;
     }
     report.attempts = attempt + 1;

@@ -13,19 +13,43 @@ namespace {
 
 float bin_edge(std::uint32_t bin) { return std::bit_cast<float>(bin << 19); }
 
+// ∫_a^b (x - c)² dx
+double squared_distance_integral(double a, double b, double c) { return (std::pow(b - c, 3) - std::pow(a - c, 3)) / 3; }
+
+// Squared error of quantizing magnitudes spread evenly over [lo, hi) with step Δ: the bin split
+// at the zero threshold and at the rounding boundaries (m + 1/2)Δ, each piece against its level.
+double uniform_bin_error(double lo, double hi, double step, double zero_threshold) {
+  double error = 0, a = lo;
+  const double dead = zero_threshold * step;
+  if (a < dead) {
+    const double b = std::min(hi, dead);
+    error += squared_distance_integral(a, b, 0);
+    a = b;
+  }
+  while (a < hi) {
+    const double m = std::max(1.0, std::floor(a / step + 0.5));
+    const double b = std::min(hi, (m + 0.5) * step);
+    error += squared_distance_integral(a, b, m * step);
+    if (!(b > a)) break;  // a step below the float spacing of `a`: nothing left to split
+    a = b;
+  }
+  return error / (hi - lo);
+}
+
 // Squared error of quantizing the coefficients of one bin (magnitudes in [lo, hi)) with step Δ.
+// A bin on one side of every boundary is exact from its moments: Σ(|c| - mΔ)² (m = 0 in the
+// dead zone). A bin a boundary cuts is taken as evenly filled; a bin many steps wide, as
+// rounding uniformly.
 double bin_error(std::uint64_t n, double sum_abs, double sum_sq, double lo, double hi, double step,
                  double zero_threshold) {
-  const double nd = double(n), mean = sum_abs / nd;
-  if (hi <= zero_threshold * step || (lo < zero_threshold * step && mean < zero_threshold * step)) return sum_sq;
-  const double m_lo = std::max(1.0, std::round(lo / step)), m_hi = std::max(1.0, std::round(hi / step));
-  if (m_lo == m_hi || hi < 32 * step) {
-    // One reconstruction level m for the whole bin (or the one of its mean, when the bin is
-    // narrower than Δ): Σ(|c| - mΔ)² from the bin's moments.
-    const double m = m_lo == m_hi ? m_lo : std::max(1.0, std::round(mean / step));
-    return std::max(0.0, sum_sq - 2 * m * step * sum_abs + nd * m * m * step * step);
-  }
-  return nd * step * step / 12;  // a wide bin: the rounding error is uniform over the step
+  const double nd = double(n);
+  const double dead = zero_threshold * step;
+  if (hi <= dead) return sum_sq;
+  const double m_lo = lo < dead ? 0.0 : std::max(1.0, std::floor(lo / step + 0.5));
+  const double m_hi = std::max(1.0, std::floor(hi / step + 0.5));
+  if (m_lo == m_hi) return std::max(0.0, sum_sq - 2 * m_lo * step * sum_abs + nd * m_lo * m_lo * step * step);
+  if (hi - lo > 64 * step) return nd * step * step / 12;
+  return nd * uniform_bin_error(lo, hi, step, zero_threshold);
 }
 
 }  // namespace
@@ -71,6 +95,12 @@ void StepCalibrator::transform_layer() {
 
 void StepCalibrator::add_block(const float* samples) {
   const std::size_t w = std::size_t(block_), plane = w * w;
+  ++blocks_;
+  // A flat block has no spectrum (its float transform would leave rounding noise). The DC
+  // coefficient of any other block holds the block mean less the brick mean, unknown here: it
+  // is charged a uniform rounding error (predicted_mse).
+  if (std::all_of(samples + 1, samples + w * plane, [first = samples[0]](float x) { return x == first; })) return;
+  ++bins_[0].count;  // bin 0 (magnitudes below 2^-126) doubles as the DC tally
   thread_local std::vector<float> a, b;
   a.assign(samples, samples + w * plane);
   b.resize(w * plane);
@@ -86,12 +116,6 @@ void StepCalibrator::add_block(const float* samples) {
   along(a, b, 1);
   along(b, a, w);
   along(a, b, plane);
-  bool flat = true;
-  for (std::size_t i = 1; i < b.size() && flat; ++i) flat = b[i] == 0.0f;
-  ++blocks_;
-  // The DC coefficient holds the block mean less the brick mean, unknown here: it is counted as
-  // a uniform rounding error (predicted_mse) unless the block is flat, which its brick codes exactly.
-  if (!flat) ++bins_[0].count;  // bin 0 (magnitudes below 2^-126) doubles as the DC tally
   for (std::size_t i = 1; i < b.size(); ++i) {
     const float m = std::abs(b[i]);
     if (m == 0.0f) continue;

@@ -56,6 +56,28 @@ TEST(QuantCodedBrick, EveryFieldRoundTrips) {
   EXPECT_EQ(deserialize_coded(serialize(offset_only), 8, "test"), offset_only);
 }
 
+// Layout 2 codes block-DCT cores with their own contexts; bricks of layout 1 (format 1.1) still
+// read, and a layout byte changed between the two decodes to something else or fails.
+TEST(QuantCodedBrick, LayoutOneStillReadsAndTheLayoutSelectsTheContexts) {
+  const CodedBrick b = sample_brick(true, false, 8);
+  const std::vector<std::byte> one = serialize(b, 1), two = serialize(b);
+  EXPECT_EQ(std::to_integer<int>(two[0]), int(kCodedLayout));
+  EXPECT_EQ(deserialize_coded(one, 12, "test"), b);
+  EXPECT_EQ(deserialize_coded(two, 12, "test"), b);
+  EXPECT_NE(one, two);
+  std::vector<std::byte> relabelled = two;
+  relabelled[0] = std::byte{1};
+  bool same = false;
+  try {
+    same = deserialize_coded(relabelled, 12, "test") == b;
+  } catch (const FormatError&) {
+  }
+  EXPECT_FALSE(same);
+  relabelled[0] = std::byte{kCodedLayout + 1};
+  EXPECT_THROW(deserialize_coded(relabelled, 12, "test"), FormatError);
+  EXPECT_THROW(serialize(b, 0), ParameterError);
+}
+
 TEST(QuantCodedBrick, DequantizedValuesAreCodesTimesSteps) {
   const CodedBrick b = sample_brick(true, true, 7);
   DequantizedModel m;

@@ -11,7 +11,7 @@
 ///
 /// | offset | field | type | meaning |
 /// | --- | --- | --- | --- |
-/// | 0 | layout | u8 | 1 |
+/// | 0 | layout | u8 | 2 (1: format 1.1, block-DCT cores with the Tucker contexts; still read) |
 /// | 1 | flags | u8 | bit 0: a sparse correction follows; bit 1: block-DCT factors |
 /// | 2 | I1, I2, I3 | u16 ×3 | brick extents |
 /// | 8 | R1, R2, R3 | u16 ×3 | stored ranks; all 0: the brick is `offset` (plus corrections) |
@@ -76,9 +76,13 @@ std::uint8_t error_code(double bound, float core_step);
 /// @brief The error a table code stands for (infinity for the saturated code 255).
 double error_value(std::uint8_t code, float core_step);
 
+inline constexpr std::uint8_t kCodedLayout = 2;        // written
+inline constexpr std::uint8_t kOldestCodedLayout = 1;  // still read
+
 /// @brief The payload bytes. Throws Error when a field is inconsistent (sizes, non-finite steps,
-/// correction indices not ascending or beyond the brick).
-std::vector<std::byte> serialize(const CodedBrick& brick);
+/// correction indices not ascending or beyond the brick), ParameterError for an unknown layout
+/// (an older layout is only written to test that it still reads).
+std::vector<std::byte> serialize(const CodedBrick& brick, std::uint8_t layout = kCodedLayout);
 
 /// @brief Parses and validates a payload of a brick `brick_width` wide along every axis. Throws
 /// FormatError(context, "coded brick …", problem) when it is truncated, has other extents, is
