@@ -5,15 +5,16 @@
 /// Per brick (paper 1 §7 names adaptive ranks and better coefficient coding as its next steps):
 ///  1. the brick mean becomes the offset; a brick its offset already represents within the
 ///     target becomes a constant brick (no payload);
-///  2. a full HOSVD of the rest; every core coefficient is quantized with one uniform step Δ (the
+///  2. a block-DCT basis and a full HOSVD of the rest, the smaller payload kept; every core coefficient is quantized with one uniform step Δ (the
 ///     same in every brick of a level: equal slopes, the rate–distortion-optimal split of a mean
 ///     squared error budget across bricks), and each mode keeps the leading slices that still
 ///     hold a non-zero code: empty, smooth and busy bricks get the ranks they need;
 ///  3. column r of U^(n) is quantized with step Δ / σ_r (σ_r its singular value), so each factor
 ///     entry adds about as much error as a core coefficient; the core is then re-fitted to the
 ///     quantized factors (least squares) and quantized;
-///  4. if a brick's mean squared error over its core voxels exceeds the cap, Δ shrinks for that
-///     brick and it is coded again;
+///  4. a PSNR/RMSE budget is global: Δ is calibrated for the whole level (ta/step_calibration.hpp)
+///     and coefficients below 0.65 Δ are dropped (a dead zone); only in the capped fallback does a
+///     brick whose mean squared error exceeds its cap shrink Δ and get coded again;
 ///  5. with a max-error target, voxels the model misses by more than the bound (thin bright
 ///     structures) get a sparse correction, quantized so every voxel ends within the bound;
 ///  6. the coded payload (quant/coded_brick.hpp) is kept only when smaller than the brick stored
