@@ -55,6 +55,12 @@ LevelPipeline::MeasuredError LevelPipeline::core_error(std::span<const float> sa
   return e;
 }
 
+bool LevelPipeline::row_tries_hosvd(std::int64_t row) const {
+  constexpr std::int64_t kHosvdProbeRows = 4;
+  constexpr double kHosvdMinSaving = 0.01;
+  return row % kHosvdProbeRows == 0 || double(hosvd_saved_bytes_) >= kHosvdMinSaving * double(hosvd_trial_bytes_);
+}
+
 LevelPipeline::LevelPipeline(const OctreeGeometry& geometry, int level, const CodecParams& codec,
                              std::optional<BrickTarget> target, HistogramRange range, BrickSink sink, LevelPipeline* next)
     : geometry_(geometry), level_(level), dims_(geometry.level(level)), codec_(codec), target_(target), range_(range),
@@ -189,9 +195,12 @@ void LevelPipeline::downsample_core(std::span<const float> decoded, std::int64_t
 
 bool LevelPipeline::encode_and_decode(std::int64_t bx, std::int64_t by, std::int64_t bz, const tensor::Tensor3& samples,
                                       std::vector<float>& decoded, EncodedBrick& encoded,
-                                      tensor::BrickReconstructor& reconstructor, DecodeScratch& scratch) const {
+                                      tensor::BrickReconstructor& reconstructor, DecodeScratch& scratch,
+                                      bool try_hosvd) const {
   if (target_) {
-    encoded = encode_brick_to_target(samples, core_region(bx, by, bz), *target_, decoded);
+    BrickTarget target = *target_;
+    target.try_hosvd = try_hosvd;
+    encoded = encode_brick_to_target(samples, core_region(bx, by, bz), target, decoded);
     return encoded.kind == store::PayloadKind::constant;
   }
   encoded = encode_brick(samples, codec_);
@@ -223,6 +232,7 @@ void LevelPipeline::encode_row(std::int64_t row) {
   };
   std::vector<RowResult> results(static_cast<std::size_t>(bricks_in_row));
   std::exception_ptr failure;
+  const bool try_hosvd = row_tries_hosvd(row);
 
 #pragma omp parallel num_threads(thread_count())
   {
@@ -239,7 +249,7 @@ void LevelPipeline::encode_row(std::int64_t row) {
         // Culling metadata covers what a renderer may sample: original and decoded values. A
         // constant brick decodes to its value, which stands for every sample (an error-target
         // brick may be constant within its bound).
-        const bool constant = encode_and_decode(bx, by, row, samples, decoded, r.encoded, reconstructor, scratch);
+        const bool constant = encode_and_decode(bx, by, row, samples, decoded, r.encoded, reconstructor, scratch, try_hosvd);
         const float c = r.encoded.constant_value;
         r.stats = constant ? brick_stats(std::span(&c, 1), std::span(&c, 1), range_)
                            : brick_stats(decoded, samples.values(), range_);
@@ -272,6 +282,11 @@ void LevelPipeline::encode_row(std::int64_t row) {
     measured_.squared += r.error.squared;
     measured_.max_abs = std::max(measured_.max_abs, r.error.max_abs);
     measured_.voxels += r.error.voxels;
+    if (r.encoded.block_dct_bytes > 0) {
+      const std::size_t kept = std::min(r.encoded.block_dct_bytes, r.encoded.hosvd_bytes);
+      hosvd_trial_bytes_ += r.encoded.block_dct_bytes;
+      hosvd_saved_bytes_ += r.encoded.block_dct_bytes - kept;
+    }
   }
   if (per_brick) {
     const std::size_t half_size = std::size_t(half.x * half.y);

@@ -620,10 +620,13 @@ EncodedBrick encode_brick_to_target(const tensor::Tensor3& samples, const CoreRe
                                    v, x0, core, target, decoded);
   if (dct && dct->empty) return constant_brick(offset, decoded);
   std::vector<float> tucker_decoded(v.size());
-  const tensor::Tucker full =
-      tensor::hosvd(fitted, {int(fitted.dims()[0]), int(fitted.dims()[1]), int(fitted.dims()[2])});
-  const std::optional<CodedPayload> tucker = code_with_basis(
-      [&](double step) { return code_model(fitted, full, step, target, offset); }, v, x0, core, target, tucker_decoded);
+  std::optional<CodedPayload> tucker;
+  if (target.try_hosvd || block == 0) {
+    const tensor::Tucker full =
+        tensor::hosvd(fitted, {int(fitted.dims()[0]), int(fitted.dims()[1]), int(fitted.dims()[2])});
+    tucker = code_with_basis([&](double step) { return code_model(fitted, full, step, target, offset); }, v, x0, core,
+                             target, tucker_decoded);
+  }
   const CodedPayload* best = dct ? &*dct : nullptr;
   if (tucker && (!best || tucker->bytes.size() < best->bytes.size())) {
     best = &*tucker;
@@ -641,6 +644,10 @@ EncodedBrick encode_brick_to_target(const tensor::Tensor3& samples, const CoreRe
     if (raw.size() <= out.payload.size()) return lossless_brick(v, target.zstd_level, decoded);
   }
   out.header_bytes = out.payload.size();  // split in `strata eval` (ta/evaluate.cpp)
+  if (dct && tucker) {
+    out.block_dct_bytes = dct->bytes.size();
+    out.hosvd_bytes = tucker->bytes.size();
+  }
   return out;
 }
 

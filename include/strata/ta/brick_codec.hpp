@@ -60,6 +60,8 @@ struct EncodedBrick {
   float constant_value = 0;  // for constant bricks
   // Sizes of the payload's parts, for `strata eval` (bytes).
   std::size_t core_bytes = 0, factor_bytes = 0, header_bytes = 0;
+  // Error-target mode, when both bases were coded: each one's payload size (else 0).
+  std::size_t block_dct_bytes = 0, hosvd_bytes = 0;
 };
 
 /// @brief Encodes a brick of samples (B x B x B, first index fastest).
