@@ -2,6 +2,9 @@
 #include <cstdio>
 #include <exception>
 #include <string>
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 
 #include "commands.hpp"
 #include "strata/core/error.hpp"
@@ -18,10 +21,24 @@ void apply_isa_option(const std::string& name) {
   else set_isa_limit(*parse_isa(name));  // CLI::IsMember admitted only known names
 }
 
+// The codecs allocate and free brick-sized buffers (B^3 floats = 128 KiB at B = 32, glibc's
+// default mmap threshold) on every worker thread for every brick. With glibc's defaults those
+// come from fresh mappings or from arena memory just returned to the kernel, and each brick pays
+// its page faults again: on a 35 Mvoxel MRI the error-target encoder took 76 k page faults and
+// 4.9 s of CPU, against 16.5 k and 3.7 s with the thresholds below (perf stat, same output).
+// Large buffers (volumes, slabs) are still mapped and returned.
+void keep_brick_buffers_mapped() {
+#if defined(__GLIBC__)
+  mallopt(M_MMAP_THRESHOLD, 64 << 20);
+  mallopt(M_TRIM_THRESHOLD, 256 << 20);
+#endif
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   using namespace strata;
+  keep_brick_buffers_mapped();
   CLI::App app{"Strata: compressed multiresolution volumes — store, explore and query.", "strata"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "strata 0.1.0");
