@@ -219,9 +219,7 @@ CodedModel code_model_dct(const tensor::Tensor3& x0, int block, double step, con
   tensor::Factors<float> basis;
   for (std::size_t n = 0; n < 3; ++n) {
     const int rows = int(b.dims[n]);
-    basis[n].resize(rows, rows);
-    for (int c = 0; c < rows; ++c)
-      for (int r = 0; r < rows; ++r) basis[n](r, c) = quant::block_dct_entry(rows, block, r, c);
+    basis[n] = Eigen::Map<const tensor::Matrix<float>>(quant::block_dct_basis(rows, block).data(), rows, rows);
   }
   const tensor::Tensor3 coefficients = tensor::project(x0, basis);
   b.core_step = guarded_step(coefficients, step);

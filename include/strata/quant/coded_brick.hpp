@@ -61,6 +61,11 @@ struct CodedBrick {
 /// @brief Entry (row, column) of the orthonormal block-DCT basis of `rows` rows in blocks of
 /// `block` (columns frequency-major; see above). Computed in double, rounded once to float.
 float block_dct_entry(int rows, int block, int row, int column);
+/// @brief The whole basis of block_dct_entry, rows × rows, column-major (entry (row, column) at
+/// row + rows · column), cached per thread (valid until eight other bases were asked for on the
+/// same thread). Throws ParameterError("block") unless blocks of
+/// `block` tile `rows`.
+std::span<const float> block_dct_basis(int rows, int block);
 
 /// @brief Factor codes stored per column: every row, or the overlap rows of a block-DCT brick.
 std::int64_t coded_rows(const CodedBrick& brick, int mode);
