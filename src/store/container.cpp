@@ -9,7 +9,9 @@
 
 #include "strata/core/bytes.hpp"
 #include "strata/core/error.hpp"
+#include "strata/store/byte_planes.hpp"
 #include "strata/store/crc32c.hpp"
+#include "strata/store/zstd_frame.hpp"
 
 namespace strata::store {
 
@@ -18,6 +20,39 @@ namespace {
 // "\x89STRATA\n": the high byte catches 7-bit transfers, the newline catches text-mode
 // line-ending conversion (the trick PNG uses).
 constexpr std::array<unsigned char, 8> kMagic{0x89, 'S', 'T', 'R', 'A', 'T', 'A', '\n'};
+
+// Header `flags` bits. A flag marks a change an older reader would misread (a 1.1 reader would
+// take a compressed index for 64-byte entries), so readers reject bits they do not know.
+constexpr std::uint32_t kFlagCompressedIndex = 1u << 0;  // format 1.2
+constexpr std::uint32_t kKnownFlags = kFlagCompressedIndex;
+
+// The compressed index (format 1.2, docs/format.md): a u64 frame size, then one zstd frame of
+// columns, each split into byte planes. Columns every entry has: level u8, kind u8, x, y, z i32,
+// size u64, min, max f32, histogram u64. Columns only entries with payload bytes have: offset
+// gap u64, crc32c u32 (a payload-less entry has offset 0 and the CRC-32C of nothing, 0).
+constexpr std::uint64_t kColumnBytesPerEntry = 1 + 1 + 3 * 4 + 8 + 2 * 4 + 8;
+constexpr std::uint64_t kColumnBytesPerPayload = 8 + 4;
+// The decompression limit is count × this: never more than the 64 bytes an uncompressed entry takes.
+static_assert(kColumnBytesPerEntry + kColumnBytesPerPayload <= kIndexEntrySize);
+constexpr std::size_t kIndexSizeField = 8;
+// The index is compressed once per file, so a slow level costs little: on the MRI files of
+// docs/format.md level 15 is 8% smaller than 3 and within 1% of 17..22.
+constexpr int kIndexZstdLevel = 15;
+// A zstd block regenerates at most 128 KiB and takes at least 4 stored bytes (a 3-byte block
+// header and the one byte of an RLE block), so no frame inflates more than 32768-fold. An
+// index_count whose columns would need more is refused before anything is allocated; the
+// bound never rejects a real file, however many constant bricks it has.
+constexpr std::uint64_t kZstdMaxExpansion = 128 * 1024 / 4;
+
+std::uint64_t saturating_mul(std::uint64_t a, std::uint64_t b) { return a != 0 && b > UINT64_MAX / a ? UINT64_MAX : a * b; }
+
+std::uint64_t align_up(std::uint64_t position) {
+  return (position + kPayloadAlignment - 1) / kPayloadAlignment * kPayloadAlignment;
+}
+
+// Where the writer puts a payload of `kind` when the previous brick payload ended at `end`. The
+// compressed index stores offsets as the gap from it: 0 unless a section was written between.
+std::uint64_t packed_offset(std::uint64_t end, PayloadKind kind) { return needs_alignment(kind) ? align_up(end) : end; }
 
 
 struct Header {
@@ -44,21 +79,7 @@ std::array<std::byte, kHeaderSize> encode_header(const Header& h) {
   return b;
 }
 
-void encode_entry(const BrickEntry& e, std::span<std::byte, kIndexEntrySize> b) {
-  std::fill(b.begin(), b.end(), std::byte{0});
-  store_field(b, 0, e.key.level);
-  store_field(b, 1, std::uint8_t(e.kind));
-  store_field(b, 4, e.crc32c);
-  store_field(b, 8, e.key.x);
-  store_field(b, 12, e.key.y);
-  store_field(b, 16, e.key.z);
-  store_field(b, 24, e.offset);
-  store_field(b, 32, e.size);
-  store_field(b, 40, e.min);
-  store_field(b, 44, e.max);
-  store_field(b, 48, e.histogram);
-}
-
+// The 64-byte entry of a 1.0/1.1 index (the writer no longer produces it).
 BrickEntry decode_entry(std::span<const std::byte, kIndexEntrySize> b) {
   BrickEntry e;
   e.key.level = load_field<std::uint8_t>(b, 0);
@@ -80,6 +101,68 @@ bool known_kind(PayloadKind k) {
          k == PayloadKind::tucker_coded || k == PayloadKind::raw_zstd;
 }
 
+// Appends value(e) of the entries (with payload_only, of those with payload bytes) as one column
+// of T, split into byte planes.
+template <class T, class Value>
+void put_column(std::vector<std::byte>& out, const std::vector<BrickEntry>& entries, bool payload_only, Value&& value) {
+  std::vector<T> column;
+  column.reserve(entries.size());
+  for (const BrickEntry& e : entries)
+    if (!payload_only || e.size != 0) column.push_back(T(value(e)));
+  const auto bytes = std::as_bytes(std::span(column));
+  const std::size_t at = out.size();
+  out.resize(at + bytes.size());
+  split_byte_planes(bytes, std::span(out).subspan(at), sizeof(T));
+}
+
+// The stored compressed index: u64 frame size, then the zstd frame of the columns.
+std::vector<std::byte> encode_compressed_index(const std::vector<BrickEntry>& entries) {
+  std::vector<std::byte> columns;
+  columns.reserve(entries.size() * (kColumnBytesPerEntry + kColumnBytesPerPayload));
+  put_column<std::uint8_t>(columns, entries, false, [](const BrickEntry& e) { return e.key.level; });
+  put_column<std::uint8_t>(columns, entries, false, [](const BrickEntry& e) { return std::uint8_t(e.kind); });
+  put_column<std::int32_t>(columns, entries, false, [](const BrickEntry& e) { return e.key.x; });
+  put_column<std::int32_t>(columns, entries, false, [](const BrickEntry& e) { return e.key.y; });
+  put_column<std::int32_t>(columns, entries, false, [](const BrickEntry& e) { return e.key.z; });
+  put_column<std::uint64_t>(columns, entries, false, [](const BrickEntry& e) { return e.size; });
+  put_column<float>(columns, entries, false, [](const BrickEntry& e) { return e.min; });
+  put_column<float>(columns, entries, false, [](const BrickEntry& e) { return e.max; });
+  put_column<std::uint64_t>(columns, entries, false, [](const BrickEntry& e) { return e.histogram; });
+  std::uint64_t end = kHeaderSize;  // where the previous brick payload ended
+  put_column<std::uint64_t>(columns, entries, true, [&end](const BrickEntry& e) {
+    const std::uint64_t expected = packed_offset(end, e.kind);
+    if (e.offset < expected)  // the writer appends in index order, so offsets only grow
+      throw Error(fmt::format("internal error: {} at offset {} precedes the end of the previous payload", brick_name(e.key),
+                              e.offset));
+    end = e.offset + e.size;
+    return e.offset - expected;
+  });
+  put_column<std::uint32_t>(columns, entries, true, [](const BrickEntry& e) { return e.crc32c; });
+
+  const std::vector<std::byte> frame = zstd_compress(columns, kIndexZstdLevel);
+  std::vector<std::byte> stored(kIndexSizeField + frame.size());
+  store_field(stored, 0, std::uint64_t(frame.size()));
+  std::copy(frame.begin(), frame.end(), stored.begin() + kIndexSizeField);
+  return stored;
+}
+
+// Takes the columns of encode_compressed_index back in order; the caller has checked the sizes.
+class ColumnReader {
+ public:
+  explicit ColumnReader(std::span<const std::byte> bytes) : bytes_(bytes) {}
+  template <class T>
+  std::vector<T> take(std::size_t n) {
+    std::vector<T> column(n);
+    merge_byte_planes(bytes_.subspan(at_, n * sizeof(T)), std::as_writable_bytes(std::span(column)), sizeof(T));
+    at_ += n * sizeof(T);
+    return column;
+  }
+
+ private:
+  std::span<const std::byte> bytes_;
+  std::size_t at_ = 0;
+};
+
 }  // namespace
 
 std::string brick_name(const BrickKey& k) { return fmt::format("brick (level {}, {},{},{})", int(k.level), k.x, k.y, k.z); }
@@ -95,6 +178,8 @@ const char* payload_kind_name(PayloadKind k) {
   return "unknown";
 }
 
+bool needs_alignment(PayloadKind k) { return k == PayloadKind::tucker || k == PayloadKind::tucker_zstd; }
+
 // ---------------------------------------------------------------------------------------------
 // Writer
 
@@ -107,11 +192,10 @@ ContainerWriter::ContainerWriter(const std::filesystem::path& path)
 
 ContainerWriter::~ContainerWriter() = default;
 
-std::uint64_t ContainerWriter::append_aligned(std::span<const std::byte> payload) {
+std::uint64_t ContainerWriter::append(std::span<const std::byte> payload, bool aligned) {
   static const std::array<std::byte, kPayloadAlignment> zeros{};
-  const std::uint64_t pad = (kPayloadAlignment - position_ % kPayloadAlignment) % kPayloadAlignment;
-  if (pad) out_->write(zeros.data(), pad);
-  const std::uint64_t offset = position_ + pad;
+  const std::uint64_t offset = aligned ? align_up(position_) : position_;
+  if (offset > position_) out_->write(zeros.data(), offset - position_);
   if (!payload.empty()) out_->write(payload.data(), payload.size());
   position_ = offset + payload.size();
   return offset;
@@ -121,14 +205,16 @@ void ContainerWriter::add_brick(BrickEntry entry, std::span<const std::byte> pay
   entry.crc32c = crc32c(payload.data(), payload.size());
   entry.size = payload.size();
   std::lock_guard lock(mutex_);
-  entry.offset = payload.empty() ? 0 : append_aligned(payload);
+  // Entries are pushed in the order their payloads are appended: the compressed index relies on
+  // offsets growing along the index.
+  entry.offset = payload.empty() ? 0 : append(payload, needs_alignment(entry.kind));
   entries_.push_back(entry);
 }
 
 void ContainerWriter::add_section(const std::string& name, std::span<const std::byte> payload) {
   Section s{0, payload.size(), crc32c(payload.data(), payload.size())};
   std::lock_guard lock(mutex_);
-  s.offset = append_aligned(payload);
+  s.offset = append(payload, true);
   sections_.emplace_back(name, s);
 }
 
@@ -146,13 +232,13 @@ std::uint64_t ContainerWriter::finish(nlohmann::json metadata) {
   Header h;
   h.metadata_size = text.size();
   h.metadata_crc = crc32c(text.data(), text.size());
-  h.metadata_offset = append_aligned(std::as_bytes(std::span(text)));
+  h.metadata_offset = append(std::as_bytes(std::span(text)), true);
 
-  std::vector<std::byte> index(entries_.size() * kIndexEntrySize);
-  for (std::size_t i = 0; i < entries_.size(); ++i) encode_entry(entries_[i], std::span(index).subspan(i * kIndexEntrySize).first<kIndexEntrySize>());
+  const std::vector<std::byte> index = encode_compressed_index(entries_);
+  h.flags = kFlagCompressedIndex;
   h.index_count = entries_.size();
   h.index_crc = crc32c(index.data(), index.size());
-  h.index_offset = append_aligned(index);
+  h.index_offset = append(index, true);
 
   auto header = encode_header(h);
   std::FILE* f = out_->handle();
@@ -183,6 +269,16 @@ ContainerReader::ContainerReader(const std::filesystem::path& path)
   const auto major = load_field<std::uint16_t>(h, 8);
   if (major != kFormatVersionMajor)
     throw FormatError(file, "version", fmt::format("format version {} is not supported (expected {})", major, kFormatVersionMajor));
+  // Minor versions are not checked: additions that older readers cannot ignore set a flag bit or
+  // use a new payload kind, and both are rejected below.
+  const auto minor = load_field<std::uint16_t>(h, 10);
+  const auto flags = load_field<std::uint32_t>(h, 12);
+  if ((flags & ~kKnownFlags) != 0)
+    throw FormatError(file, "flags",
+                      fmt::format("unknown bits {:#x} set (this reader knows bit 0, compressed index)", flags & ~kKnownFlags));
+  index_compressed_ = (flags & kFlagCompressedIndex) != 0;
+  if (index_compressed_ && minor < 2)
+    throw FormatError(file, "flags", fmt::format("bit 0 (compressed index) is set in a format 1.{} file; it needs 1.2", minor));
   if (load_field<std::uint32_t>(h, 48) != kIndexEntrySize)
     throw FormatError(file, "index_entry_size", fmt::format("expected {}", kIndexEntrySize));
 
@@ -196,20 +292,19 @@ ContainerReader::ContainerReader(const std::filesystem::path& path)
     throw FormatError(file, "metadata", std::string("invalid JSON: ") + e.what());
   }
 
-  const auto count = load_field<std::uint64_t>(h, 24);
-  if (count > file_->size() / kIndexEntrySize) throw FormatError(file, "index_count", "larger than the file");
-  auto index = checked_range(load_field<std::uint64_t>(h, 16), count * kIndexEntrySize, "index");
-  if (crc32c(index.data(), index.size()) != load_field<std::uint32_t>(h, 56)) throw FormatError(file, "index", "checksum mismatch");
-  entries_.reserve(count);
-  for (std::uint64_t i = 0; i < count; ++i) {
-    BrickEntry e = decode_entry(index.subspan(i * kIndexEntrySize).first<kIndexEntrySize>());
+  const auto index_offset = load_field<std::uint64_t>(h, 16), count = load_field<std::uint64_t>(h, 24);
+  const auto index_crc = load_field<std::uint32_t>(h, 56);
+  std::vector<BrickEntry> entries = index_compressed_ ? read_compressed_index(index_offset, count, index_crc)
+                                                      : read_plain_index(index_offset, count, index_crc);
+  lookup_.reserve(entries.size());
+  for (std::size_t i = 0; i < entries.size(); ++i) {
+    const BrickEntry& e = entries[i];
     if (!known_kind(e.kind))
       throw FormatError(file, "index", fmt::format("{} has unknown payload kind {}", brick_name(e.key), int(e.kind)));
     checked_range(e.offset, e.size, brick_name(e.key));
-    if (!lookup_.emplace(e.key, entries_.size()).second)
-      throw FormatError(file, "index", brick_name(e.key) + " appears twice");
-    entries_.push_back(e);
+    if (!lookup_.emplace(e.key, i).second) throw FormatError(file, "index", brick_name(e.key) + " appears twice");
   }
+  entries_ = std::move(entries);
   if (metadata_.contains("sections"))
     for (const auto& [name, s] : metadata_["sections"].items()) {
       Section sec{s.at("offset").get<std::uint64_t>(), s.at("size").get<std::uint64_t>(), s.at("crc32c").get<std::uint32_t>()};
@@ -219,6 +314,74 @@ ContainerReader::ContainerReader(const std::filesystem::path& path)
 }
 
 ContainerReader::~ContainerReader() = default;
+
+// Format 1.0/1.1 (and 1.2 without flag bit 0): count entries of 64 bytes.
+std::vector<BrickEntry> ContainerReader::read_plain_index(std::uint64_t offset, std::uint64_t count, std::uint32_t crc) {
+  if (count > file_->size() / kIndexEntrySize) throw FormatError(path_.string(), "index_count", "larger than the file");
+  index_size_ = count * kIndexEntrySize;
+  const auto index = checked_range(offset, index_size_, "index");
+  if (crc32c(index.data(), index.size()) != crc) throw FormatError(path_.string(), "index", "checksum mismatch");
+  std::vector<BrickEntry> entries;
+  entries.reserve(count);
+  for (std::uint64_t i = 0; i < count; ++i) entries.push_back(decode_entry(index.subspan(i * kIndexEntrySize).first<kIndexEntrySize>()));
+  return entries;
+}
+
+// Format 1.2 with flag bit 0: see encode_compressed_index. Offsets are derived (and their ranges
+// checked) here; kinds and keys are checked by the constructor, as for the plain index.
+std::vector<BrickEntry> ContainerReader::read_compressed_index(std::uint64_t offset, std::uint64_t count, std::uint32_t crc) {
+  const std::string file = path_.string();
+  const auto frame_size = load_field<std::uint64_t>(checked_range(offset, kIndexSizeField, "index"), 0);
+  const auto frame = checked_range(offset + kIndexSizeField, frame_size, "index");
+  index_size_ = kIndexSizeField + frame_size;
+  if (crc32c(file_->data() + offset, index_size_) != crc) throw FormatError(file, "index", "checksum mismatch");
+  if (count > saturating_mul(frame_size, kZstdMaxExpansion) / kColumnBytesPerEntry)
+    throw FormatError(file, "index_count",
+                      fmt::format("{} entries need {} bytes of columns each, more than a {}-byte zstd frame can "
+                                  "inflate to ({} per byte at most)",
+                                  count, kColumnBytesPerEntry, frame_size, kZstdMaxExpansion));
+  std::vector<std::byte> columns;
+  zstd_decompress(frame, saturating_mul(count, kColumnBytesPerEntry + kColumnBytesPerPayload), columns, file, "index");
+  const auto wrong_size = [&](std::uint64_t expected) {
+    return FormatError(file, "index",
+                       fmt::format("columns of {} bytes, expected {} for index_count {}", columns.size(), expected, count));
+  };
+  if (columns.size() < count * kColumnBytesPerEntry) throw wrong_size(count * kColumnBytesPerEntry);
+  ColumnReader in(columns);
+  const auto levels = in.take<std::uint8_t>(count), kinds = in.take<std::uint8_t>(count);
+  const auto xs = in.take<std::int32_t>(count), ys = in.take<std::int32_t>(count), zs = in.take<std::int32_t>(count);
+  const auto sizes = in.take<std::uint64_t>(count);
+  const auto mins = in.take<float>(count), maxs = in.take<float>(count);
+  const auto histograms = in.take<std::uint64_t>(count);
+  const auto with_payload = std::uint64_t(std::count_if(sizes.begin(), sizes.end(), [](std::uint64_t s) { return s != 0; }));
+  const std::uint64_t expected = count * kColumnBytesPerEntry + with_payload * kColumnBytesPerPayload;
+  if (columns.size() != expected) throw wrong_size(expected);
+  const auto gaps = in.take<std::uint64_t>(with_payload);
+  const auto crcs = in.take<std::uint32_t>(with_payload);
+
+  std::vector<BrickEntry> entries(count);
+  std::uint64_t end = kHeaderSize, payload = 0;
+  for (std::size_t i = 0; i < count; ++i) {
+    BrickEntry& e = entries[i];
+    e.key = {levels[i], xs[i], ys[i], zs[i]};
+    e.kind = PayloadKind(kinds[i]);
+    e.size = sizes[i];
+    e.min = mins[i];
+    e.max = maxs[i];
+    e.histogram = histograms[i];
+    if (e.size == 0) continue;  // offset 0, crc32c of nothing: 0
+    // `end` lies inside the file (the previous range was checked) and the gap is bounded by the
+    // file size, so a hostile gap cannot wrap the offset around to an earlier position.
+    if (gaps[payload] > file_->size())
+      throw FormatError(file, brick_name(e.key),
+                        fmt::format("offset gap {} lies outside the {}-byte file", gaps[payload], file_->size()));
+    e.offset = packed_offset(end, e.kind) + gaps[payload];
+    e.crc32c = crcs[payload++];
+    checked_range(e.offset, e.size, brick_name(e.key));
+    end = e.offset + e.size;
+  }
+  return entries;
+}
 
 const BrickEntry* ContainerReader::find(const BrickKey& key) const {
   auto it = lookup_.find(key);

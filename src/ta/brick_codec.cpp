@@ -5,6 +5,7 @@
 
 #include "strata/core/error.hpp"
 #include "strata/quant/bitpack.hpp"
+#include "strata/store/byte_planes.hpp"
 #include "strata/store/zstd_frame.hpp"
 #include "strata/quant/coded_brick.hpp"
 #include "strata/tensor/tucker.hpp"
@@ -43,7 +44,7 @@ std::pair<std::size_t, std::size_t> factor_plane_range(std::span<const std::byte
 std::vector<std::byte> deflate_payload(const std::vector<std::byte>& plain, const quant::QuantScheme& scheme, int level) {
   std::vector<std::byte> shuffled(plain);
   auto [f0, f1] = factor_plane_range(plain, scheme);
-  split_byte_planes(std::span(plain).subspan(f0, f1 - f0), std::span(shuffled).subspan(f0, f1 - f0), kFactorPlanes);
+  store::split_byte_planes(std::span(plain).subspan(f0, f1 - f0), std::span(shuffled).subspan(f0, f1 - f0), kFactorPlanes);
   return store::zstd_compress(shuffled, level);
 }
 
@@ -71,7 +72,7 @@ std::span<const std::byte> plain_payload(store::PayloadKind kind, std::span<cons
   store::zstd_decompress(payload, kMaxInflatedBrick, scratch.inflated, context, "zstd payload");
   scratch.unshuffled = scratch.inflated;
   auto [f0, f1] = factor_plane_range(scratch.inflated, scheme);
-  merge_byte_planes(std::span<const std::byte>(scratch.inflated).subspan(f0, f1 - f0),
+  store::merge_byte_planes(std::span<const std::byte>(scratch.inflated).subspan(f0, f1 - f0),
                     std::span(scratch.unshuffled).subspan(f0, f1 - f0), kFactorPlanes);
   return scratch.unshuffled;
 }

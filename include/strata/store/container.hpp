@@ -1,8 +1,10 @@
 #pragma once
 // The .strata container (byte-level spec: docs/format.md). One file holds a fixed header,
-// 64-byte-aligned payloads written as they are produced, then the JSON metadata and a
-// fixed-size brick index at the tail (the header points to both, so a writer can stream
-// bricks without knowing their count in advance).
+// payloads written as they are produced (64-byte-aligned where needs_alignment says so, packed
+// otherwise), then the JSON metadata and the brick index at the tail (the header points to both,
+// so a writer can stream bricks without knowing their count in advance). Since format 1.2 the
+// index is stored column by column in one zstd frame; readers also take 1.0/1.1 files with the
+// fixed 64-byte-per-entry index.
 #include <cstdint>
 #include <filesystem>
 #include <memory>
@@ -18,8 +20,10 @@
 namespace strata::store {
 
 inline constexpr std::uint16_t kFormatVersionMajor = 1;
-inline constexpr std::uint16_t kFormatVersionMinor = 1;
+inline constexpr std::uint16_t kFormatVersionMinor = 2;
 inline constexpr std::size_t kHeaderSize = 64;
+/// Bytes of one entry of the 1.0/1.1 index, and the header's `index_entry_size` in every version
+/// (the logical entry; a compressed index stores far fewer).
 inline constexpr std::size_t kIndexEntrySize = 64;
 inline constexpr std::size_t kPayloadAlignment = 64;
 
@@ -32,6 +36,12 @@ enum class PayloadKind : std::uint8_t {
   raw_zstd = 5,      // the float samples, byte planes, zstd: lossless (ta/raw_brick.hpp), format 1.1
 };
 const char* payload_kind_name(PayloadKind k);
+
+/// @brief True for kinds whose payload starts at a multiple of kPayloadAlignment (`tucker`,
+/// `tucker_zstd`: fixed-layout code arrays a decoder may want to address in place). Entropy-coded
+/// kinds (`tucker_coded`, `raw_zstd`) are always copied and decoded, so they are packed without
+/// padding; `constant` has no bytes. The compressed index derives offsets from this rule.
+bool needs_alignment(PayloadKind k);
 
 struct BrickKey {
   std::uint8_t level = 0;  // 0 = full resolution
@@ -69,8 +79,9 @@ struct Section {
   std::uint32_t crc32c = 0;
 };
 
-// Streams payloads into `<path>.tmp`; finish() writes metadata, index and header, then
-// renames to `path`. add_brick/add_section are thread-safe. Without finish() nothing is left.
+// Streams payloads into `<path>.tmp`; finish() writes metadata, the compressed index (format
+// 1.2) and the header, then renames to `path`. add_brick/add_section are thread-safe. Without
+// finish() nothing is left.
 class ContainerWriter {
  public:
   explicit ContainerWriter(const std::filesystem::path& path);
@@ -78,7 +89,9 @@ class ContainerWriter {
   ContainerWriter(const ContainerWriter&) = delete;
   ContainerWriter& operator=(const ContainerWriter&) = delete;
 
-  // Fills entry.offset/size/crc32c from the payload; the rest comes from the caller.
+  /// @brief Appends `payload` (aligned when needs_alignment(entry.kind), packed otherwise) and
+  /// fills entry.offset/size/crc32c from it; the rest comes from the caller. An empty payload
+  /// gets offset 0.
   void add_brick(BrickEntry entry, std::span<const std::byte> payload);
   void add_section(const std::string& name, std::span<const std::byte> payload);
   std::uint64_t bytes_written() const;
@@ -86,7 +99,7 @@ class ContainerWriter {
   std::uint64_t finish(nlohmann::json metadata);
 
  private:
-  std::uint64_t append_aligned(std::span<const std::byte> payload);
+  std::uint64_t append(std::span<const std::byte> payload, bool aligned);
   std::unique_ptr<io::AtomicOutputFile> out_;
   mutable std::mutex mutex_;
   std::uint64_t position_ = 0;
@@ -110,14 +123,22 @@ class ContainerReader {
   std::span<const std::byte> section(const std::string& name) const;
   std::uint64_t file_size() const;
   std::uint64_t metadata_bytes() const { return metadata_size_; }
-  std::uint64_t index_bytes() const { return entries_.size() * kIndexEntrySize; }
+  /// @brief Bytes the brick index occupies in the file as stored: count × 64 for a 1.0/1.1
+  /// index, the 8-byte size field plus the zstd frame for a compressed one.
+  std::uint64_t index_bytes() const { return index_size_; }
+  /// @brief True when the file stores its index compressed (header flag bit 0, format 1.2).
+  bool index_compressed() const { return index_compressed_; }
 
  private:
   std::span<const std::byte> checked_range(std::uint64_t offset, std::uint64_t size, const std::string& what) const;
+  std::vector<BrickEntry> read_plain_index(std::uint64_t offset, std::uint64_t count, std::uint32_t crc);
+  std::vector<BrickEntry> read_compressed_index(std::uint64_t offset, std::uint64_t count, std::uint32_t crc);
   std::filesystem::path path_;
   std::shared_ptr<io::MappedFile> file_;
   nlohmann::json metadata_;
   std::uint64_t metadata_size_ = 0;
+  std::uint64_t index_size_ = 0;
+  bool index_compressed_ = false;
   std::vector<BrickEntry> entries_;
   std::unordered_map<BrickKey, std::size_t, BrickKeyHash> lookup_;
   std::unordered_map<std::string, Section> sections_;

@@ -1,7 +1,7 @@
 #pragma once
 /// @brief One zstd frame in, one out: the only place that calls the zstd library. Used for the
 /// payloads and sections of `.strata` files (Tucker bricks of kind `tucker_zstd`, label id
-/// sections). Thread-safe: each thread keeps one compression and one decompression context.
+/// sections) and their compressed brick index. Thread-safe: each thread keeps one compression and one decompression context.
 #include <cstddef>
 #include <cstdint>
 #include <span>
