@@ -152,6 +152,21 @@ TEST(TaTargetCodec, RmseAndPsnrTargetsHoldForLevel0AsAWhole) {
   }
 }
 
+// A constant volume is free at any budget; a tiny dynamic range on a large offset (a few float
+// steps of 10^4) still meets a budget relative to that range.
+TEST(TaTargetCodec, BudgetsHoldOnConstantsAndOnTinyRangesAtALargeOffset) {
+  test::TempDir dir;
+  const Volume flat = filled([](std::int64_t, std::int64_t, std::int64_t) { return 7.5f; });
+  const CompressReport r = compress(flat, dir / "flat.strata", target_params(TargetKind::psnr, 60));
+  EXPECT_EQ(level0_error(flat, dir / "flat.strata").max_abs_error, 0.0);
+  EXPECT_EQ(r.levels[0].constant, r.levels[0].bricks);
+  const Volume tiny = noise(0.01f, 1.0e4f, 12);
+  compress(tiny, dir / "tiny.strata", target_params(TargetKind::psnr, 45));
+  EXPECT_GE(level0_error(tiny, dir / "tiny.strata").psnr_db, 45.0);
+  compress(tiny, dir / "tiny.strata", target_params(TargetKind::rmse, 1e-4));
+  EXPECT_LE(level0_error(tiny, dir / "tiny.strata").rmse, 1e-4);
+}
+
 // When the spectrum misjudges the step (here a rank cap the calibration does not model), the
 // measured error sends the volume through another pass, and the budget still holds.
 TEST(TaTargetCodec, AMissedBudgetIsEncodedAgainUntilItHolds) {
