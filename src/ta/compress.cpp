@@ -124,9 +124,11 @@ EncodedLevels encode_levels(io::VolumeSource& source, const std::filesystem::pat
 // The calibrated Δ aims at this fraction of the budget (0.2 dB), so that the spectrum's
 // approximations rarely cost a second pass; and the passes before the per-brick caps.
 constexpr double kCalibrationAim = 0.955;
-constexpr int kCalibratedAttempts = 3;
-// A first pass more than 1 dB under the budget is encoded again with a larger step.
+constexpr int kCalibratedAttempts = 4;
+// A pass more than 1 dB under the budget is encoded again with a larger step, at most
+// kMaxRaises times (a raise that misses is bisected against the step that held).
 constexpr double kRaiseBelow = 0.79;
+constexpr int kMaxRaises = 2;
 
 }  // namespace
 
@@ -184,8 +186,9 @@ CompressReport compress_volume(io::VolumeSource& source, const std::filesystem::
   // the measured error exceeds the budget, the volume is encoded again with a smaller Δ, and
   // after kCalibratedAttempts with the per-brick caps that cannot miss.
   const double budget_mse = budget ? std::pow(target_rmse(target, range.lo, range.hi), 2) : 0;
-  double step = 0, holding_step = 0;
-  bool raised = false;
+  double step = 0, holding_step = 0, missed_step = 0, previous_step = 0, previous_mse = 0;
+  int raises = 0;
+  bool settled = false;  // back at the step that held: keep whatever it gives
   if (calibrator) {
     calibrator->finish();
     step = calibrator->step_for_mse(kCalibrationAim * budget_mse, kMseZeroThreshold);
@@ -201,14 +204,31 @@ CompressReport compress_volume(io::VolumeSource& source, const std::filesystem::
     const double mse = encoded.levels.empty() ? 0 : encoded.levels[0]->measured_error().mse();
     // Each `continue` abandons this pass: the writer's temporary goes with it.
     if (step > 0 && mse > budget_mse) {
-      if (holding_step > 0) step = holding_step;  // the raised step missed: back to the one that held
-      else step = attempt + 1 < kCalibratedAttempts ? step * std::min(0.95, 0.98 * std::sqrt(budget_mse / mse)) : 0;
+      if (holding_step > 0) {
+        // A raised step missed: bisect between it and the step that held, or go back to that one.
+        missed_step = step;
+        settled = raises == kMaxRaises;
+        step = settled ? holding_step : std::sqrt(holding_step * missed_step);
+        raises += settled ? 0 : 1;
+      } else {
+        // The error grows as Δ^α, α from the last two passes (1 after the first: near Δ² only
+        // at high rates, nearer Δ at low rates where coefficients drop out).
+        double alpha = 1;
+        if (previous_step > 0 && previous_step != step && previous_mse > 0)
+          alpha = std::clamp(std::log(mse / previous_mse) / std::log(step / previous_step), 0.5, 2.0);
+        previous_step = step;
+        previous_mse = mse;
+        step = attempt + 1 < kCalibratedAttempts
+                   ? step * std::min(0.95, std::pow(kCalibrationAim * budget_mse / mse, 1 / alpha))
+                   : 0;
+      }
       continue;
     }
-    if (step > 0 && !raised && mse > 0 && mse < kRaiseBelow * budget_mse) {
-      raised = true;
+    if (step > 0 && !settled && raises < kMaxRaises && mse > 0 && mse < kRaiseBelow * budget_mse) {
       holding_step = step;
-      step *= std::min(4.0, std::sqrt(kCalibrationAim * budget_mse / mse));
+      ++raises;
+      step = missed_step > 0 ? std::sqrt(holding_step * missed_step)
+                             : step * std::min(4.0, std::sqrt(kCalibrationAim * budget_mse / mse));
       continue;
     }
     report.attempts = attempt + 1;
