@@ -120,8 +120,8 @@ void for_each_core_code(const CodedBrick& b, std::uint8_t layout, Visit&& visit)
   const tensor::Ranks3& r = b.ranks;
   const int blocks =
       b.dct_block > 0 && layout >= 2 ? int((b.dims[0] - 2 * std::int64_t(b.margin)) / b.dct_block) : 0;
-  std::vector<std::uint16_t> frequency_of(std::size_t(std::max({r[0], r[1], r[2], 0})));
-  for (std::size_t i = 0; i < frequency_of.size() && blocks > 0; ++i) frequency_of[i] = std::uint16_t(int(i) / blocks);
+  std::vector<std::uint16_t> frequency_of(blocks > 0 ? std::size_t(std::max({r[0], r[1], r[2]})) : 0);
+  for (std::size_t i = 0; i < frequency_of.size(); ++i) frequency_of[i] = std::uint16_t(int(i) / blocks);
   std::size_t at = 0;
   for (int k = 0; k < r[2]; ++k)
     for (int j = 0; j < r[1]; ++j)

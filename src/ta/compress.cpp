@@ -24,7 +24,6 @@ using Clock = std::chrono::steady_clock;
 HistogramRange value_range(io::VolumeSource& source, ProgressSink& progress, std::uint64_t slab_bytes,
                            StepCalibrator* calibrator) {
   double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-  std::vector<float> slice;
   io::for_each_slab(source, [&](const Volume& slab, std::int64_t) {
     visit_dtype(slab.dtype(), [&](auto tag) {
       using T = decltype(tag);
@@ -47,8 +46,7 @@ HistogramRange value_range(io::VolumeSource& source, ProgressSink& progress, std
       const std::size_t slice_size = std::size_t(slab.dims().x * slab.dims().y);
       for (std::int64_t z = 0; calibrator && z < slab.dims().z; ++z) {
         const T* src = values.data() + std::size_t(z) * slice_size;
-        slice.assign(src, src + slice_size);
-        calibrator->push_slice(slice);
+        calibrator->push_slice(std::vector<float>(src, src + slice_size));
       }
     });
   }, progress, "scan range", slab_bytes);
@@ -130,6 +128,60 @@ constexpr int kCalibratedAttempts = 4;
 constexpr double kRaiseBelow = 0.79;
 constexpr int kMaxRaises = 2;
 
+// The level-0 step of a PSNR/RMSE budget, pass by pass. It starts from the spectrum's
+// prediction. A pass that misses the budget shrinks Δ by the error's measured growth; after
+// kCalibratedAttempts the step becomes 0 (the per-brick caps that cannot miss). The spectrum
+// is the block-DCT basis's; where the encoder's HOSVD basis wins (smooth fields) a pass lands
+// far under the budget, and a larger Δ spends it, kept only if it holds.
+class BudgetStepSearch {
+ public:
+  BudgetStepSearch(double budget_mse, double first_step) : budget_(budget_mse), step_(first_step) {}
+
+  double step() const { return step_; }
+
+  // After a pass at step() that measured `mse` on level 0: true when that pass is the one to
+  // keep, else step() is the next to try.
+  bool accept(int attempt, double mse) {
+    if (step_ <= 0) return true;  // no budget, or the per-brick caps
+    if (mse > budget_) {
+      if (holding_ > 0) {
+        // A raised step missed: bisect between it and the step that held, or go back to that one.
+        missed_ = step_;
+        settled_ = raises_ == kMaxRaises;
+        step_ = settled_ ? holding_ : std::sqrt(holding_ * missed_);
+        raises_ += settled_ ? 0 : 1;
+      } else {
+        shrink(attempt, mse);
+      }
+      return false;
+    }
+    if (settled_ || raises_ == kMaxRaises || !(mse > 0) || mse >= kRaiseBelow * budget_) return true;
+    holding_ = step_;
+    ++raises_;
+    step_ = missed_ > 0 ? std::sqrt(holding_ * missed_) : step_ * std::min(4.0, std::sqrt(kCalibrationAim * budget_ / mse));
+    return false;
+  }
+
+ private:
+  // The error grows as Δ^α, α from the last two passes (1 after the first: near Δ² only at high
+  // rates, nearer Δ at low rates where coefficients drop out).
+  void shrink(int attempt, double mse) {
+    double alpha = 1;
+    if (previous_step_ > 0 && previous_step_ != step_ && previous_mse_ > 0)
+      alpha = std::clamp(std::log(mse / previous_mse_) / std::log(step_ / previous_step_), 0.5, 2.0);
+    previous_step_ = step_;
+    previous_mse_ = mse;
+    step_ = attempt + 1 < kCalibratedAttempts ? step_ * std::min(0.95, std::pow(kCalibrationAim * budget_ / mse, 1 / alpha))
+                                              : 0;
+  }
+
+  double budget_, step_;
+  double holding_ = 0, missed_ = 0;  // the last step that held, the smallest raised one that missed
+  double previous_step_ = 0, previous_mse_ = 0;
+  int raises_ = 0;
+  bool settled_ = false;  // back at the step that held: keep whatever it gives
+};
+
 }  // namespace
 
 std::uint64_t fixed_working_set(const OctreeGeometry& geometry) {
@@ -169,7 +221,6 @@ CompressReport compress_volume(io::VolumeSource& source, const std::filesystem::
   const OctreeGeometry geometry(info.dims, params.layout);
   CompressReport report;
   report.input_voxels = std::uint64_t(info.dims.voxel_count());
-  report.levels.resize(std::size_t(geometry.level_count()));
 
   const std::uint64_t slab_bytes = input_slab_bytes(geometry, info, params);
   const ErrorTarget& target = params.codec.target;
@@ -180,57 +231,20 @@ CompressReport compress_volume(io::VolumeSource& source, const std::filesystem::
   const HistogramRange range = value_range(source, progress, slab_bytes, calibrator ? &*calibrator : nullptr);
   report.prepass_seconds = seconds_since(start);
 
-  // A global budget: Δ from the spectrum, aimed a little under the budget. The spectrum is the
-  // block-DCT basis's; where the encoder's HOSVD basis wins (smooth fields) the error lands far
-  // under the budget, and one more pass with a larger Δ spends it (kept only if it holds). If
-  // the measured error exceeds the budget, the volume is encoded again with a smaller Δ, and
-  // after kCalibratedAttempts with the per-brick caps that cannot miss.
   const double budget_mse = budget ? std::pow(target_rmse(target, range.lo, range.hi), 2) : 0;
-  double step = 0, holding_step = 0, missed_step = 0, previous_step = 0, previous_mse = 0;
-  int raises = 0;
-  bool settled = false;  // back at the step that held: keep whatever it gives
-  if (calibrator) {
-    calibrator->finish();
-    step = calibrator->step_for_mse(kCalibrationAim * budget_mse, kMseZeroThreshold);
-  }
+  if (calibrator) calibrator->finish();
+  BudgetStepSearch search(budget_mse,
+                          calibrator ? calibrator->step_for_mse(kCalibrationAim * budget_mse, kMseZeroThreshold) : 0);
   for (int attempt = 0;; ++attempt) {
     std::vector<BrickTarget> targets;
     if (target.kind != TargetKind::none)
       targets = level_targets(target, range.lo, range.hi, geometry.level_count(), params.codec.rank,
-                              params.codec.zstd_level, step);
+                              params.codec.zstd_level, search.step());
     report.levels.assign(std::size_t(geometry.level_count()), LevelCounts{});
     report.core_bytes = report.factor_bytes = report.brick_header_bytes = 0;
     EncodedLevels encoded = encode_levels(source, out, params, geometry, range, targets, slab_bytes, report, progress);
-    const double mse = encoded.levels.empty() ? 0 : encoded.levels[0]->measured_error().mse();
-    // Each `continue` abandons this pass: the writer's temporary goes with it.
-    if (step > 0 && mse > budget_mse) {
-      if (holding_step > 0) {
-        // A raised step missed: bisect between it and the step that held, or go back to that one.
-        missed_step = step;
-        settled = raises == kMaxRaises;
-        step = settled ? holding_step : std::sqrt(holding_step * missed_step);
-        raises += settled ? 0 : 1;
-      } else {
-        // The error grows as Δ^α, α from the last two passes (1 after the first: near Δ² only
-        // at high rates, nearer Δ at low rates where coefficients drop out).
-        double alpha = 1;
-        if (previous_step > 0 && previous_step != step && previous_mse > 0)
-          alpha = std::clamp(std::log(mse / previous_mse) / std::log(step / previous_step), 0.5, 2.0);
-        previous_step = step;
-        previous_mse = mse;
-        step = attempt + 1 < kCalibratedAttempts
-                   ? step * std::min(0.95, std::pow(kCalibrationAim * budget_mse / mse, 1 / alpha))
-                   : 0;
-      }
-      continue;
-    }
-    if (step > 0 && !settled && raises < kMaxRaises && mse > 0 && mse < kRaiseBelow * budget_mse) {
-      holding_step = step;
-      ++raises;
-      step = missed_step > 0 ? std::sqrt(holding_step * missed_step)
-                             : step * std::min(4.0, std::sqrt(kCalibrationAim * budget_mse / mse));
-      continue;
-    }
+    // A pass not kept is abandoned here: the writer's temporary goes with it.
+    if (!search.accept(attempt, encoded.levels[0]->measured_error().mse())) continue;
     report.attempts = attempt + 1;
     for (std::size_t l = 0; l < encoded.levels.size() && !targets.empty(); ++l) {
       const auto& e = encoded.levels[l]->measured_error();

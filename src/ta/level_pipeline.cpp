@@ -39,22 +39,6 @@ void downsample_xy(const float* slice, const Extent& dims, float* out) {
 
 }  // namespace
 
-LevelPipeline::MeasuredError LevelPipeline::core_error(std::span<const float> samples, std::span<const float> decoded,
-                                                       const CoreRegion& core) const {
-  const std::int64_t b = geometry_.layout().brick;
-  MeasuredError e;
-  for (int k = core.lo[2]; k < core.hi[2]; ++k)
-    for (int j = core.lo[1]; j < core.hi[1]; ++j)
-      for (int i = core.lo[0]; i < core.hi[0]; ++i) {
-        const std::size_t at = std::size_t(i + b * (j + b * k));
-        const double d = double(samples[at]) - double(decoded[at]);
-        e.squared += d * d;
-        e.max_abs = std::max(e.max_abs, std::abs(d));
-        ++e.voxels;
-      }
-  return e;
-}
-
 bool LevelPipeline::row_tries_hosvd(std::int64_t row) const {
   constexpr std::int64_t kHosvdProbeRows = 4;
   constexpr double kHosvdMinSaving = 0.01;
@@ -228,7 +212,7 @@ void LevelPipeline::encode_row(std::int64_t row) {
   struct RowResult {
     EncodedBrick encoded;
     BrickStats stats;
-    MeasuredError error;
+    CoreError error;
   };
   std::vector<RowResult> results(static_cast<std::size_t>(bricks_in_row));
   std::exception_ptr failure;
@@ -253,7 +237,7 @@ void LevelPipeline::encode_row(std::int64_t row) {
         const float c = r.encoded.constant_value;
         r.stats = constant ? brick_stats(std::span(&c, 1), std::span(&c, 1), range_)
                            : brick_stats(decoded, samples.values(), range_);
-        if (target_) r.error = core_error(samples.values(), decoded, core_region(bx, by, row));
+        if (target_) r.error = core_error(samples.values(), decoded, samples.dims(), core_region(bx, by, row));
         if (per_brick) {
           downsample_core(decoded, bx, by, row);
         } else if (next_) {

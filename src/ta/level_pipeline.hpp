@@ -37,12 +37,7 @@ class LevelPipeline {
 
   // Error-target mode: the decoded level against the samples it was encoded from (the level
   // built from decoded children for coarse levels), summed in brick order.
-  struct MeasuredError {
-    double squared = 0, max_abs = 0;
-    std::int64_t voxels = 0;
-    double mse() const { return voxels ? squared / double(voxels) : 0; }
-  };
-  const MeasuredError& measured_error() const { return measured_; }
+  const CoreError& measured_error() const { return measured_; }
 
  private:
   bool row_ready(std::int64_t row) const;
@@ -64,7 +59,6 @@ class LevelPipeline {
   // of the next level's slices (next_slices_) directly from its decoded voxels.
   void downsample_core(std::span<const float> decoded, std::int64_t bx, std::int64_t by, std::int64_t bz);
   void drop_unneeded_slices(std::int64_t next_row);
-  MeasuredError core_error(std::span<const float> samples, std::span<const float> decoded, const CoreRegion& core) const;
   // The brick-local voxels of the brick's core (what the level's output takes from it).
   CoreRegion core_region(std::int64_t bx, std::int64_t by, std::int64_t bz) const;
 
@@ -83,7 +77,7 @@ class LevelPipeline {
   std::vector<float> next_slices_;        // the row's 2x2x2 averages for `next` (even core), reused
   std::vector<float> pending_decoded_;     // one decoded slice (2x2 averaged) awaiting its partner
   std::int64_t decoded_slices_ = 0;
-  MeasuredError measured_;
+  CoreError measured_;
   std::uint64_t hosvd_trial_bytes_ = 0, hosvd_saved_bytes_ = 0;  // over bricks that coded both bases
 };
 

@@ -55,16 +55,16 @@ double bin_error(std::uint64_t n, double sum_abs, double sum_sq, double lo, doub
 }  // namespace
 
 StepCalibrator::StepCalibrator(const Extent& dims, int block)
-    : dims_(dims), block_(block), basis_(std::size_t(block * block)),
+    : dims_(dims), block_(block),
       sparse_(dims.voxel_count() / (std::int64_t(block) * block * block) > kDenseBlocks) {
   if (block < 2 || dims.voxel_count() <= 0) throw Error("StepCalibrator: needs a block of at least 2 and a non-empty level");
-  for (int f = 0; f < block; ++f)
-    for (int t = 0; t < block; ++t) basis_[std::size_t(t + block * f)] = quant::block_dct_entry(block, block, t, f);
+  const std::span<const float> basis = quant::block_dct_basis(block, block);  // one block: the plain DCT-II
+  basis_.assign(basis.begin(), basis.end());
 }
 
-void StepCalibrator::push_slice(std::span<const float> slice) {
+void StepCalibrator::push_slice(std::vector<float> slice) {
   if (std::int64_t(slice.size()) != dims_.x * dims_.y) throw Error("StepCalibrator: slice of the wrong size");
-  layer_.emplace_back(slice.begin(), slice.end());
+  layer_.push_back(std::move(slice));
   ++slices_seen_;
   if (int(layer_.size()) == block_) transform_layer();
 }

@@ -14,7 +14,6 @@
 /// with a smaller Δ if a prediction was short (ta/compress.cpp).
 #include <array>
 #include <cstdint>
-#include <span>
 #include <vector>
 
 #include "strata/core/extent.hpp"
@@ -27,8 +26,8 @@ class StepCalibrator {
   /// (as the brick cores tile it); the edge blocks repeat the edge voxels, as bricks do.
   StepCalibrator(const Extent& dims, int block);
 
-  /// @brief The next slice (dims.x · dims.y samples, z order).
-  void push_slice(std::span<const float> slice);
+  /// @brief The next slice (dims.x · dims.y samples, z order), kept until its block layer is full.
+  void push_slice(std::vector<float> slice);
   /// @brief Transforms the last, partial layer of blocks. Call once after the last slice.
   void finish();
 

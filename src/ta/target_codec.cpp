@@ -44,13 +44,6 @@ void for_each_core_voxel(const tensor::Dims3& d, const CoreRegion& core, F&& f) 
       for (int i = core.lo[0]; i < core.hi[0]; ++i) f(index3(d, i, j, k));
 }
 
-double max_residual(std::span<const float> samples, std::span<const float> decoded, const tensor::Dims3& d,
-                    const CoreRegion& core) {
-  double m = 0;
-  for_each_core_voxel(d, core, [&](std::size_t i) { m = std::max(m, std::abs(double(samples[i]) - double(decoded[i]))); });
-  return m;
-}
-
 // The code of coefficient/Δ = v: rounded to nearest, except that |v| below the zero threshold
 // (>= 1/2: a dead zone) codes 0. A wider dead zone drops the isolated ±1 codes that cost more bits
 // than the error they remove (measured on MRI: threshold 0.65 needs 3 % fewer bits at 40 dB).
@@ -344,17 +337,6 @@ void extend_factors(CodedModel& cm, const tensor::Tensor3& x0, int margin) {
   }
 }
 
-double core_mse(std::span<const float> samples, std::span<const float> decoded, const tensor::Dims3& d,
-                const CoreRegion& core) {
-  double sum = 0;
-  std::int64_t count = 0;
-  for_each_core_voxel(d, core, [&](std::size_t at) {
-    const double e = double(samples[at]) - double(decoded[at]);
-    sum += e * e;
-    ++count;
-  });
-  return count ? sum / double(count) : 0;
-}
 
 // A bound on how far two decoders (another instruction set, another summation order) can land
 // from the encoder's own reconstruction of `m`: the TTM chain's rounding, γ_(R1+R2+R3+2) times
@@ -486,38 +468,37 @@ EncodedBrick lossless_brick(std::span<const float> samples, int zstd_level, std:
   return out;
 }
 
-// Steps 4–6 for one basis: codes the brick with `make(Δ)`, shrinking Δ until the brick's mean
-// squared error fits, adds the max-error correction and the error table. `decoded` receives the
-// decoder's samples. Nothing when only a lossless brick meets the target.
 struct CodedPayload {
   std::vector<std::byte> bytes;
   bool empty = false;  // no model and no correction: the brick decodes to its offset
 };
 
+// Steps 4–6 for one basis: codes the brick with `make(Δ)`, shrinking Δ until the brick's mean
+// squared error fits, adds the max-error correction and the error table. `decoded` receives the
+// decoder's samples. Nothing when only a lossless brick meets the target.
 template <class MakeModel>
-std::optional<CodedPayload> code_with_basis(MakeModel&& make, std::span<const float> v,
-                                                      const tensor::Tensor3& x0, const CoreRegion& core,
-                                                      const BrickTarget& target, std::span<float> decoded) {
+std::optional<CodedPayload> code_with_basis(MakeModel&& make, std::span<const float> v, const tensor::Tensor3& x0,
+                                            const CoreRegion& core, const BrickTarget& target, std::span<float> decoded) {
   thread_local tensor::BrickReconstructor reconstructor;
   const tensor::Dims3& d = x0.dims();
   double step = target.core_step;
   CodedModel m;
-  double mse = 0;
+  CoreError error;
   for (int attempt = 0;; ++attempt) {
     m = make(step);
     extend_factors(m, x0, core.margin);
     reconstruct_model(m.model, m.model.ranks, reconstructor, decoded);
-    mse = core_mse(v, decoded, d, core);
-    if (attempt == kMaxRetries || mse <= target.mse_cap) break;
+    error = core_error(v, decoded, d, core);
+    if (attempt == kMaxRetries || error.mse() <= target.mse_cap) break;
     step /= kRetryShrink;
   }
   const double error_without_correction = residual_norm(v, decoded);
   if (std::isfinite(target.max_error)) {
     // A correction is at most the largest miss plus the bound.
-    const double slack = decoder_slack(m, max_residual(v, decoded, d, core) + target.max_error);
+    const double slack = decoder_slack(m, error.max_abs + target.max_error);
     const double bound = target.max_error - slack;
     if (!(bound > 0) || !add_corrections(v, decoded, d, core, bound, m)) return std::nullopt;
-  } else if (mse > target.mse_cap) {
+  } else if (error.mse() > target.mse_cap) {
     return std::nullopt;
   }
   double max_correction = 0;
@@ -532,10 +513,20 @@ std::optional<CodedPayload> code_with_basis(MakeModel&& make, std::span<const fl
 // a model error of about E/√12 RMS, so only the rare voxels beyond E need a correction.
 constexpr double kStepPerRmse = 3.4641016151377544;  // √12
 constexpr double kStepPerMaxError = 1.0;
-// Max-error targets keep plain rounding (zero threshold 1/2): every coefficient a dead zone
-// drops would come back as corrections.
 
 }  // namespace
+
+CoreError core_error(std::span<const float> samples, std::span<const float> decoded, const tensor::Dims3& dims,
+                     const CoreRegion& core) {
+  CoreError e;
+  for_each_core_voxel(dims, core, [&](std::size_t at) {
+    const double d = double(samples[at]) - double(decoded[at]);
+    e.squared += d * d;
+    e.max_abs = std::max(e.max_abs, std::abs(d));
+    ++e.voxels;
+  });
+  return e;
+}
 
 int dct_block_width(std::int64_t fitted) {
   // zfp-like locality without zfp's 4^3 block overhead.
@@ -580,6 +571,8 @@ std::vector<BrickTarget> level_targets(const ErrorTarget& t, double lo, double h
       b.core_step = b.max_error * kStepPerMaxError;
     } else {
       const double rmse = target_rmse(t, lo, hi) * scale;
+      // Only here: under a max-error target every coefficient a dead zone drops would come back
+      // as corrections, so those keep plain rounding.
       b.zero_threshold = kMseZeroThreshold;
       if (level0_step > 0) {
         b.core_step = level0_step * scale;  // one step per level: a global budget, no cap
@@ -612,20 +605,21 @@ EncodedBrick encode_brick_to_target(const tensor::Tensor3& samples, const CoreRe
   const tensor::Tensor3 fitted = fitted_region(x0, core.margin);
   // The block-DCT basis first: it is cheap, and an empty result means the brick is its offset.
   const int block = dct_block_width(fitted.dims()[0]);
-  const std::optional<CodedPayload> dct =
+  std::optional<CodedPayload> dct =
       block == 0 ? std::nullopt
                  : code_with_basis([&](double step) { return code_model_dct(fitted, block, step, target, offset); },
                                    v, x0, core, target, decoded);
   if (dct && dct->empty) return constant_brick(offset, decoded);
-  std::vector<float> tucker_decoded(v.size());
+  std::vector<float> tucker_decoded;
   std::optional<CodedPayload> tucker;
   if (target.try_hosvd || block == 0) {
+    tucker_decoded.resize(v.size());
     const tensor::Tucker full =
         tensor::hosvd(fitted, {int(fitted.dims()[0]), int(fitted.dims()[1]), int(fitted.dims()[2])});
     tucker = code_with_basis([&](double step) { return code_model(fitted, full, step, target, offset); }, v, x0, core,
                              target, tucker_decoded);
   }
-  const CodedPayload* best = dct ? &*dct : nullptr;
+  CodedPayload* best = dct ? &*dct : nullptr;
   if (tucker && (!best || tucker->bytes.size() < best->bytes.size())) {
     best = &*tucker;
     std::copy(tucker_decoded.begin(), tucker_decoded.end(), decoded.begin());
@@ -635,17 +629,17 @@ EncodedBrick encode_brick_to_target(const tensor::Tensor3& samples, const CoreRe
 
   EncodedBrick out;
   out.kind = store::PayloadKind::tucker_coded;
-  out.payload = best->bytes;
+  if (dct && tucker) {
+    out.block_dct_bytes = dct->bytes.size();
+    out.hosvd_bytes = tucker->bytes.size();
+  }
+  out.payload = std::move(best->bytes);
   if (out.payload.size() >= v.size() * sizeof(float) / 2) {
     // Possibly beaten by the lossless brick: try it.
     std::vector<std::byte> raw = encode_raw_brick(v, target.zstd_level);
     if (raw.size() <= out.payload.size()) return lossless_brick(v, target.zstd_level, decoded);
   }
   out.header_bytes = out.payload.size();  // split in `strata eval` (ta/evaluate.cpp)
-  if (dct && tucker) {
-    out.block_dct_bytes = dct->bytes.size();
-    out.hosvd_bytes = tucker->bytes.size();
-  }
   return out;
 }
 

@@ -33,7 +33,10 @@ std::vector<float> textured_volume(std::uint32_t seed) {
 StepCalibrator calibrated(const std::vector<float>& v) {
   StepCalibrator c(kDims, kBlock);
   const std::size_t slice = std::size_t(kDims.x * kDims.y);
-  for (std::int64_t z = 0; z < kDims.z; ++z) c.push_slice(std::span(v).subspan(std::size_t(z) * slice, slice));
+  for (std::int64_t z = 0; z < kDims.z; ++z) {
+    const auto first = v.begin() + std::ptrdiff_t(std::size_t(z) * slice);
+    c.push_slice(std::vector<float>(first, first + std::ptrdiff_t(slice)));
+  }
   c.finish();
   return c;
 }

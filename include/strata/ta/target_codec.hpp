@@ -77,6 +77,16 @@ struct CoreRegion {
   int margin = 0;
 };
 
+/// @brief The squared and largest error of `decoded` against `samples` (both `dims`, first index
+/// fastest) over the core voxels.
+struct CoreError {
+  double squared = 0, max_abs = 0;
+  std::int64_t voxels = 0;
+  double mse() const { return voxels ? squared / double(voxels) : 0; }
+};
+CoreError core_error(std::span<const float> samples, std::span<const float> decoded, const tensor::Dims3& dims,
+                     const CoreRegion& core);
+
 /// @brief Encodes `samples` (B^3, first index fastest) to `target`; writes the samples a decoder
 /// reconstructs at full rank into `decoded` (B^3 floats). Throws Error for non-finite samples.
 EncodedBrick encode_brick_to_target(const tensor::Tensor3& samples, const CoreRegion& core, const BrickTarget& target,
