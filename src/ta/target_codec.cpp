@@ -612,7 +612,7 @@ EncodedBrick encode_brick_to_target(const tensor::Tensor3& samples, const CoreRe
   if (dct && dct->empty) return constant_brick(offset, decoded);
   std::vector<float> tucker_decoded;
   std::optional<CodedPayload> tucker;
-  if (target.try_hosvd || block == 0) {
+  if (target.try_hosvd || !dct) {  // also when the block-DCT basis could not meet the target
     tucker_decoded.resize(v.size());
     const tensor::Tucker full =
         tensor::hosvd(fitted, {int(fitted.dims()[0]), int(fitted.dims()[1]), int(fitted.dims()[2])});

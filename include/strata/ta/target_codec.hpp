@@ -39,7 +39,7 @@ struct BrickTarget {
   double mse_cap = std::numeric_limits<double>::infinity();        // over the brick's core voxels
   double max_error = std::numeric_limits<double>::infinity();      // on every voxel of the brick
   double zero_threshold = 0.5;                                     // codes below it (in steps) are 0
-  bool try_hosvd = true;  // false: the block-DCT basis alone, where it exists (the HOSVD is most of the time)
+  bool try_hosvd = true;  // false: the block-DCT basis alone where it meets the target (the HOSVD is most of the time)
   int max_rank = 256;                                              // per mode
   int zstd_level = 3;                                              // of the lossless fallback
 };
