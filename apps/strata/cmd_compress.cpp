@@ -72,8 +72,8 @@ void run_compress(const CompressArgs& args, const GlobalOptions& global) {
               human_bytes(r.file_bytes).c_str(), 8.0 * double(r.file_bytes) / double(r.input_voxels), r.seconds,
               double(r.input_voxels) / r.seconds / 1e6);
   if (params.codec.target.kind != ta::TargetKind::none && !r.levels.empty())
-    std::printf("level 0: RMSE %.6g, max error %.6g (measured; %d encoding pass%s)\n", r.levels[0].rmse,
-                r.levels[0].max_error, r.attempts, r.attempts == 1 ? "" : "es");
+    std::printf("level 0: RMSE %.6g, max error %.6g (measured; %d encoding pass%s after a %.2f s pre-pass)\n",
+                r.levels[0].rmse, r.levels[0].max_error, r.attempts, r.attempts == 1 ? "" : "es", r.prepass_seconds);
 }
 
 }  // namespace
