@@ -293,15 +293,20 @@ class MappedSource final : public VolumeSource {
     }
   }
 
-  // Drops the pages just read, slice by slice, so streaming a file far larger than memory
-  // keeps the resident set at about one request instead of growing to the whole file.
+  // Drops the pages just read, so streaming a file far larger than memory keeps the resident set
+  // at about one request instead of growing to the whole file. Slices that touch (full-slice
+  // boxes, the compressor's slabs) go in one call: each call flushes the TLB of every thread.
   void release_box(const Box& box) const {
     const std::uint64_t sample = dtype_size(info_.dtype);
+    std::uint64_t run_first = 0, run_end = 0;
     for (std::int64_t z = box.lo.z; z < box.hi.z; ++z) {
-      std::uint64_t first = byte_offset(box.lo.x, box.lo.y, z);
-      std::uint64_t end = byte_offset(box.hi.x - 1, box.hi.y - 1, z) + sample;
-      file_->release(first, end - first);
+      const std::uint64_t first = byte_offset(box.lo.x, box.lo.y, z);
+      const std::uint64_t end = byte_offset(box.hi.x - 1, box.hi.y - 1, z) + sample;
+      if (run_end != first && run_end > run_first) file_->release(run_first, run_end - run_first);
+      if (run_end != first) run_first = first;
+      run_end = end;
     }
+    if (run_end > run_first) file_->release(run_first, run_end - run_first);
   }
 
   std::shared_ptr<MappedFile> file_;

@@ -26,6 +26,52 @@ constexpr double kRetryShrink = 1.4;
 constexpr int kMaxRetries = 12;
 constexpr double kUnitRoundoff = 0x1p-24;  // float32
 
+// Per-thread scratch of the brick encoder, so a loop over bricks does not allocate for it.
+struct EncoderScratch {
+  tensor::BrickProjector projector;
+  tensor::BrickReconstructor reconstructor;
+  tensor::Tensor3 coefficients, refit, slabs, slab_core;
+  std::vector<std::int32_t> codes;
+};
+
+EncoderScratch& scratch() {
+  thread_local EncoderScratch s;
+  return s;
+}
+
+// Σ x² of n floats in double, in four independent sums (one chain of dependent additions would
+// bound the scans below by the adder's latency).
+double sum_squares(const float* x, std::int64_t n) {
+  double s[4] = {0, 0, 0, 0};
+  std::int64_t i = 0;
+  for (; i + 4 <= n; i += 4)
+    for (int l = 0; l < 4; ++l) s[l] += double(x[i + l]) * double(x[i + l]);
+  for (; i < n; ++i) s[0] += double(x[i]) * double(x[i]);
+  return (s[0] + s[1]) + (s[2] + s[3]);
+}
+
+// Squared and largest differences of runs of samples against their decoded values, in four
+// independent sums (the order is fixed: results do not depend on where a brick is coded).
+struct RowErrors {
+  double sums[4] = {0, 0, 0, 0};
+  double max_abs = 0;
+  void add(const float* samples, const float* decoded, std::int64_t n) {
+    std::int64_t i = 0;
+    for (; i + 4 <= n; i += 4)
+      for (int l = 0; l < 4; ++l) {
+        const double d = double(samples[i + l]) - double(decoded[i + l]);
+        sums[l] += d * d;
+        max_abs = std::max(max_abs, std::abs(d));
+      }
+    for (; i < n; ++i) {
+      const double d = double(samples[i]) - double(decoded[i]);
+      sums[0] += d * d;
+      max_abs = std::max(max_abs, std::abs(d));
+    }
+  }
+  double squared() const { return (sums[0] + sums[1]) + (sums[2] + sums[3]); }
+};
+
 struct CodedModel {
   quant::CodedBrick coded;
   quant::DequantizedModel model;
@@ -47,35 +93,58 @@ void for_each_core_voxel(const tensor::Dims3& d, const CoreRegion& core, F&& f) 
 // The code of coefficient/Δ = v: rounded to nearest, except that |v| below the zero threshold
 // (>= 1/2: a dead zone) codes 0. A wider dead zone drops the isolated ±1 codes that cost more bits
 // than the error they remove (measured on MRI: threshold 0.65 needs 3 % fewer bits at 40 dB).
-std::int32_t quantize_coefficient(double v, double zero_threshold) {
+// Branch-free (half the codes of a busy brick are 0 at random: a branch would mispredict), so
+// loops over it vectorise. Truncating a + 1/2 >= 0 is its floor (std::floor is a library call
+// on baseline x86-64).
+inline std::int32_t quantize_coefficient(double v, double zero_threshold) {
   const double a = std::abs(v);
-  if (a < zero_threshold) return 0;
-  const double q = std::min(std::floor(a + 0.5), kMaxCode);
-  return std::int32_t(v < 0 ? -q : q);
+  const auto q = std::int32_t(std::min(a + 0.5, kMaxCode));
+  const std::int32_t kept = a < zero_threshold ? 0 : q;
+  return v < 0 ? -kept : kept;
 }
 
 // The stored core step: Δ, or coarser where codes of Δ would not fit (finer is beyond float).
 float guarded_step(const tensor::Tensor3& coefficients, double step) {
-  double max_abs = 0;
-  for (float c : coefficients.values()) max_abs = std::max(max_abs, double(std::abs(c)));
-  return float(std::max(step, 2 * max_abs / kMaxCode));
+  float max_abs = 0;
+  for (float c : coefficients.values()) max_abs = std::max(max_abs, std::abs(c));
+  return float(std::max(step, 2 * double(max_abs) / kMaxCode));
 }
 
-// The leading ranks that still hold a coefficient with a non-zero code.
-tensor::Ranks3 significant_ranks(const tensor::Tensor3& core, double step, double zero_threshold, int max_rank) {
-  const tensor::Dims3& d = core.dims();
-  const float threshold = float(zero_threshold * step);
+// The code of every coefficient of `core` (first index fastest).
+void quantize_all(const tensor::Tensor3& core, double step, double zero_threshold, std::vector<std::int32_t>& codes) {
+  codes.resize(std::size_t(core.size()));
+  const float* c = core.data();
+  for (std::size_t i = 0; i < codes.size(); ++i) codes[i] = quantize_coefficient(double(c[i]) / step, zero_threshold);
+}
+
+// The leading ranks that still hold a non-zero code (at most max_rank per mode).
+tensor::Ranks3 nonzero_ranks(const std::vector<std::int32_t>& codes, const tensor::Dims3& d, int max_rank) {
   tensor::Ranks3 r{0, 0, 0};
+  const std::int32_t* row = codes.data();
   for (std::int64_t k = 0; k < d[2]; ++k)
-    for (std::int64_t j = 0; j < d[1]; ++j)
-      for (std::int64_t i = 0; i < d[0]; ++i)
-        if (std::abs(core(i, j, k)) >= threshold) {
-          r[0] = std::max(r[0], int(i) + 1);
-          r[1] = std::max(r[1], int(j) + 1);
-          r[2] = std::max(r[2], int(k) + 1);
-        }
+    for (std::int64_t j = 0; j < d[1]; ++j, row += d[0]) {
+      std::int64_t last = d[0];  // one past the row's last non-zero code
+      while (last > 0 && row[last - 1] == 0) --last;
+      if (last == 0) continue;
+      r[0] = std::max(r[0], int(last));
+      r[1] = std::max(r[1], int(j) + 1);
+      r[2] = int(k) + 1;
+    }
   for (int& rn : r) rn = std::min(rn, max_rank);
   return r;
+}
+
+// The codes of the leading r[0] x r[1] x r[2] block of a d-sized code tensor.
+std::vector<std::int32_t> leading_codes(const std::vector<std::int32_t>& codes, const tensor::Dims3& d,
+                                        const tensor::Ranks3& r) {
+  std::vector<std::int32_t> out(std::size_t(r[0]) * std::size_t(r[1]) * std::size_t(r[2]));
+  auto at = out.begin();
+  for (int k = 0; k < r[2]; ++k)
+    for (int j = 0; j < r[1]; ++j) {
+      const auto row = codes.begin() + std::ptrdiff_t(d[0] * (j + d[1] * k));
+      at = std::copy(row, row + r[0], at);
+    }
+  return out;
 }
 
 // Singular value of each kept column: the norm of its slice of the kept core block.
@@ -83,13 +152,13 @@ std::array<std::vector<double>, 3> slice_norms(const tensor::Tensor3& core, cons
   std::array<std::vector<double>, 3> s{std::vector<double>(std::size_t(r[0])), std::vector<double>(std::size_t(r[1])),
                                        std::vector<double>(std::size_t(r[2]))};
   for (int k = 0; k < r[2]; ++k)
-    for (int j = 0; j < r[1]; ++j)
-      for (int i = 0; i < r[0]; ++i) {
-        const double c = core(i, j, k);
-        s[0][std::size_t(i)] += c * c;
-        s[1][std::size_t(j)] += c * c;
-        s[2][std::size_t(k)] += c * c;
-      }
+    for (int j = 0; j < r[1]; ++j) {
+      const float* row = &core(0, j, k);
+      for (int i = 0; i < r[0]; ++i) s[0][std::size_t(i)] += double(row[i]) * double(row[i]);
+      const double row_sum = sum_squares(row, r[0]);
+      s[1][std::size_t(j)] += row_sum;
+      s[2][std::size_t(k)] += row_sum;
+    }
   for (auto& v : s)
     for (double& x : v) x = std::sqrt(x);
   return s;
@@ -131,12 +200,13 @@ tensor::Matrix<float> pseudo_inverse_transposed(const tensor::Matrix<float>& q) 
 void trim_zero_slices(quant::CodedBrick& b) {
   auto slice_zero = [&](int mode, int index) {
     const tensor::Ranks3& r = b.ranks;
-    for (int k = 0; k < r[2]; ++k)
-      for (int j = 0; j < r[1]; ++j)
-        for (int i = 0; i < r[0]; ++i) {
-          const int at_mode = mode == 0 ? i : mode == 1 ? j : k;
-          if (at_mode == index && b.core_codes[std::size_t(i + r[0] * (j + r[1] * k))] != 0) return false;
-        }
+    std::array<int, 3> lo{0, 0, 0}, hi = r;
+    lo[std::size_t(mode)] = index;
+    hi[std::size_t(mode)] = index + 1;
+    for (int k = lo[2]; k < hi[2]; ++k)
+      for (int j = lo[1]; j < hi[1]; ++j)
+        for (int i = lo[0]; i < hi[0]; ++i)
+          if (b.core_codes[std::size_t(i + r[0] * (j + r[1] * k))] != 0) return false;
     return true;
   };
   tensor::Ranks3 keep = b.ranks;
@@ -166,15 +236,17 @@ void trim_zero_slices(quant::CodedBrick& b) {
 }
 
 // Steps 2 and 3 of the header: ranks, quantized factors, re-fitted and quantized core.
-CodedModel code_model(const tensor::Tensor3& x0, const tensor::Tucker& full, double step, const BrickTarget& target,
-                      float offset) {
+CodedModel code_model(const tensor::Tensor3& x0, int margin, const tensor::Tucker& full, double step,
+                      const BrickTarget& target, float offset) {
   CodedModel out;
   quant::CodedBrick& b = out.coded;
-  b.dims = x0.dims();
+  b.dims = full.dims();
   b.offset = offset;
   b.core_step = guarded_step(full.core, step);
   step = double(b.core_step);
-  tensor::Ranks3 r = significant_ranks(full.core, step, target.zero_threshold, target.max_rank);
+  EncoderScratch& scratch = ::strata::ta::scratch();
+  quantize_all(full.core, step, target.zero_threshold, scratch.codes);
+  tensor::Ranks3 r = nonzero_ranks(scratch.codes, full.core.dims(), target.max_rank);
   if (r[0] > 0) {
     const auto sigma = slice_norms(full.core, r);
     tensor::Factors<float> pinv;
@@ -183,7 +255,12 @@ CodedModel code_model(const tensor::Tensor3& x0, const tensor::Tucker& full, dou
           quantize_factor(full.factors[n], r[n], sigma[n], step, b.factor_step_codes, b.factor_codes, out.factor_error[n]);
       pinv[n] = pseudo_inverse_transposed(q);
     }
-    const tensor::Tensor3 core = tensor::project(x0, pinv);
+    tensor::TuckerView bases;
+    bases.dims = b.dims;
+    bases.ranks = r;
+    for (std::size_t n = 0; n < 3; ++n) bases.factors[n] = pinv[n].data();
+    tensor::Tensor3& core = scratch.refit;
+    scratch.projector.project(x0.values(), x0.dims(), {margin, margin, margin}, bases, core);
     b.ranks = r;
     b.core_codes.resize(std::size_t(core.size()));
     for (std::size_t i = 0; i < b.core_codes.size(); ++i)
@@ -203,33 +280,25 @@ CodedModel code_model(const tensor::Tensor3& x0, const tensor::Tucker& full, dou
 
 // The fixed alternative to step 2–3: a block-DCT basis (no factor bits for the fitted rows; the
 // rank slider then keeps the lowest frequencies of every block).
-CodedModel code_model_dct(const tensor::Tensor3& x0, int block, double step, const BrickTarget& target, float offset) {
+CodedModel code_model_dct(const tensor::Tensor3& coefficients, int block, double step, const BrickTarget& target,
+                          float offset) {
   CodedModel out;
   quant::CodedBrick& b = out.coded;
-  b.dims = x0.dims();
+  b.dims = coefficients.dims();
   b.offset = offset;
   b.dct_block = std::uint8_t(block);
-  tensor::Factors<float> basis;
-  for (std::size_t n = 0; n < 3; ++n) {
-    const int rows = int(b.dims[n]);
-    basis[n] = Eigen::Map<const tensor::Matrix<float>>(quant::block_dct_basis(rows, block).data(), rows, rows);
-  }
-  const tensor::Tensor3 coefficients = tensor::project(x0, basis);
   b.core_step = guarded_step(coefficients, step);
   step = double(b.core_step);
-  const tensor::Ranks3 r = significant_ranks(coefficients, step, target.zero_threshold, target.max_rank);
+  std::vector<std::int32_t>& codes = scratch().codes;
+  quantize_all(coefficients, step, target.zero_threshold, codes);
+  const tensor::Ranks3 r = nonzero_ranks(codes, coefficients.dims(), target.max_rank);
   if (r[0] > 0) {
     const auto sigma = slice_norms(coefficients, r);
     b.ranks = r;
     for (std::size_t n = 0; n < 3; ++n)
       for (int c = 0; c < r[n]; ++c)
         b.factor_step_codes.push_back(quant::factor_step_code(std::min(1.0, step / std::max(sigma[n][std::size_t(c)], 1e-300))));
-    b.core_codes.resize(std::size_t(r[0]) * std::size_t(r[1]) * std::size_t(r[2]));
-    for (int k = 0; k < r[2]; ++k)
-      for (int j = 0; j < r[1]; ++j)
-        for (int i = 0; i < r[0]; ++i)
-          b.core_codes[std::size_t(i + r[0] * (j + r[1] * k))] =
-              quantize_coefficient(coefficients(i, j, k) / step, target.zero_threshold);
+    b.core_codes = leading_codes(codes, coefficients.dims(), r);
     trim_zero_slices(b);
   }
   if (b.ranks[0] == 0) {
@@ -244,6 +313,20 @@ CodedModel code_model_dct(const tensor::Tensor3& x0, int block, double step, con
   return out;
 }
 
+// The block-DCT coefficients of the fitted region [margin, B - margin)^3 of x0.
+const tensor::Tensor3& block_dct_coefficients(const tensor::Tensor3& x0, int margin, int block) {
+  EncoderScratch& s = scratch();
+  tensor::TuckerView basis;
+  for (std::size_t n = 0; n < 3; ++n) {
+    const int rows = int(x0.dims()[n] - 2 * margin);
+    basis.dims[n] = rows;
+    basis.ranks[n] = rows;
+    basis.factors[n] = quant::block_dct_basis(rows, block).data();
+  }
+  s.projector.project(x0.values(), x0.dims(), {margin, margin, margin}, basis, s.coefficients);
+  return s.coefficients;
+}
+
 // The samples the model is fitted on: [margin, B - margin) along every mode.
 tensor::Tensor3 fitted_region(const tensor::Tensor3& x, int margin) {
   const tensor::Dims3& d = x.dims();
@@ -254,17 +337,53 @@ tensor::Tensor3 fitted_region(const tensor::Tensor3& x, int margin) {
   return out;
 }
 
-// The sample at position p of mode n (0-based) and in-region positions a, b of the other two
-// modes (lower mode first), matching the column order of tensor::unfold.
-float overlap_sample(const tensor::Tensor3& x, int mode, std::int64_t p, std::int64_t a, std::int64_t b, int margin) {
-  if (mode == 0) return x(p, a + margin, b + margin);
-  if (mode == 1) return x(a + margin, p, b + margin);
-  return x(a + margin, b + margin, p);
+// The 2·margin overlap positions of mode n, as the last mode of a small tensor whose first two
+// modes are the fitted region of the other two (lower mode first): S(a, b, q) is the sample at
+// the q-th overlap position (the margin rows before the region, then those after it).
+const tensor::Tensor3& overlap_slabs(const tensor::Tensor3& x0, int n, int margin, const tensor::Dims3& region) {
+  tensor::Tensor3& s = scratch().slabs;
+  const std::size_t sn = std::size_t(n);
+  const std::int64_t ea = region[n == 0 ? 1 : 0], eb = region[n == 2 ? 1 : 2];
+  if (s.dims() != tensor::Dims3{ea, eb, 2 * margin}) s = tensor::Tensor3(ea, eb, 2 * margin);
+  for (std::int64_t q = 0; q < 2 * margin; ++q) {
+    const std::int64_t p = q < margin ? q : region[sn] + q;
+    for (std::int64_t bb = 0; bb < eb; ++bb)
+      for (std::int64_t aa = 0; aa < ea; ++aa)
+        s(aa, bb, q) = n == 0 ? x0(p, aa + margin, bb + margin)
+                     : n == 1 ? x0(aa + margin, p, bb + margin)
+                              : x0(aa + margin, bb + margin, p);
+  }
+  return s;
+}
+
+// C_(n) · vec(P_q) for every overlap position q: P = r_a x r_b x 2·margin (the slabs in the
+// bases of the other two modes), C the core; r_n x 2·margin.
+Eigen::MatrixXd core_times_slabs(const tensor::Tensor3& core, int n, const tensor::Tensor3& p) {
+  const tensor::Dims3& r = core.dims();
+  const std::int64_t q = p.dims()[2];
+  const Eigen::MatrixXd c = Eigen::Map<const Eigen::MatrixXf>(core.data(), r[0], r[1] * r[2]).cast<double>();
+  if (n == 0) return c * Eigen::Map<const Eigen::MatrixXf>(p.data(), r[1] * r[2], q).cast<double>();
+  if (n == 2) {
+    const Eigen::Map<const Eigen::MatrixXd> by_slice(c.data(), r[0] * r[1], r[2]);
+    return by_slice.transpose() * Eigen::Map<const Eigen::MatrixXf>(p.data(), r[0] * r[1], q).cast<double>();
+  }
+  // Mode 2: Σ_k C(:, :, k)^T P(:, k, :).
+  Eigen::MatrixXd out = Eigen::MatrixXd::Zero(r[1], q);
+  for (std::int64_t k = 0; k < r[2]; ++k) {
+    const Eigen::Map<const Eigen::MatrixXd> slice(c.data() + r[0] * r[1] * k, r[0], r[1]);
+    const Eigen::Map<const Eigen::MatrixXf, 0, Eigen::OuterStride<>> pk(p.data() + r[0] * k, r[0], q,
+                                                                      Eigen::OuterStride<>(r[0] * r[2]));
+    out.noalias() += slice.transpose() * pk.cast<double>();
+  }
+  return out;
 }
 
 // The overlap voxels (shared with the neighbours for interpolation) are not fitted: each
 // factor gets rows for them by least squares against the samples there, given the core model.
 // They cost 2·margin factor rows per mode instead of (B/(B - 2·margin))^3 more coefficients.
+// Row p of mode n minimises ‖T_p - G ×n u_p‖ + ridge·‖u_p‖², G = C ×a U_a ×b U_b (the model with
+// mode n in coefficient space): u_p = (G_(n) G_(n)^T + ridge I)^-1 C_(n) vec(U_a^T T_p U_b).
+// For an orthonormal basis (the block DCT) G_(n) G_(n)^T = C_(n) C_(n)^T, so G is never formed.
 void extend_factors(CodedModel& cm, const tensor::Tensor3& x0, int margin) {
   quant::CodedBrick& b = cm.coded;
   const tensor::Dims3 region = b.dims;
@@ -280,29 +399,32 @@ void extend_factors(CodedModel& cm, const tensor::Tensor3& x0, int margin) {
   tensor::Factors<float> u;
   for (std::size_t n = 0; n < 3; ++n)
     u[n] = Eigen::Map<const tensor::Matrix<float>>(cm.model.factors[n].data(), region[n], r[n]);
+  const bool orthonormal = b.dct_block > 0;
+  EncoderScratch& scratch = ::strata::ta::scratch();
   std::vector<std::int32_t> codes;
   std::size_t column = 0, old_at = 0;
   for (int n = 0; n < 3; ++n) {
-    const std::size_t sn = std::size_t(n);
-    tensor::Tensor3 g = core;  // the model with mode n left in coefficient space
-    for (int other = 0; other < 3; ++other)
-      if (other != n) g = tensor::ttm(g, other + 1, u[std::size_t(other)]);
-    const Eigen::MatrixXd gm = tensor::unfold(g, n + 1).cast<double>();  // r_n x (region^2)
+    const std::size_t sn = std::size_t(n), a = n == 0 ? 1 : 0, bm = n == 2 ? 1 : 2;
+    tensor::Tensor3 g = core;
+    if (!orthonormal)
+      for (int other = 0; other < 3; ++other)
+        if (other != n) g = tensor::ttm(g, other + 1, u[std::size_t(other)]);
     // Ridge: weak columns would otherwise fit the overlap's noise with huge entries. The weight
     // is the quantization noise per sample over the spread of an orthonormal basis entry.
     const double ridge = double(b.core_step) * double(b.core_step) * double(region[sn]) / 12.0;
-    const auto solver =
-        (gm * gm.transpose() + ridge * Eigen::MatrixXd::Identity(gm.rows(), gm.rows())).ldlt();
+    const Eigen::MatrixXd gram = tensor::gram(g, n + 1);
+    const auto solver = (gram + ridge * Eigen::MatrixXd::Identity(r[sn], r[sn])).ldlt();
+    tensor::TuckerView bases;
+    const tensor::Tensor3& slabs = overlap_slabs(x0, n, margin, region);
+    bases.dims = slabs.dims();
+    bases.ranks = {r[a], r[bm], int(2 * margin)};
+    const Eigen::MatrixXf identity = Eigen::MatrixXf::Identity(2 * margin, 2 * margin);
+    bases.factors = {u[a].data(), u[bm].data(), identity.data()};
+    scratch.projector.project(slabs.values(), slabs.dims(), {0, 0, 0}, bases, scratch.slab_core);
+    const Eigen::MatrixXd solved = solver.solve(core_times_slabs(core, n, scratch.slab_core));  // r_n x 2·margin
     const std::int64_t m = region[sn];
-    Eigen::MatrixXd rows(x0.dims()[sn], r[sn]);  // new factor, filled below
-    const std::int64_t other_a = region[n == 0 ? 1 : 0], other_b = region[n == 2 ? 1 : 2];
-    for (std::int64_t p = 0; p < x0.dims()[sn]; ++p) {
-      if (p >= margin && p < margin + m) continue;
-      Eigen::VectorXd target(other_a * other_b);
-      for (std::int64_t bb = 0; bb < other_b; ++bb)
-        for (std::int64_t aa = 0; aa < other_a; ++aa) target(aa + other_a * bb) = overlap_sample(x0, n, p, aa, bb, margin);
-      rows.row(p) = solver.solve(gm * target).transpose();
-    }
+    Eigen::MatrixXd rows(x0.dims()[sn], r[sn]);  // new factor: the overlap rows below
+    for (std::int64_t q = 0; q < 2 * margin; ++q) rows.row(q < margin ? q : m + q) = solved.col(q).transpose();
     // A continuation far larger than any basis row would amplify rounding; such a row repeats
     // the nearest fitted row instead (what clamped edge samples look like anyway).
     const double largest_fitted = u[sn].rowwise().norm().maxCoeff();
@@ -408,12 +530,14 @@ void fill_error_table(CodedModel& m, double error_without_correction, double err
   std::vector<double> energy_by_shell(std::size_t(rmax), 0.0);  // coefficients with max(i, j, k) = s
   double total = 0;
   for (int k = 0; k < r[2]; ++k)
-    for (int j = 0; j < r[1]; ++j)
-      for (int i = 0; i < r[0]; ++i) {
-        const double c = m.model.core[std::size_t(i + r[0] * (j + r[1] * k))];
-        energy_by_shell[std::size_t(std::max({i, j, k}))] += c * c;
-        total += c * c;
-      }
+    for (int j = 0; j < r[1]; ++j) {
+      // Along a row, entries up to max(j, k) share that shell; each later entry is its own.
+      const float* row = m.model.core.data() + std::size_t(r[0]) * std::size_t(j + r[1] * k);
+      const int shared = std::min(std::max(j, k) + 1, r[0]);
+      if (shared > 0) energy_by_shell[std::size_t(std::max(j, k))] += sum_squares(row, shared);
+      for (int i = shared; i < r[0]; ++i) energy_by_shell[std::size_t(i)] += double(row[i]) * double(row[i]);
+    }
+  for (double e : energy_by_shell) total += e;
   double gain = 1;
   for (double e : m.factor_error) gain *= 1 + e;
   const double n = std::sqrt(double(voxels));
@@ -427,14 +551,44 @@ void fill_error_table(CodedModel& m, double error_without_correction, double err
 }
 
 double residual_norm(std::span<const float> samples, std::span<const float> decoded) {
-  double sum = 0;
-  for (std::size_t i = 0; i < samples.size(); ++i) sum += std::pow(double(samples[i]) - double(decoded[i]), 2);
-  return std::sqrt(sum);
+  RowErrors all;
+  all.add(samples.data(), decoded.data(), std::int64_t(samples.size()));
+  return std::sqrt(all.squared());
 }
 
-void check_finite_samples(std::span<const float> v) {
-  for (float x : v)
-    if (!std::isfinite(x)) throw Error("encode: non-finite sample in the brick");
+// What the encoder needs of the samples before coding, in one pass: their range (a constant
+// brick has min = max), their sum (the offset) and whether all are finite.
+struct SampleSummary {
+  float min = 0, max = 0;
+  double sum = 0;
+  bool finite = true;
+};
+
+SampleSummary summarize(std::span<const float> v) {
+  SampleSummary s;
+  if (v.empty()) return s;
+  float mn = v[0], mx = v[0];
+  double sums[4] = {0, 0, 0, 0};  // independent chains, as in sum_squares
+  bool bad = false;
+  std::size_t i = 0;
+  for (; i + 4 <= v.size(); i += 4)
+    for (std::size_t l = 0; l < 4; ++l) {
+      const float x = v[i + l];
+      mn = x < mn ? x : mn;
+      mx = x > mx ? x : mx;
+      bad |= !(std::abs(x) <= std::numeric_limits<float>::max());
+      sums[l] += double(x);
+    }
+  for (; i < v.size(); ++i) {
+    mn = v[i] < mn ? v[i] : mn;
+    mx = v[i] > mx ? v[i] : mx;
+    bad |= !(std::abs(v[i]) <= std::numeric_limits<float>::max());
+    sums[0] += double(v[i]);
+  }
+  s.min = mn, s.max = mx;
+  s.sum = (sums[0] + sums[1]) + (sums[2] + sums[3]);
+  s.finite = !bad;
+  return s;
 }
 
 // The brick as one value: its mean, when that already meets the target.
@@ -479,7 +633,7 @@ struct CodedPayload {
 template <class MakeModel>
 std::optional<CodedPayload> code_with_basis(MakeModel&& make, std::span<const float> v, const tensor::Tensor3& x0,
                                             const CoreRegion& core, const BrickTarget& target, std::span<float> decoded) {
-  thread_local tensor::BrickReconstructor reconstructor;
+  tensor::BrickReconstructor& reconstructor = scratch().reconstructor;
   const tensor::Dims3& d = x0.dims();
   double step = target.core_step;
   CodedModel m;
@@ -519,12 +673,15 @@ constexpr double kStepPerMaxError = 1.0;
 CoreError core_error(std::span<const float> samples, std::span<const float> decoded, const tensor::Dims3& dims,
                      const CoreRegion& core) {
   CoreError e;
-  for_each_core_voxel(dims, core, [&](std::size_t at) {
-    const double d = double(samples[at]) - double(decoded[at]);
-    e.squared += d * d;
-    e.max_abs = std::max(e.max_abs, std::abs(d));
-    ++e.voxels;
-  });
+  RowErrors rows;
+  for (int k = core.lo[2]; k < core.hi[2]; ++k)
+    for (int j = core.lo[1]; j < core.hi[1]; ++j) {
+      const std::size_t at = index3(dims, core.lo[0], j, k);
+      rows.add(samples.data() + at, decoded.data() + at, core.hi[0] - core.lo[0]);
+    }
+  e.squared = rows.squared();
+  e.max_abs = rows.max_abs;
+  e.voxels = std::int64_t(core.hi[0] - core.lo[0]) * (core.hi[1] - core.lo[1]) * (core.hi[2] - core.lo[2]);
   return e;
 }
 
@@ -590,11 +747,10 @@ EncodedBrick encode_brick_to_target(const tensor::Tensor3& samples, const CoreRe
                                     std::span<float> decoded) {
   const std::span<const float> v = samples.values();
   if (decoded.size() != v.size()) throw Error("encode: decode buffer does not match the brick");
-  check_finite_samples(v);
-  if (std::all_of(v.begin(), v.end(), [first = v[0]](float x) { return x == first; })) return constant_brick(v[0], decoded);
-  double sum = 0;
-  for (float x : v) sum += x;
-  const auto offset = float(sum / double(v.size()));
+  const SampleSummary summary = summarize(v);
+  if (!summary.finite) throw Error("encode: non-finite sample in the brick");
+  if (summary.min == summary.max) return constant_brick(v[0], decoded);
+  const auto offset = float(summary.sum / double(v.size()));
   // A bounded brick (per-brick cap or max error) is constant when its mean meets the bound; under
   // a global budget, when no coefficient survives the step.
   const bool bounded = std::isfinite(target.mse_cap) || std::isfinite(target.max_error);
@@ -602,22 +758,24 @@ EncodedBrick encode_brick_to_target(const tensor::Tensor3& samples, const CoreRe
 
   tensor::Tensor3 x0(samples.dims());
   for (std::size_t i = 0; i < v.size(); ++i) x0.values()[i] = v[i] - offset;
-  const tensor::Tensor3 fitted = fitted_region(x0, core.margin);
   // The block-DCT basis first: it is cheap, and an empty result means the brick is its offset.
-  const int block = dct_block_width(fitted.dims()[0]);
-  std::optional<CodedPayload> dct =
-      block == 0 ? std::nullopt
-                 : code_with_basis([&](double step) { return code_model_dct(fitted, block, step, target, offset); },
-                                   v, x0, core, target, decoded);
+  const int block = dct_block_width(x0.dims()[0] - 2 * core.margin);
+  std::optional<CodedPayload> dct;
+  if (block > 0) {
+    const tensor::Tensor3& coefficients = block_dct_coefficients(x0, core.margin, block);
+    dct = code_with_basis([&](double step) { return code_model_dct(coefficients, block, step, target, offset); }, v,
+                          x0, core, target, decoded);
+  }
   if (dct && dct->empty) return constant_brick(offset, decoded);
   std::vector<float> tucker_decoded;
   std::optional<CodedPayload> tucker;
   if (target.try_hosvd || !dct) {  // also when the block-DCT basis could not meet the target
     tucker_decoded.resize(v.size());
+    const tensor::Tensor3 fitted = fitted_region(x0, core.margin);
     const tensor::Tucker full =
         tensor::hosvd(fitted, {int(fitted.dims()[0]), int(fitted.dims()[1]), int(fitted.dims()[2])});
-    tucker = code_with_basis([&](double step) { return code_model(fitted, full, step, target, offset); }, v, x0, core,
-                             target, tucker_decoded);
+    tucker = code_with_basis([&](double step) { return code_model(x0, core.margin, full, step, target, offset); }, v,
+                             x0, core, target, tucker_decoded);
   }
   CodedPayload* best = dct ? &*dct : nullptr;
   if (tucker && (!best || tucker->bytes.size() < best->bytes.size())) {

@@ -5,6 +5,7 @@
 // GCC vector extensions and compiled for AVX-512, AVX2+FMA and baseline x86-64; the widest variant
 // active_isa() allows (strata/core/isa.hpp) is picked at run time, so the portable build needs no
 // -march=native.
+#include <array>
 #include <cstdint>
 
 #include "strata/core/isa.hpp"
@@ -64,6 +65,12 @@ struct DecomposeKernels {
 };
 
 std::int64_t leading_eigen_work(std::int64_t n);
+
+// G = X_(n) X_(n)^T (d[n-1] x d[n-1], column-major, both triangles) of a d[0] x d[1] x d[2]
+// tensor (first index fastest) without forming the unfolding: `x` in double, or `x_f` (x null)
+// in float, widened exactly. All modes run on the Gram kernel (mode 1 on a transposed copy).
+void mode_gram(const DecomposeKernels& k, const std::array<std::int64_t, 3>& d, const double* x, const float* x_f,
+               int mode, double* g);
 
 // The widest variants active_isa() allows.
 const DecomposeKernels& decompose_kernels();

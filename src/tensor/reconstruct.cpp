@@ -1,5 +1,6 @@
 #include "strata/tensor/reconstruct.hpp"
 
+#include <algorithm>
 #include <cstdlib>
 #include <new>
 #include <string>
@@ -27,6 +28,7 @@ TuckerView view_of(const Tucker& model) {
 namespace {
 
 using KernelFn = void (*)(const detail::ReconstructArgs&);
+using ProjectFn = void (*)(const detail::ProjectArgs&);
 
 // The widest variant active_isa() allows.
 KernelFn kernel_for(Isa isa) {
@@ -36,6 +38,18 @@ KernelFn kernel_for(Isa isa) {
     default: return detail::reconstruct_generic;
   }
 }
+
+ProjectFn project_kernel_for(Isa isa) {
+  switch (isa) {
+    case Isa::avx512: return detail::project_avx512;
+    case Isa::avx2: return detail::project_avx2;
+    default: return detail::project_generic;
+  }
+}
+
+// Rows per vector of the widest kernel: padding the first product's rows to it fills every
+// vector of every variant.
+constexpr std::int64_t kRowPadding = 16;
 
 // A float buffer aligned to a cache line (also the AVX-512 vector size), grown on demand and
 // never shrunk, so repeated reconstructions of same-sized bricks do not allocate.
@@ -130,6 +144,51 @@ Tensor3 BrickReconstructor::reconstruct(const Tucker& model, const Ranks3& leadi
   Tensor3 out(model.dims());
   reconstruct(view_of(model), leading_ranks, out.values());
   return out;
+}
+
+struct BrickProjector::Scratch {
+  AlignedFloats ut1, t1, t2, out;
+};
+
+BrickProjector::BrickProjector() : scratch_(std::make_unique<Scratch>()) {}
+BrickProjector::~BrickProjector() = default;
+BrickProjector::BrickProjector(BrickProjector&&) noexcept = default;
+BrickProjector& BrickProjector::operator=(BrickProjector&&) noexcept = default;
+
+void BrickProjector::project(std::span<const float> x, const Dims3& dims, const Dims3& lo, const TuckerView& bases,
+                             Tensor3& core) {
+  const Dims3& e = bases.dims;
+  const Ranks3& r = bases.ranks;
+  if (std::int64_t(x.size()) != dims[0] * dims[1] * dims[2])
+    throw Error("project: the brick holds " + std::to_string(x.size()) + " floats, " + to_string(dims) + " expected");
+  for (std::size_t n = 0; n < 3; ++n) {
+    if (!bases.factors[n]) throw Error("project: null factor pointer");
+    if (lo[n] < 0 || e[n] < 1 || lo[n] + e[n] > dims[n])
+      throw Error("project: the box " + to_string(e) + " at " + to_string(lo) + " leaves the " + to_string(dims) + " brick");
+    if (r[n] < 1) throw Error("project: ranks must be positive, got " + to_string({r[0], r[1], r[2]}));
+  }
+  detail::ProjectArgs a;
+  a.e1 = e[0], a.e2 = e[1], a.e3 = e[2];
+  a.r2 = r[1], a.r3 = r[2];
+  a.mp = (r[0] + kRowPadding - 1) / kRowPadding * kRowPadding;
+  a.x = x.data() + lo[0] + dims[0] * (lo[1] + dims[1] * lo[2]);
+  a.x_j = dims[0], a.x_k = dims[0] * dims[1];
+  float* ut1 = scratch_->ut1.reserve(std::size_t(a.mp * e[0]));
+  for (std::int64_t s = 0; s < e[0]; ++s)
+    for (std::int64_t c = 0; c < a.mp; ++c) ut1[c + a.mp * s] = c < r[0] ? bases.factors[0][s + e[0] * c] : 0.0f;
+  a.ut1 = ut1;
+  a.u2 = bases.factors[1], a.u3 = bases.factors[2];
+  a.t1 = scratch_->t1.reserve(std::size_t(a.mp * e[1] * e[2]));
+  a.t2 = scratch_->t2.reserve(std::size_t(a.mp * r[1] * e[2]));
+  a.out = scratch_->out.reserve(std::size_t(a.mp * r[1] * r[2]));
+  project_kernel_for(active_isa())(a);
+  if (core.dims() != Dims3{r[0], r[1], r[2]}) core = Tensor3(r[0], r[1], r[2]);
+  float* dst = core.data();
+  for (std::int64_t k = 0; k < r[2]; ++k)
+    for (std::int64_t j = 0; j < r[1]; ++j) {
+      const float* src = a.out + a.mp * (j + r[1] * k);
+      dst = std::copy(src, src + r[0], dst);
+    }
 }
 
 }  // namespace strata::tensor

@@ -80,20 +80,21 @@ template <int VW, int MV, int NR>
 // (bench_tensor, B = 32, R = 16). With 16 registers (SSE, AVX2) 2x6 accumulators plus two loaded
 // vectors fit, a 4x3 tile spills. With 32 zmm registers the last product, which has I1 I2 rows,
 // takes a taller 4x6 tile (fewer broadcasts per FMA); the first two, with I1 = 32 rows, take 2x12.
-void reconstruct_generic(const ReconstructArgs& a) {
-  auto gemm_sse = [](const GemmArgs& g) { gemm<4, 2, 6>(g); };
-  reconstruct_with(a, gemm_sse, gemm_sse);
-}
+// The projection's products have the same shapes (a narrow row count, then a wide one), so
+// they take the same tiles.
+namespace {
+void gemm_sse(const GemmArgs& g) { gemm<4, 2, 6>(g); }
+STRATA_TARGET_AVX2 void gemm_avx2(const GemmArgs& g) { gemm<8, 2, 6>(g); }
+STRATA_TARGET_AVX512 void gemm_avx512_narrow(const GemmArgs& g) { gemm<16, 2, 12>(g); }
+STRATA_TARGET_AVX512 void gemm_avx512_wide(const GemmArgs& g) { gemm<16, 4, 6>(g); }
+}  // namespace
 
-STRATA_TARGET_AVX2 void reconstruct_avx2(const ReconstructArgs& a) {
-  auto gemm_avx2 = [](const GemmArgs& g) STRATA_TARGET_AVX2 { gemm<8, 2, 6>(g); };
-  reconstruct_with(a, gemm_avx2, gemm_avx2);
-}
+void reconstruct_generic(const ReconstructArgs& a) { reconstruct_with(a, gemm_sse, gemm_sse); }
+void reconstruct_avx2(const ReconstructArgs& a) { reconstruct_with(a, gemm_avx2, gemm_avx2); }
+void reconstruct_avx512(const ReconstructArgs& a) { reconstruct_with(a, gemm_avx512_narrow, gemm_avx512_wide); }
 
-STRATA_TARGET_AVX512 void reconstruct_avx512(const ReconstructArgs& a) {
-  reconstruct_with(
-      a, [](const GemmArgs& g) STRATA_TARGET_AVX512 { gemm<16, 2, 12>(g); },
-      [](const GemmArgs& g) STRATA_TARGET_AVX512 { gemm<16, 4, 6>(g); });
-}
+void project_generic(const ProjectArgs& a) { project_with(a, gemm_sse, gemm_sse); }
+void project_avx2(const ProjectArgs& a) { project_with(a, gemm_avx2, gemm_avx2); }
+void project_avx512(const ProjectArgs& a) { project_with(a, gemm_avx512_narrow, gemm_avx512_wide); }
 
 }  // namespace strata::tensor::detail

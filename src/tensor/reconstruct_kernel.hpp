@@ -50,8 +50,41 @@ inline void reconstruct_with(const ReconstructArgs& a, Narrow&& narrow, Wide&& w
   wide(GemmArgs{a.i1 * a.i2, a.i3, a.k3, a.t2, a.i1 * a.i2, a.u3, a.i3, 1, a.out, a.i1 * a.i2});
 }
 
+// One projection (the analysis transform), all pointers set up by BrickProjector:
+// core = X[box] ×1 U1^T ×2 U2^T ×3 U3^T. The first product's row count is padded to `mp` (a
+// multiple of every vector width) with zero rows in Ut1, so all three products run on whole
+// vectors; the caller drops the padded rows.
+struct ProjectArgs {
+  std::int64_t e1 = 0, e2 = 0, e3 = 0;  // box extents
+  int r2 = 0, r3 = 0;                   // output ranks of modes 2 and 3
+  std::int64_t mp = 0;                  // rank of mode 1, padded
+  const float* x = nullptr;             // the box's first sample
+  std::int64_t x_j = 0, x_k = 0;        // strides of modes 2 and 3 in x (mode 1 is contiguous)
+  const float* ut1 = nullptr;           // mp x e1, ld mp: U1^T and zero rows
+  const float* u2 = nullptr;            // e2 x r2, ld e2
+  const float* u3 = nullptr;            // e3 x r3, ld e3
+  float* t1 = nullptr;                  // scratch mp x e2 x e3
+  float* t2 = nullptr;                  // scratch mp x r2 x e3
+  float* out = nullptr;                 // mp x r2 x r3
+};
+
+//   T1(:,:,s) (mp x e2)  = Ut1 · X(:,:,s)          for each slice s of the box
+//   T2(:,:,s) (mp x r2)  = T1(:,:,s) · U2           for each s
+//   Out (mp r2 x r3)     = T2 (mp r2 x e3) · U3
+template <class Narrow, class Wide>
+inline void project_with(const ProjectArgs& a, Narrow&& narrow, Wide&& wide) {
+  for (std::int64_t s = 0; s < a.e3; ++s)
+    narrow(GemmArgs{a.mp, a.e2, a.e1, a.ut1, a.mp, a.x + s * a.x_k, 1, a.x_j, a.t1 + s * a.mp * a.e2, a.mp});
+  for (std::int64_t s = 0; s < a.e3; ++s)
+    narrow(GemmArgs{a.mp, a.r2, a.e2, a.t1 + s * a.mp * a.e2, a.mp, a.u2, 1, a.e2, a.t2 + s * a.mp * a.r2, a.mp});
+  wide(GemmArgs{a.mp * a.r2, a.r3, a.e3, a.t2, a.mp * a.r2, a.u3, 1, a.e3, a.out, a.mp * a.r2});
+}
+
 void reconstruct_generic(const ReconstructArgs& a);
 void reconstruct_avx2(const ReconstructArgs& a);
 void reconstruct_avx512(const ReconstructArgs& a);
+void project_generic(const ProjectArgs& a);
+void project_avx2(const ProjectArgs& a);
+void project_avx512(const ProjectArgs& a);
 
 }  // namespace strata::tensor::detail

@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <string>
+#include <type_traits>
+
+#include "tensor/decompose_kernel.hpp"
 
 namespace strata::tensor {
 
@@ -105,21 +108,12 @@ Matrix<T> unfold(const BasicTensor3<T>& x, int mode) {
 template <class T>
 Matrix<double> gram(const BasicTensor3<T>& x, int mode) {
   check_mode(mode, "gram");
-  const Dims3& d = x.dims();
-  if (mode == 1) {
-    Matrix<double> m = ConstMatrixMap<T>(x.data(), d[0], d[1] * d[2]).template cast<double>();
-    return m * m.transpose();
-  }
-  if (mode == 3) {
-    Matrix<double> m = ConstMatrixMap<T>(x.data(), d[0] * d[1], d[2]).template cast<double>();
-    return m.transpose() * m;
-  }
-  // Mode 2: the columns of X_(2) are the rows of the frontal slices, so the Gram matrix is the
-  // sum of the slices' own Gram matrices S^T S.
-  Matrix<double> g = Matrix<double>::Zero(d[1], d[1]);
-  for (std::int64_t i3 = 0; i3 < d[2]; ++i3) {
-    Matrix<double> slice = ConstMatrixMap<T>(x.data() + i3 * d[0] * d[1], d[0], d[1]).template cast<double>();
-    g.noalias() += slice.transpose() * slice;
+  Matrix<double> g = Matrix<double>::Zero(x.dim(mode), x.dim(mode));
+  if (x.size() == 0) return g;
+  if constexpr (std::is_same_v<T, float>) {
+    detail::mode_gram(detail::decompose_kernels(), x.dims(), nullptr, x.data(), mode, g.data());
+  } else {
+    detail::mode_gram(detail::decompose_kernels(), x.dims(), x.data(), nullptr, mode, g.data());
   }
   return g;
 }

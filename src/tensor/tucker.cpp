@@ -120,26 +120,7 @@ TensorD ttm_transposed(const DecomposeKernels& k, const TensorD& x, int mode, co
 
 // X_(n) X_(n)^T (I_n x I_n, column-major) without forming the unfolding.
 void gram(const DecomposeKernels& k, const TensorD& x, int mode, double* g) {
-  const std::int64_t i1 = x.d[0], i2 = x.d[1], i3 = x.d[2];
-  if (mode == 1) {
-    // X viewed as I1 x (I2 I3): G = X X^T, lower triangle by GEMM, then mirrored.
-    DGemmArgs a{i1, i1, i2 * i3, x.data, i1, x.data, i1, 1, g, i1};
-    a.l_f = a.r_f = x.input;
-    a.lower = true;
-    k.gemm(a);
-    for (std::int64_t c = 1; c < i1; ++c)
-      for (std::int64_t r = 0; r < c; ++r) g[r + c * i1] = g[c + r * i1];
-  } else if (mode == 2) {
-    // Columns of X_(2) are the rows of the frontal slices: runs of I1 per slice.
-    DGramArgs a{i2, i3, i1 * i2, i1, i1, x.data, g};
-    a.x_f = x.input;
-    k.gram(a);
-  } else {
-    // X viewed as (I1 I2) x I3: inner products of whole frontal slices.
-    DGramArgs a{i3, 1, 0, i1 * i2, i1 * i2, x.data, g};
-    a.x_f = x.input;
-    k.gram(a);
-  }
+  detail::mode_gram(k, x.d, x.data, x.input, mode, g);
 }
 
 // Makes each column's largest-magnitude entry positive (the first one on ties): singular vectors

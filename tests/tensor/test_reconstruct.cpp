@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <random>
 
 #include <Eigen/QR>
@@ -77,6 +78,65 @@ TEST_P(TensorReconstructPerIsa, HandlesOddExtentsAndRanks) {
 
 STRATA_INSTANTIATE_PER_ISA(TensorReconstructPerIsa, Isa::generic, Isa::avx2, Isa::avx512);
 
+namespace {
+
+// Random samples and an orthonormal basis (e_n x r_n) per mode.
+Tensor3 random_brick(const Dims3& d, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<float> dist(0.0f, 10.0f);
+  Tensor3 x(d);
+  for (float& v : x.values()) v = dist(rng);
+  return x;
+}
+
+// The reference core of the box in double: the box copied out, then three Eigen products.
+Tensor3d reference_projection(const Tensor3& x, const Dims3& lo, const Factors<float>& u) {
+  Tensor3d box(u[0].rows(), u[1].rows(), u[2].rows());
+  for (std::int64_t k = 0; k < box.dims()[2]; ++k)
+    for (std::int64_t j = 0; j < box.dims()[1]; ++j)
+      for (std::int64_t i = 0; i < box.dims()[0]; ++i) box(i, j, k) = x(lo[0] + i, lo[1] + j, lo[2] + k);
+  Factors<double> ud;
+  for (std::size_t n = 0; n < 3; ++n) ud[n] = u[n].cast<double>();
+  return project(box, ud);
+}
+
+}  // namespace
+
+// The projection (the encoder's analysis transform) on the same kernels: a box inside a brick,
+// ranks that fill the padded rows and ranks that do not.
+class TensorProjectPerIsa : public test::IsaTest {};
+
+TEST_P(TensorProjectPerIsa, MatchesTheReferenceOnABoxOfABrick) {
+  const ScopedIsaLimit limit(isa());
+  const Tensor3 x = random_brick({32, 32, 32}, 7);
+  BrickProjector projector;
+  for (const Ranks3& r : {Ranks3{28, 28, 28}, Ranks3{5, 13, 7}, Ranks3{16, 1, 28}}) {
+    SCOPED_TRACE("R=" + std::to_string(r[0]) + "," + std::to_string(r[1]) + "," + std::to_string(r[2]));
+    const Tucker bases = random_model({28, 28, 28}, r, 8);
+    TuckerView view = view_of(bases);
+    view.core = nullptr;  // not read
+    Tensor3 core;
+    projector.project(x.values(), x.dims(), {2, 2, 2}, view, core);
+    const Tensor3d expected = reference_projection(x, {2, 2, 2}, bases.factors);
+    ASSERT_EQ(core.dims(), expected.dims());
+    // Each coefficient is a sum of 28^3 products formed in three float stages of 28 terms: with
+    // orthonormal bases the partial sums stay below the box's norm, so rounding stays below
+    // 3 · 28 · 2^-24 ≈ 5e-6 of it.
+    double box_norm = 0;
+    for (std::int64_t k = 2; k < 30; ++k)
+      for (std::int64_t j = 2; j < 30; ++j)
+        for (std::int64_t i = 2; i < 30; ++i) box_norm += double(x(i, j, k)) * x(i, j, k);
+    box_norm = std::sqrt(box_norm);
+    double worst = 0;
+    for (std::int64_t i = 0; i < core.size(); ++i)
+      worst = std::max(worst, std::abs(double(core.data()[i]) - expected.data()[i]));
+    EXPECT_LT(worst, 1e-5 * box_norm);
+    EXPECT_GT(expected.norm(), 1e-3 * box_norm);  // a real projection, not an empty one
+  }
+}
+
+STRATA_INSTANTIATE_PER_ISA(TensorProjectPerIsa, Isa::generic, Isa::avx2, Isa::avx512);
+
 // The FMA variants round each multiply-add once, the generic one twice: over a 32^3 brick some
 // voxel differs in its last bits, which shows the limit really switched kernels (the same
 // reconstructor object, so the choice is made per call).
@@ -124,6 +184,20 @@ TEST(TensorBrickReconstructor, RejectsBadRanksAndBufferSizes) {
   TuckerView broken = view_of(model);
   broken.core = nullptr;
   EXPECT_THROW(rec.reconstruct(broken, out), Error);
+}
+
+TEST(TensorBrickProjector, RejectsABoxOutsideTheBrickAndMissingBases) {
+  const Tensor3 x = random_brick({8, 8, 8}, 9);
+  const Tucker bases = random_model({6, 6, 6}, {3, 3, 3}, 10);
+  BrickProjector projector;
+  Tensor3 core;
+  EXPECT_THROW(projector.project(x.values(), x.dims(), {3, 0, 0}, view_of(bases), core), Error);
+  EXPECT_THROW(projector.project(x.values(), {8, 8, 7}, {0, 0, 0}, view_of(bases), core), Error);
+  TuckerView broken = view_of(bases);
+  broken.factors[2] = nullptr;
+  EXPECT_THROW(projector.project(x.values(), x.dims(), {1, 1, 1}, broken, core), Error);
+  EXPECT_NO_THROW(projector.project(x.values(), x.dims(), {2, 2, 2}, view_of(bases), core));
+  EXPECT_EQ(core.dims(), (Dims3{3, 3, 3}));
 }
 
 }  // namespace

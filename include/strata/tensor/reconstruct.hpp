@@ -47,4 +47,26 @@ class BrickReconstructor {
   std::unique_ptr<Scratch> scratch_;
 };
 
+/// @brief The analysis counterpart of BrickReconstructor: the core of a box of a brick in given
+/// bases, B = X[box] ×1 U1ᵀ ×2 U2ᵀ ×3 U3ᵀ, on the same dispatched GEMM kernel (the encoder's
+/// block-DCT and HOSVD projections; Eigen's portable build would run them on SSE2 only). Keeps
+/// its scratch between calls; one instance per thread (not thread-safe).
+class BrickProjector {
+ public:
+  BrickProjector();
+  ~BrickProjector();
+  BrickProjector(BrickProjector&&) noexcept;
+  BrickProjector& operator=(BrickProjector&&) noexcept;
+
+  /// @brief `x` holds a brick of `dims` samples (first index fastest); the box starts at `lo`
+  /// and spans `bases.dims`. bases.factors[n] is bases.dims[n] x bases.ranks[n], column-major
+  /// (bases.core is not read). Writes the ranks[0] x ranks[1] x ranks[2] core into `core`.
+  /// Throws Error if the box leaves the brick or a factor pointer is null.
+  void project(std::span<const float> x, const Dims3& dims, const Dims3& lo, const TuckerView& bases, Tensor3& core);
+
+ private:
+  struct Scratch;
+  std::unique_ptr<Scratch> scratch_;
+};
+
 }  // namespace strata::tensor

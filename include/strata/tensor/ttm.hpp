@@ -29,7 +29,8 @@ BasicTensor3<T> reconstruct(const BasicTensor3<T>& core, const Factors<T>& u);
 template <class T>
 Matrix<T> unfold(const BasicTensor3<T>& x, int mode);
 
-// X_(n) X_(n)^T (I_n x I_n), accumulated in double, without forming the unfolding.
+// X_(n) X_(n)^T (I_n x I_n), accumulated in double, without forming the unfolding (the
+// decompositions' dispatched Gram kernels).
 template <class T>
 Matrix<double> gram(const BasicTensor3<T>& x, int mode);
 
