@@ -62,18 +62,23 @@ void run_compress(const CompressArgs& args, const GlobalOptions& global) {
   read.progress = progress.get();
   auto source = io::open_volume(args.input, read);
   ta::CompressReport r = ta::compress_volume(*source, args.output, params, *progress);
-  std::int64_t bricks = 0, constant = 0;
+  std::int64_t bricks = 0, constant = 0, hosvd_trials = 0;
   for (const auto& l : r.levels) {
     bricks += l.bricks;
     constant += l.constant;
+    hosvd_trials += l.hosvd_trials;
   }
   std::printf("%s: %lld bricks in %zu levels (%lld constant), %s, %.3f bits/voxel, %.2f s (%.1f Mvox/s)\n",
               args.output.c_str(), (long long)bricks, r.levels.size(), (long long)constant,
               human_bytes(r.file_bytes).c_str(), 8.0 * double(r.file_bytes) / double(r.input_voxels), r.seconds,
               double(r.input_voxels) / r.seconds / 1e6);
   if (params.codec.target.kind != ta::TargetKind::none && !r.levels.empty())
+  {
     std::printf("level 0: RMSE %.6g, max error %.6g (measured; %d encoding pass%s after a %.2f s pre-pass)\n",
                 r.levels[0].rmse, r.levels[0].max_error, r.attempts, r.attempts == 1 ? "" : "es", r.prepass_seconds);
+    std::printf("bases: %lld of %lld bricks also tried the HOSVD basis\n", (long long)hosvd_trials,
+                (long long)(bricks - constant));
+  }
 }
 
 }  // namespace

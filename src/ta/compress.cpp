@@ -98,6 +98,7 @@ EncodedLevels encode_levels(io::VolumeSource& source, const std::filesystem::pat
       LevelCounts& counts = report.levels[key.level];
       ++counts.bricks;
       counts.constant += b.kind == store::PayloadKind::constant;
+      counts.hosvd_trials += b.block_dct_bytes > 0;
       report.core_bytes += b.core_bytes;
       report.factor_bytes += b.factor_bytes;
       report.brick_header_bytes += b.header_bytes;

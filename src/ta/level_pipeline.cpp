@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "strata/core/error.hpp"
+#include "strata/core/hash.hpp"
 #include "strata/core/threads.hpp"
 #include "strata/tensor/reconstruct.hpp"
 
@@ -39,10 +40,12 @@ void downsample_xy(const float* slice, const Extent& dims, float* out) {
 
 }  // namespace
 
-bool LevelPipeline::row_tries_hosvd(std::int64_t row) const {
-  constexpr std::int64_t kHosvdProbeRows = 4;
-  constexpr double kHosvdMinSaving = 0.01;
-  return row % kHosvdProbeRows == 0 || double(hosvd_saved_bytes_) >= kHosvdMinSaving * double(hosvd_trial_bytes_);
+bool LevelPipeline::brick_tries_hosvd(std::int64_t row, std::int64_t index) const {
+  constexpr double kHosvdMinSaving = 0.03;
+  constexpr std::uint64_t kFirstRowProbeEvery = 2, kProbeEvery = 8;
+  if (hosvd_trial_bytes_ > 0 && double(hosvd_saved_bytes_) >= kHosvdMinSaving * double(hosvd_trial_bytes_)) return true;
+  const std::uint64_t brick = std::uint64_t(row * dims_.bricks.x * dims_.bricks.y + index);
+  return splitmix64(brick) % (row == 0 ? kFirstRowProbeEvery : kProbeEvery) == 0;
 }
 
 LevelPipeline::LevelPipeline(const OctreeGeometry& geometry, int level, const CodecParams& codec,
@@ -216,7 +219,6 @@ void LevelPipeline::encode_row(std::int64_t row) {
   };
   std::vector<RowResult> results(static_cast<std::size_t>(bricks_in_row));
   std::exception_ptr failure;
-  const bool try_hosvd = row_tries_hosvd(row);
 
 #pragma omp parallel num_threads(thread_count())
   {
@@ -233,7 +235,8 @@ void LevelPipeline::encode_row(std::int64_t row) {
         // Culling metadata covers what a renderer may sample: original and decoded values. A
         // constant brick decodes to its value, which stands for every sample (an error-target
         // brick may be constant within its bound).
-        const bool constant = encode_and_decode(bx, by, row, samples, decoded, r.encoded, reconstructor, scratch, try_hosvd);
+        const bool constant = encode_and_decode(bx, by, row, samples, decoded, r.encoded, reconstructor, scratch,
+                                                brick_tries_hosvd(row, i));
         const float c = r.encoded.constant_value;
         r.stats = constant ? brick_stats(std::span(&c, 1), std::span(&c, 1), range_)
                            : brick_stats(decoded, samples.values(), range_);

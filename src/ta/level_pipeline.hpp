@@ -47,11 +47,14 @@ class LevelPipeline {
   bool encode_and_decode(std::int64_t bx, std::int64_t by, std::int64_t bz, const tensor::Tensor3& samples,
                          std::vector<float>& decoded, EncodedBrick& encoded, tensor::BrickReconstructor& reconstructor,
                          DecodeScratch& scratch, bool try_hosvd) const;
-  // Error-target mode: whether the bricks of `row` also try the HOSVD basis. Every
-  // kHosvdProbeRows-th row does; the others only while it has saved at least kHosvdMinSaving of
-  // the bytes in the rows that tried it (smooth fields: often 30 %; MRI, EM: under 1 %, at ~40 %
-  // of the encoding time). Decided from finished rows only: the same on any thread count.
-  bool row_tries_hosvd(std::int64_t row) const;
+  // Error-target mode: whether brick `index` of `row` (x fastest) also tries the HOSVD basis.
+  // Every brick does while the basis has saved at least kHosvdMinSaving of the bytes of the
+  // bricks that tried it in finished rows (smooth fields: 30-50 %); otherwise only probe bricks
+  // do, a hashed sample of half the first row and an eighth of later ones. The HOSVD costs
+  // about as much CPU as the rest of the encoder: on MRI and EM it saves under 2 %, so trying
+  // it everywhere halved the speed for nothing. Decided from finished rows and the brick's
+  // index only: the same on any thread count.
+  bool brick_tries_hosvd(std::int64_t row, std::int64_t index) const;
   void gather_samples(std::int64_t bx, std::int64_t by, std::int64_t bz, tensor::Tensor3& out) const;
   // Feeds decoded slices [z0, z1) (in decoded_row_) to `next` as 2x2x2 averages.
   void emit_decoded_slices(std::int64_t z0, std::int64_t z1);

@@ -11,6 +11,7 @@
 #include "strata/core/isa.hpp"
 #include "strata/core/metrics.hpp"
 #include "strata/core/threads.hpp"
+#include "strata/gen/generators.hpp"
 #include "strata/quant/coded_brick.hpp"
 #include "strata/ta/evaluate.hpp"
 #include "strata/ta/target_codec.hpp"
@@ -253,6 +254,29 @@ TEST(TaTargetCodec, OutputDoesNotDependOnTheThreadCount) {
     set_thread_count(threads);
     EXPECT_EQ(file_bytes(dir / "one.strata"), file_bytes(dir / "two.strata"));
   }
+}
+
+// The HOSVD basis costs about as much time as the rest of a brick's encoding: every brick tries
+// it where it pays (smooth fields), only a sample of probe bricks where it does not (noise).
+TEST(TaTargetCodec, TheHosvdBasisIsTriedEverywhereOnlyWhereItPays) {
+  test::TempDir dir;
+  const Extent dims{112, 112, 112};  // 4 x 4 x 4 bricks of core 28 at level 0
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(0.0f, 100.0f);
+  const Volume rough = filled([&](std::int64_t, std::int64_t, std::int64_t) { return u(rng); }, dims);
+  // Marschner-Lobb: the HOSVD codes it in half the bytes of the block DCT.
+  const Volume smooth = gen::generate({gen::Kind::marschner_lobb, dims});
+  auto tried_share = [&](const Volume& v) {
+    const CompressReport r = compress(v, dir / "v.strata", target_params(TargetKind::psnr, 40, 32));
+    const LevelCounts& l0 = r.levels[0];
+    return double(l0.hosvd_trials) / double(l0.bricks - l0.constant);
+  };
+  // Noise: half of the first row of 16 bricks probes, an eighth of the other 48 (0.22 of 64).
+  const double rough_share = tried_share(rough);
+  EXPECT_LT(rough_share, 0.35);
+  EXPECT_GT(rough_share, 0.05);
+  // Smooth: after the first row every brick tries (at least 48 of 64).
+  EXPECT_GE(tried_share(smooth), 48.0 / 64.0);
 }
 
 // Empty background costs no payload at all, and a brick no model can shrink (noise under a

@@ -29,6 +29,7 @@ std::uint64_t input_slab_bytes(const OctreeGeometry& geometry, const VolumeInfo&
 
 struct LevelCounts {
   std::int64_t bricks = 0, constant = 0;
+  std::int64_t hosvd_trials = 0;   // error-target mode: bricks coded in both bases (the rest only in the block DCT)
   double rmse = 0, max_error = 0;  // error-target mode: measured over the level's voxels
 };
 
