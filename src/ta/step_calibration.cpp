@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "strata/core/error.hpp"
+#include "strata/core/threads.hpp"
 #include "strata/quant/coded_brick.hpp"
 
 namespace strata::ta {
@@ -77,41 +78,64 @@ void StepCalibrator::finish() {
 
 void StepCalibrator::transform_layer() {
   const std::int64_t w = block_;
-  std::vector<float> samples(std::size_t(w * w * w));
   const std::int64_t bz = slices_seen_ > 0 ? (slices_seen_ - 1) / w : 0;
-  for (std::int64_t by = 0; by * w < dims_.y; ++by)
-    for (std::int64_t bx = 0; bx * w < dims_.x; ++bx) {
-      // Large levels: every other block (a checkerboard) predicts as well at half the cost.
-      if (sparse_ && (bx + by + bz) % 2 != 0) continue;
-      for (std::int64_t k = 0; k < w; ++k)
-        for (std::int64_t j = 0; j < w; ++j) {
-          const float* row = layer_[std::size_t(k)].data() + std::min(by * w + j, dims_.y - 1) * dims_.x;
-          for (std::int64_t i = 0; i < w; ++i) samples[std::size_t(i + w * (j + w * k))] = row[std::min(bx * w + i, dims_.x - 1)];
-        }
-      add_block(samples.data());
+  const std::int64_t rows = (dims_.y + w - 1) / w;
+  row_tallies_.resize(std::size_t(rows));
+#pragma omp parallel num_threads(thread_count())
+  {
+    std::vector<float> samples(std::size_t(w * w * w));
+#pragma omp for schedule(dynamic)
+    for (std::int64_t by = 0; by < rows; ++by) {
+      Tally& tally = row_tallies_[std::size_t(by)];
+      tally = Tally{};
+      for (std::int64_t bx = 0; bx * w < dims_.x; ++bx) {
+        // Large levels: every other block (a checkerboard) predicts as well at half the cost.
+        if (sparse_ && (bx + by + bz) % 2 != 0) continue;
+        for (std::int64_t k = 0; k < w; ++k)
+          for (std::int64_t j = 0; j < w; ++j) {
+            const float* row = layer_[std::size_t(k)].data() + std::min(by * w + j, dims_.y - 1) * dims_.x;
+            for (std::int64_t i = 0; i < w; ++i)
+              samples[std::size_t(i + w * (j + w * k))] = row[std::min(bx * w + i, dims_.x - 1)];
+          }
+        add_block(samples.data(), tally);
+      }
     }
+  }
+  for (const Tally& tally : row_tallies_) {
+    blocks_ += tally.blocks;
+    for (std::size_t i = 0; i < bins_.size(); ++i) {
+      if (tally.bins[i].count == 0) continue;
+      bins_[i].count += tally.bins[i].count;
+      bins_[i].sum_abs += tally.bins[i].sum_abs;
+      bins_[i].sum_sq += tally.bins[i].sum_sq;
+    }
+  }
   layer_.clear();
 }
 
-void StepCalibrator::add_block(const float* samples) {
+void StepCalibrator::add_block(const float* samples, Tally& tally) const {
   const std::size_t w = std::size_t(block_), plane = w * w;
-  ++blocks_;
+  ++tally.blocks;
   // A flat block has no spectrum (its float transform would leave rounding noise). The DC
   // coefficient of any other block holds the block mean less the brick mean, unknown here: it
   // is charged a uniform rounding error (predicted_mse).
   if (std::all_of(samples + 1, samples + w * plane, [first = samples[0]](float x) { return x == first; })) return;
-  ++bins_[0].count;  // bin 0 (magnitudes below 2^-126) doubles as the DC tally
+  ++tally.bins[0].count;  // bin 0 (magnitudes below 2^-126) doubles as the DC tally
   thread_local std::vector<float> a, b;
   a.assign(samples, samples + w * plane);
   b.resize(w * plane);
   // Along x, then y, then z: coefficient (f_x, f_y, f_z) = Σ basis(t, f) · sample, per axis.
+  // Lines along the axis start at `base` = outer + inner (outer steps over whole lines' spans).
   auto along = [&](const std::vector<float>& in, std::vector<float>& out, std::size_t stride) {
-    for (std::size_t at = 0; at < w * plane; ++at) {
-      const std::size_t f = (at / stride) % w, base = at - f * stride;
-      float sum = 0;
-      for (std::size_t t = 0; t < w; ++t) sum += basis_[t + w * f] * in[base + t * stride];
-      out[at] = sum;
-    }
+    for (std::size_t outer = 0; outer < w * plane; outer += stride * w)
+      for (std::size_t inner = 0; inner < stride; ++inner) {
+        const std::size_t base = outer + inner;
+        for (std::size_t f = 0; f < w; ++f) {
+          float sum = 0;
+          for (std::size_t t = 0; t < w; ++t) sum += basis_[t + w * f] * in[base + t * stride];
+          out[base + f * stride] = sum;
+        }
+      }
   };
   along(a, b, 1);
   along(b, a, w);
@@ -119,7 +143,7 @@ void StepCalibrator::add_block(const float* samples) {
   for (std::size_t i = 1; i < b.size(); ++i) {
     const float m = std::abs(b[i]);
     if (m == 0.0f) continue;
-    Bin& bin = bins_[std::min<std::uint32_t>(std::bit_cast<std::uint32_t>(m) >> 19, kBins - 1)];
+    Bin& bin = tally.bins[std::min<std::uint32_t>(std::bit_cast<std::uint32_t>(m) >> 19, kBins - 1)];
     ++bin.count;
     bin.sum_abs += m;
     bin.sum_sq += double(m) * double(m);

@@ -40,8 +40,10 @@ class StepCalibrator {
   std::uint64_t blocks() const { return blocks_; }
 
  private:
+  struct Bin;
+  struct Tally;
   void transform_layer();
-  void add_block(const float* samples);
+  void add_block(const float* samples, Tally& tally) const;
 
   // Magnitude bins: the top 12 bits of a positive float below the sign (exponent and 4 mantissa
   // bits), i.e. 1/16-octave bins over every float.
@@ -49,6 +51,12 @@ class StepCalibrator {
   struct Bin {
     std::uint64_t count = 0;
     double sum_abs = 0, sum_sq = 0;
+  };
+  // What one row of blocks adds: rows are transformed in parallel, each into its own tally,
+  // and merged in row order, so the sums do not depend on the thread count.
+  struct Tally {
+    std::array<Bin, kBins> bins{};
+    std::uint64_t blocks = 0;
   };
 
   static constexpr std::int64_t kDenseBlocks = 4096;  // levels with more blocks are sampled
@@ -59,6 +67,7 @@ class StepCalibrator {
   std::vector<std::vector<float>> layer_;    // up to `block` slices of the current block layer
   std::array<Bin, kBins> bins_{};
   std::uint64_t blocks_ = 0;
+  std::vector<Tally> row_tallies_;  // one per block row of the current layer, reused
   std::int64_t slices_seen_ = 0;
   bool sparse_ = false;
 };
