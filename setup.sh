@@ -11,10 +11,12 @@ PACKAGES=(
   libeigen3-dev                               # linear algebra
   zlib1g-dev libzstd-dev                      # gzip (NRRD, .nii.gz), zstd
   libtiff-dev                                 # TIFF stacks
-  libspng-dev                                 # PNG output
+  libspng-dev libturbojpeg0-dev               # PNG output, JPEG frames of the viewer
+  libcpp-httplib-dev                          # HTTP server (strata serve)
   libcli11-dev nlohmann-json3-dev libfmt-dev  # CLI, JSON, formatting
   libgtest-dev libbenchmark-dev               # tests and benchmarks
   mricron-data                                # sample MRI and brain atlases
+  chromium                                    # browser tests of the viewer (tests/web)
 )
 BENCH_PACKAGES=(zfp python3-numpy python3-matplotlib)  # bench/rd only (--bench); never the library
 
@@ -35,6 +37,18 @@ if ((${#missing[@]})); then
   if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
   $SUDO apt-get update -qq
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fi
+
+# playwright-core for the browser tests, from tests/web/package-lock.json; only when
+# node_modules is missing or older than the lock file.
+if [ ! -f tests/web/node_modules/.package-lock.json ] ||
+   [ tests/web/package-lock.json -nt tests/web/node_modules/.package-lock.json ]; then
+  if command -v npm >/dev/null; then
+    echo "setup: installing the browser tests' npm packages (tests/web)"
+    npm ci --prefix tests/web --no-audit --no-fund --loglevel=error
+  else
+    echo "setup: npm not found; the browser tests (ctest -L web) will say what is missing" >&2
+  fi
 fi
 
 if [ ! -f build/release/build.ninja ]; then

@@ -9,6 +9,11 @@ find_package(fmt REQUIRED)
 find_package(CLI11 REQUIRED)
 find_package(PkgConfig REQUIRED)
 pkg_check_modules(ZSTD REQUIRED IMPORTED_TARGET libzstd)
+pkg_check_modules(TURBOJPEG REQUIRED IMPORTED_TARGET libturbojpeg)  # JPEG frames of the viewer (render)
+# Debian builds cpp-httplib as a library with OpenSSL, zlib and brotli support: its pkg-config
+# flags (-DCPPHTTPLIB_*_SUPPORT) must reach every file that includes httplib.h, or the class
+# layouts differ from the library's. Only the server module uses it.
+pkg_check_modules(HTTPLIB REQUIRED IMPORTED_TARGET cpp-httplib)
 
 # libspng ships neither a CMake nor a pkg-config file: find it by hand.
 find_path(SPNG_INCLUDE_DIR spng.h REQUIRED)

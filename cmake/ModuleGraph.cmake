@@ -1,7 +1,7 @@
 # The module graph, in one place: every library module with the modules it uses directly
 # (docs/architecture.md draws it). The build and the test `ModuleGraph` check every include
 # against it (cmake/CheckModuleGraph.cmake). `gen` is used only by the apps, tests and benchmarks.
-set(STRATA_MODULES core io gen tensor quant store ta mixture lod render)
+set(STRATA_MODULES core io gen tensor quant store ta mixture lod render server)
 set(STRATA_DEPS_core "")
 set(STRATA_DEPS_io core)
 set(STRATA_DEPS_gen core io)
@@ -12,6 +12,7 @@ set(STRATA_DEPS_ta core io tensor quant store)
 set(STRATA_DEPS_mixture core io quant store)
 set(STRATA_DEPS_lod core tensor quant store ta)
 set(STRATA_DEPS_render core io store ta mixture lod)
+set(STRATA_DEPS_server core io store ta mixture lod render)
 
 # Fails with the file and the include when a module includes a module it does not depend on.
 function(strata_check_module_includes source_dir name deps)

@@ -25,6 +25,12 @@ function(strata_add_module name deps)
     target_link_libraries(strata_${name} PRIVATE PkgConfig::ZSTD)
   endif()
   if(name STREQUAL "render")
-    target_link_libraries(strata_${name} PRIVATE strata_spng)
+    target_link_libraries(strata_${name} PRIVATE strata_spng PkgConfig::TURBOJPEG)
+  endif()
+  if(name STREQUAL "server")
+    # PUBLIC: whatever includes httplib.h (the server, its tests' HTTP clients) must be compiled
+    # with the library's -DCPPHTTPLIB_* flags, or its classes' layouts differ from the library's.
+    target_link_libraries(strata_${name} PUBLIC PkgConfig::HTTPLIB)
+    strata_embed_web(strata_${name})  # the viewer's files compiled in (cmake/EmbedWeb.cmake)
   endif()
 endfunction()

@@ -82,6 +82,14 @@ class Viewer {
     return this.datasets.filter((d) => d.kind === 'scalar' || d.kind === 'plain');
   }
 
+  // The scalar choices in the order a first visit picks from: compressed files before plain
+  // volumes, and among them those a label dataset can overlay first (a scan with its atlas or
+  // segmentation is the view people open the viewer for).
+  preferredScalarChoices() {
+    const rank = (d) => (d.kind === 'scalar' ? 0 : 2) + (this.labelChoices(d).length > 0 ? 0 : 1);
+    return [...this.scalarChoices()].sort((a, b) => rank(a) - rank(b) || a.id - b.id);
+  }
+
   // Label datasets that can overlay the scalar one: the same level-0 grid.
   labelChoices(scalar = this.scalarDataset()) {
     return this.datasets.filter((d) => d.kind === 'labels' && (!scalar || d.dims.join() === scalar.dims.join()));
@@ -94,7 +102,7 @@ class Viewer {
       if (id === null) return null;
       return choices.find((d) => d.id === id) ?? choices[0] ?? null;
     };
-    const scalar = pick(wanted.scalar, this.scalarChoices());
+    const scalar = pick(wanted.scalar, this.preferredScalarChoices());
     const labels = pick(wanted.labels, this.labelChoices(scalar));
     return { scalar, labels };
   }

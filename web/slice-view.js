@@ -133,7 +133,7 @@ export class SliceView {
       run: async (signal, channel) => {
         const image = await fetchImage(url, signal, channel);
         if (!image) return;
-        const bitmap = layer === 'labels' ? await transparentBackground(image.bitmap) : image.bitmap;
+        const bitmap = image.bitmap;  // label slices carry their coverage as alpha
         this.images[layer]?.bitmap.close?.();
         this.images[layer] = { bitmap, level: Number(image.headers.get('X-Strata-Level') ?? 0) };
         this.frames += 1;
@@ -401,17 +401,3 @@ export class SliceView {
   }
 }
 
-// Label slices come opaque, black where no visible label is (background, hidden labels); the
-// overlay turns those pixels transparent so the scalar slice shows through them.
-async function transparentBackground(bitmap) {
-  const canvas = new OffscreenCanvas(bitmap.width, bitmap.height);
-  const context = canvas.getContext('2d');
-  context.drawImage(bitmap, 0, 0);
-  const image = context.getImageData(0, 0, bitmap.width, bitmap.height);
-  const pixels = image.data;
-  for (let i = 0; i < pixels.length; i += 4) {
-    if (pixels[i] === 0 && pixels[i + 1] === 0 && pixels[i + 2] === 0) pixels[i + 3] = 0;
-  }
-  bitmap.close();
-  return createImageBitmap(image);
-}

@@ -8,7 +8,6 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
-#include "render_session.hpp"
 #include "report.hpp"
 #include "strata/core/error.hpp"
 #include "strata/core/metrics.hpp"
@@ -18,6 +17,7 @@
 #include "strata/mixture/box_query.hpp"
 #include "strata/mixture/encoded_labels.hpp"
 #include "strata/render/image.hpp"
+#include "strata/render/render_session.hpp"
 #include "strata/ta/compress.hpp"
 #include "strata/ta/evaluate.hpp"
 
@@ -126,13 +126,13 @@ nlohmann::json encode_and_query_labels(const std::string& name, const Volume& la
           {"query_fetches", fast.fetches}, {"naive_fetches", exact_counts.fetches}, {"query_max_deviation", max_dev}};
 }
 
-// Renders `input` into `png` (512x384, default view) and prints the frame's figures.
-nlohmann::json render_still(RenderSession& session, const std::string& what, const fs::path& png) {
-  render::CameraSpec camera;
-  camera.width = 512;
-  camera.height = 384;
+// Renders one exact 512x384 frame at `rank` (0 = stored) into `png` and prints its figures.
+nlohmann::json render_still(render::RenderSession& session, render::FrameSettings settings, const std::string& what,
+                            const fs::path& png) {
+  settings.camera.width = 512;
+  settings.camera.height = 384;
   nlohmann::json stats;
-  render::write_png(session.frame(camera, true, stats), png);
+  render::write_png(session.frame(settings, stats), png);
   const nlohmann::json& r = stats["render"];
   std::printf("  %-24s -> %s: %.0f ms, %llu samples", what.c_str(), png.filename().c_str(), stats["frame_ms"].get<double>(),
               (unsigned long long)r.value("samples", std::uint64_t(0)));
@@ -157,18 +157,18 @@ nlohmann::json render_still(RenderSession& session, const std::string& what, con
 nlohmann::json render_samples(const fs::path& out) {
   nlohmann::json frames = nlohmann::json::array();
   if (fs::exists(out / "ch2better.strata")) {
-    RenderSettings s;
-    s.tf = "mri";
-    RenderSession session(out / "ch2better.strata", s);
+    render::RenderSession session(out / "ch2better.strata");
+    render::FrameSettings settings;
+    settings.tf = std::make_shared<const render::TransferFunction>(render::TransferFunction::preset("mri"));
     for (int k : {16, 8, 4}) {
-      session.set_rank(k);
-      frames.push_back(render_still(session, "ch2better rank " + std::to_string(k),
+      settings.rank = k;
+      frames.push_back(render_still(session, settings, "ch2better rank " + std::to_string(k),
                                     out / ("ch2better_rank" + std::to_string(k) + ".png")));
     }
   }
   const fs::path labels = fs::exists(out / "aal.strata") ? out / "aal.strata" : out / "cells.strata";
-  RenderSession session(labels, RenderSettings{});
-  frames.push_back(render_still(session, labels.stem().string() + " labels", out / (labels.stem().string() + ".png")));
+  render::RenderSession session(labels);
+  frames.push_back(render_still(session, {}, labels.stem().string() + " labels", out / (labels.stem().string() + ".png")));
   return frames;
 }
 
@@ -210,6 +210,11 @@ void run_demo(const DemoArgs& args, const GlobalOptions& global) {
   std::printf("Tensor-approximation compression (brick 32, rank 16, u16,b8log+, zstd)\n");
   report["compression"].push_back(compress_and_evaluate("prisms (generated)", out / "prisms.nrrd", out / "prisms.strata", *progress));
   if (fs::exists(ch2)) report["compression"].push_back(compress_and_evaluate("ch2better MRI", ch2, out / "ch2better.strata", *progress));
+  // The same brain at 1 mm lies on the atlas's grid: `strata serve demo-out/` overlays the two.
+  const fs::path ch2_atlas_grid = "/usr/share/mricron/templates/ch2.nii.gz";
+  if (atlas && fs::exists(ch2_atlas_grid))
+    report["compression"].push_back(
+        compress_and_evaluate("ch2 MRI (1 mm, atlas grid)", ch2_atlas_grid, out / "ch2.strata", *progress));
 
   std::printf("Mixture Graph for label volumes (9-bit weights, block-palette ids)\n");
   report["labels"].push_back(encode_and_query_labels("cells (generated)", cells, out / "cells.strata", *progress));

@@ -8,11 +8,11 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
-#include "render_session.hpp"
 #include "report.hpp"
 #include "strata/core/error.hpp"
 #include "strata/render/camera.hpp"
 #include "strata/render/image.hpp"
+#include "strata/render/render_session.hpp"
 
 namespace strata::cli {
 
@@ -99,18 +99,8 @@ void print_summary(const char* what, const nlohmann::json& sum) {
               100.0 * sum["decode_share"].get<double>());
 }
 
-RenderSettings settings_of(const RenderArgs& a) {
-  if (!(a.step > 0)) throw Error("--step: must be positive");
-  if (!(a.lod > 0)) throw Error("--lod: must be positive");
-  if (a.shading != "on" && a.shading != "off") throw Error("--shading: expected on or off, got '" + a.shading + "'");
-  RenderSettings s;
-  s.tf = a.tf;
-  s.colors = a.colors;
-  s.rank = a.rank;
-  s.lod = a.lod;
-  s.lod_bias = a.lod_bias;
-  s.step = a.step;
-  s.shading = a.shading == "on";
+render::SessionOptions session_options(const RenderArgs& a) {
+  render::SessionOptions s;
   s.background = parse_background(a.background);
   s.cache_bytes = parse_byte_size(a.cache, "--cache");
   s.max_bricks = a.max_bricks;
@@ -118,27 +108,52 @@ RenderSettings settings_of(const RenderArgs& a) {
   return s;
 }
 
+// Everything but the camera's azimuth and the quality, which change per frame.
+render::FrameSettings frame_settings(const RenderArgs& a) {
+  if (!(a.step > 0)) throw Error("--step: must be positive");
+  if (!(a.lod > 0)) throw Error("--lod: must be positive");
+  if (a.shading != "on" && a.shading != "off") throw Error("--shading: expected on or off, got '" + a.shading + "'");
+  render::FrameSettings f;
+  f.camera = camera_spec(a);  // fails on a bad --size before any work
+  f.tf = std::make_shared<const render::TransferFunction>(render::TransferFunction::from_argument(a.tf));
+  f.rank = a.rank;
+  f.lod = a.lod;
+  f.lod_bias = a.lod_bias;
+  f.step = a.step;
+  f.shading = a.shading == "on";
+  return f;
+}
+
+// A still, and the first frame of an orbit, show the complete cut; later orbit frames draw
+// what is resident and let the loader catch up (on a coarser ray grid with --target-fps),
+// unless --exact.
+render::FrameQuality frame_quality(const RenderArgs& a, int i) {
+  if (a.exact || i == 0) return render::FrameQuality::exact;
+  return a.target_fps > 0 ? render::FrameQuality::interactive : render::FrameQuality::progressive;
+}
+
 void run_render(const RenderArgs& a, const GlobalOptions&) {
   if (a.orbit < 0) throw Error("--orbit: must be >= 0");
-  render::CameraSpec camera = camera_spec(a);  // fails on a bad --size before any work
-  RenderSession session(a.input, settings_of(a));
+  render::FrameSettings settings = frame_settings(a);
+  render::RenderSession session(a.input, session_options(a));
+  if (!a.colors.empty() && session.kind() == render::DatasetKind::labels)
+    session.set_label_colors(render::LabelColorMap::load(a.colors));
   if (a.orbit > 0) fs::create_directories(a.output);
   nlohmann::json frames = nlohmann::json::array();
   const int count = std::max(1, a.orbit);
   for (int i = 0; i < count; ++i) {
     nlohmann::json s;
-    camera.orbit.azimuth_deg = frame_azimuth(a, i);
-    // A still, and the first frame of an orbit, show the complete cut; later orbit frames
-    // draw what is resident and let the loader catch up, unless --exact.
-    const render::Image image = session.frame(camera, a.exact || i == 0, s);
+    settings.camera.orbit.azimuth_deg = frame_azimuth(a, i);
+    settings.quality = frame_quality(a, i);
+    const render::Image image = session.frame(settings, s);
     s["frame"] = i;
-    s["azimuth"] = camera.orbit.azimuth_deg;
+    s["azimuth"] = settings.camera.orbit.azimuth_deg;
     const fs::path path = frame_path(a, i);
     render::write_png(image, path);
     print_frame(path, s);
     frames.push_back(std::move(s));
   }
-  const nlohmann::json sum = frame_summary(frames);
+  const nlohmann::json sum = render::frame_summary(frames);
   if (!a.stats.empty()) write_json_file(a.stats, {{"input", a.input}, {"summary", sum}, {"frames", frames}});
   if (a.orbit > 0) print_summary("all frames", sum);
   if (sum.contains("after_first")) print_summary("after the first", sum["after_first"]);

@@ -29,6 +29,7 @@ void register_eval(CLI::App& app, const GlobalOptions& global);
 void register_labels(CLI::App& app, const GlobalOptions& global);
 void register_demo(CLI::App& app, const GlobalOptions& global);
 void register_render(CLI::App& app, const GlobalOptions& global);
+void register_serve(CLI::App& app, const GlobalOptions& global);
 
 // The message of a library ParameterError in command-line terms: its parameter name replaced
 // by the flag that sets it in the running subcommand (or the app), when there is one

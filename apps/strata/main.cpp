@@ -64,6 +64,7 @@ int main(int argc, char** argv) {
   cli::register_eval(app, global);
   cli::register_labels(app, global);
   cli::register_render(app, global);
+  cli::register_serve(app, global);
   cli::register_demo(app, global);
 
   try {

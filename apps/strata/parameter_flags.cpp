@@ -14,6 +14,7 @@ struct ParameterFlag {
 
 // Library parameter name -> the flag that sets it, in whichever subcommand has that flag.
 constexpr ParameterFlag kParameterFlags[] = {
+    {"ApiOptions::cache_bytes", "--cache-mb"},
     {"BrickLayout::brick", "--brick"},
     {"BrickLayout::overlap", "--overlap"},
     {"CodecParams::rank", "--rank"},

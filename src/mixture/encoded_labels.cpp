@@ -228,8 +228,7 @@ Volume EncodedLabels::decode_level0() const {
   return label_map_.decode(level_ids(0), level_dims_[0], spacing_);
 }
 
-Volume EncodedLabels::dominant_labels(int level) const {
-  std::vector<std::uint32_t> ids = level_ids(level);
+std::vector<std::uint32_t> EncodedLabels::dominant_sources() const {
   const MixtureLookup& lut = lookup();
   std::vector<std::uint32_t> dominant(std::size_t(graph_.node_count()));
   for (std::uint32_t n = 0; n < dominant.size(); ++n) {
@@ -240,17 +239,27 @@ Volume EncodedLabels::dominant_labels(int level) const {
       if (mu[k] > mu[best]) best = k;  // index ascending: ties keep the smaller label
     dominant[n] = ix.empty() ? 0 : ix[best];
   }
+  return dominant;
+}
+
+std::vector<float> EncodedLabels::label_fractions(std::int64_t label_value) const {
+  const auto source = label_map_.id_of(label_value);
+  if (!source) throw Error(path_.string() + ": label " + std::to_string(label_value) + " does not occur in the volume");
+  std::vector<float> indicator(graph_.num_sources, 0.0f);
+  indicator[*source] = 1.0f;
+  return propagate_palette(graph_, schedule_, indicator, 1);
+}
+
+Volume EncodedLabels::dominant_labels(int level) const {
+  std::vector<std::uint32_t> ids = level_ids(level);
+  const std::vector<std::uint32_t> dominant = dominant_sources();
   for (auto& id : ids) id = dominant[id];
   return label_map_.decode(ids, level_dims_[std::size_t(level)], level_spacing(level));
 }
 
 Volume EncodedLabels::label_fraction(int level, std::int64_t label_value) const {
-  const auto source = label_map_.id_of(label_value);
-  if (!source) throw Error(path_.string() + ": label " + std::to_string(label_value) + " does not occur in the volume");
+  const std::vector<float> frac = label_fractions(label_value);
   const std::vector<std::uint32_t> ids = level_ids(level);
-  std::vector<float> indicator(graph_.num_sources, 0.0f);
-  indicator[*source] = 1.0f;
-  const std::vector<float> frac = propagate_palette(graph_, schedule_, indicator, 1);
   Volume out(level_dims_[std::size_t(level)], DType::f32, level_spacing(level));
   auto s = out.samples<float>();
   for (std::size_t i = 0; i < ids.size(); ++i) s[i] = frac[ids[i]];

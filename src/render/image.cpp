@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include <spng.h>
+#include <turbojpeg.h>
 
 #include <cstdlib>
 #include <fstream>
@@ -36,29 +37,69 @@ Image::Image(int width, int height, Rgba8 fill) : width_(width), height_(height)
   pixels_.assign(std::size_t(width) * std::size_t(height), fill);
 }
 
-void write_png(const Image& image, const std::filesystem::path& path) {
-  if (image.width() <= 0 || image.height() <= 0) throw Error(path.string() + ": cannot write an empty image");
+namespace {
+
+struct PngBufferDeleter {
+  void operator()(void* p) const { std::free(p); }
+};
+
+// PNG bytes of `image` in a buffer libspng allocated; `what` names the destination in errors.
+std::unique_ptr<void, PngBufferDeleter> png_buffer(const Image& image, const std::filesystem::path& what,
+                                                   std::size_t& length) {
+  if (image.width() <= 0 || image.height() <= 0) throw Error(what.string() + ": cannot write an empty image");
   SpngPtr ctx(spng_ctx_new(SPNG_CTX_ENCODER));
-  if (!ctx) throw Error(path.string() + ": out of memory creating the PNG encoder");
-  // Encode to memory, then write through AtomicOutputFile so a failure leaves no partial PNG.
-  check(spng_set_option(ctx.get(), SPNG_ENCODE_TO_BUFFER, 1), path, "PNG encoder option");
+  if (!ctx) throw Error(what.string() + ": out of memory creating the PNG encoder");
+  check(spng_set_option(ctx.get(), SPNG_ENCODE_TO_BUFFER, 1), what, "PNG encoder option");
   spng_ihdr ihdr{};
   ihdr.width = std::uint32_t(image.width());
   ihdr.height = std::uint32_t(image.height());
   ihdr.bit_depth = 8;
   ihdr.color_type = SPNG_COLOR_TYPE_TRUECOLOR_ALPHA;
-  check(spng_set_ihdr(ctx.get(), &ihdr), path, "PNG header");
+  check(spng_set_ihdr(ctx.get(), &ihdr), what, "PNG header");
   const std::size_t bytes = image.pixels().size() * sizeof(Rgba8);
-  check(spng_encode_image(ctx.get(), image.pixels().data(), bytes, SPNG_FMT_PNG, SPNG_ENCODE_FINALIZE), path,
+  check(spng_encode_image(ctx.get(), image.pixels().data(), bytes, SPNG_FMT_PNG, SPNG_ENCODE_FINALIZE), what,
         "PNG encoding");
-  std::size_t length = 0;
   int error = 0;
-  std::unique_ptr<void, decltype(&std::free)> buffer(spng_get_png_buffer(ctx.get(), &length, &error), &std::free);
-  check(error, path, "PNG buffer");
-  if (!buffer) throw Error(path.string() + ": PNG encoder produced no data");
+  std::unique_ptr<void, PngBufferDeleter> buffer(spng_get_png_buffer(ctx.get(), &length, &error));
+  check(error, what, "PNG buffer");
+  if (!buffer) throw Error(what.string() + ": PNG encoder produced no data");
+  return buffer;
+}
+
+struct TjDeleter {
+  void operator()(void* handle) const { tjDestroy(handle); }
+};
+
+}  // namespace
+
+void write_png(const Image& image, const std::filesystem::path& path) {
+  std::size_t length = 0;
+  const auto buffer = png_buffer(image, path, length);
+  // Encoded to memory, then written through AtomicOutputFile so a failure leaves no partial PNG.
   io::AtomicOutputFile out(path);
   out.write(buffer.get(), length);
   out.commit();
+}
+
+std::vector<std::uint8_t> encode_png(const Image& image) {
+  std::size_t length = 0;
+  const auto buffer = png_buffer(image, "PNG image", length);
+  const auto* bytes = static_cast<const std::uint8_t*>(buffer.get());
+  return {bytes, bytes + length};
+}
+
+std::vector<std::uint8_t> encode_jpeg(const Image& image, int quality) {
+  if (image.width() <= 0 || image.height() <= 0) throw Error("JPEG image: cannot encode an empty image");
+  if (quality < 1 || quality > 100) throw ParameterError("quality", "must lie in 1..100, got " + std::to_string(quality));
+  std::unique_ptr<void, TjDeleter> tj(tjInitCompress());
+  if (!tj) throw Error("JPEG image: cannot create the encoder");
+  unsigned char* out = nullptr;
+  unsigned long size = 0;
+  const int rc = tjCompress2(tj.get(), reinterpret_cast<const unsigned char*>(image.pixels().data()), image.width(),
+                             0, image.height(), TJPF_RGBA, &out, &size, TJSAMP_420, quality, TJFLAG_FASTDCT);
+  std::unique_ptr<unsigned char, decltype(&tjFree)> owned(out, &tjFree);
+  if (rc != 0) throw Error(std::string("JPEG image: ") + tjGetErrorStr2(tj.get()));
+  return {out, out + size};
 }
 
 Image read_png(const std::filesystem::path& path) {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <charconv>
 #include <cmath>
 #include <limits>
 #include <nlohmann/json.hpp>
@@ -167,6 +168,54 @@ TransferFunction TransferFunction::from_argument(const std::string& preset_or_pa
   if (std::filesystem::exists(preset_or_path)) return load(preset_or_path);
   throw ParameterError("preset_or_path", "\"" + preset_or_path + "\" is neither a preset (" + joined_preset_names() +
                                             ") nor an existing JSON file");
+}
+
+bool TransferFunction::is_preset(std::string_view name) {
+  return std::find(kPresetNames.begin(), kPresetNames.end(), name) != kPresetNames.end();
+}
+
+namespace {
+
+// The fields of one `v:r:g:b:a` point; throws ParameterError("text") naming point `i`.
+std::array<double, 5> parse_text_point(std::string_view point, std::size_t i) {
+  const std::string what = "point " + std::to_string(i) + " \"" + std::string(point) + "\"";
+  std::array<double, 5> f{};
+  std::size_t k = 0, start = 0;
+  for (; start <= point.size() && k < f.size(); ++k) {
+    const std::size_t colon = std::min(point.find(':', start), point.size());
+    const char* first = point.data() + start;
+    const char* last = point.data() + colon;
+    const auto [end, ec] = std::from_chars(first, last, f[k]);
+    if (ec != std::errc() || end != last || !std::isfinite(f[k]))
+      throw ParameterError("text", what + ": expected v:r:g:b:a, five finite numbers");
+    start = colon + 1;
+  }
+  if (k != f.size() || start <= point.size())
+    throw ParameterError("text", what + ": expected v:r:g:b:a, five finite numbers");
+  for (std::size_t c = 1; c < f.size(); ++c)
+    if (!(f[c] >= 0 && f[c] <= 1)) throw ParameterError("text", what + ": r, g, b and a must lie in [0, 1]");
+  return f;
+}
+
+}  // namespace
+
+TransferFunction TransferFunction::from_points_text(std::string_view text) {
+  std::vector<std::array<double, 5>> fields;
+  for (std::size_t start = 0; start <= text.size();) {
+    const std::size_t semi = std::min(text.find(';', start), text.size());
+    fields.push_back(parse_text_point(text.substr(start, semi - start), fields.size()));
+    start = semi + 1;
+  }
+  if (fields.size() < 2) throw ParameterError("text", "needs at least two points v:r:g:b:a separated by ';'");
+  for (std::size_t i = 1; i < fields.size(); ++i)
+    if (fields[i][0] < fields[i - 1][0])
+      throw ParameterError("text", "point " + std::to_string(i) + ": values must be in ascending order");
+  const double lo = fields.front()[0], hi = fields.back()[0];
+  if (!(lo < hi)) throw ParameterError("text", "the first point's value must lie below the last one's");
+  std::vector<TfPoint> points;
+  for (const auto& f : fields)
+    points.push_back({std::clamp((f[0] - lo) / (hi - lo), 0.0, 1.0), {float(f[1]), float(f[2]), float(f[3]), float(f[4])}});
+  return TransferFunction(std::move(points), std::pair{lo, hi});
 }
 
 nlohmann::json TransferFunction::to_json() const {

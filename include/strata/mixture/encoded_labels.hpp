@@ -109,6 +109,14 @@ class EncodedLabels final : public NodeGrid {
   // Per voxel the fraction (f32) of `label_value` (a value of the label map; Error otherwise).
   Volume label_fraction(int level, std::int64_t label_value) const;
 
+  /// @brief Per graph node the source id of its largest mean weight (ties: the smaller id), so
+  /// any voxel of any level maps to its dominant label by one lookup of its node id. Sources map
+  /// to themselves. Builds the lookup on first use.
+  std::vector<std::uint32_t> dominant_sources() const;
+  /// @brief Per graph node the fraction of `label_value` in its mixture (the label's indicator
+  /// propagated through the graph). Throws Error naming the file when the label does not occur.
+  std::vector<float> label_fractions(std::int64_t label_value) const;
+
  private:
   std::vector<std::uint32_t> level_ids(int level) const;
   Spacing level_spacing(int level) const;

@@ -35,6 +35,11 @@ class Image {
 Image resize_bilinear(const Image& image, int width, int height);
 
 void write_png(const Image& image, const std::filesystem::path& path);  // throws Error naming the file
+/// @brief The PNG file bytes of `image` (RGBA, 8 bits); throws Error on an empty image.
+std::vector<std::uint8_t> encode_png(const Image& image);
+/// @brief A baseline JPEG of `image`'s colour (alpha dropped), 4:2:0, quality 1..100 (libturbojpeg):
+/// the small frames a viewer shows while the camera moves. Throws Error on an empty image.
+std::vector<std::uint8_t> encode_jpeg(const Image& image, int quality = 80);
 Image read_png(const std::filesystem::path& path);                       // for tests and comparisons
 
 }  // namespace strata::render

@@ -80,6 +80,13 @@ class TransferFunction {
   // A preset name or a JSON file path (the CLI's --tf argument); throws
   // ParameterError("preset_or_path") when it is neither.
   static TransferFunction from_argument(const std::string& preset_or_path);
+  /// @brief True when `name` names a preset (preset() accepts it, "bone" included).
+  static bool is_preset(std::string_view name);
+  /// @brief The compact text form `v:r:g:b:a;v:r:g:b:a;...` (the viewer's `tf` parameter): at
+  /// least two points, `v` in data units (non-decreasing, the first below the last; they set the
+  /// TF's range), `r,g,b,a` in [0, 1] as in the JSON form. Never touches the filesystem.
+  /// Throws ParameterError("text") naming the point and what was expected.
+  static TransferFunction from_points_text(std::string_view text);
   nlohmann::json to_json() const;
 
   const std::vector<TfPoint>& points() const { return points_; }

@@ -1,0 +1,69 @@
+// `strata serve FILE|DIR... [--host 127.0.0.1] [--port 8080] [--cache-mb N]`: the viewer's HTTP
+// API (docs/viewer.md) over the named volumes, with the browser client compiled in.
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "commands.hpp"
+#include "strata/server/api.hpp"
+#include "strata/server/http_server.hpp"
+
+namespace strata::cli {
+
+namespace {
+
+struct ServeArgs {
+  std::vector<std::string> inputs;
+  std::string host = "127.0.0.1";
+  int port = 8080;
+  std::uint64_t cache_mb = 1024;
+  std::size_t queue = 4;
+};
+
+void run_serve(const ServeArgs& a, const GlobalOptions&) {
+  const std::vector<std::filesystem::path> files = server::dataset_files(a.inputs);
+  server::ApiOptions options;
+  options.cache_bytes = a.cache_mb << 20;
+  options.queue_capacity = a.queue;
+  std::printf("Opening %zu dataset%s\n", files.size(), files.size() == 1 ? "" : "s");
+  server::Api api(files, options);
+  for (const std::string& line : api.summary()) std::printf("  %s\n", line.c_str());
+  server::ServerOptions http;
+  http.host = a.host;
+  http.port = a.port;
+  server::HttpServer server(api, http);
+  server.bind();
+  std::printf("Serving on %s  (Ctrl-C stops)\n", server.url().c_str());
+  std::fflush(stdout);
+  server::serve_until_signal(server);
+  std::printf("Stopped\n");
+}
+
+}  // namespace
+
+void register_serve(CLI::App& app, const GlobalOptions& global) {
+  auto a = std::make_shared<ServeArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "serve",
+      "Serve volumes to the browser viewer over HTTP (docs/viewer.md): server-side 3D frames, slices, voxel values, "
+      "label palettes and box queries");
+  cmd->add_option("inputs", a->inputs,
+                  "Volume files (.strata, .nrrd, .nhdr, .nii, .nii.gz, .tif, .tiff, .raw with a .json sidecar) or "
+                  "folders (the volume files directly inside); dataset ids follow this order")
+      ->required();
+  cmd->add_option("--host", a->host, "Address to listen on (loopback by default: other machines cannot connect)")
+      ->capture_default_str();
+  cmd->add_option("--port", a->port, "TCP port (0 = any free port)")->capture_default_str()->check(CLI::Range(0, 65535));
+  cmd->add_option("--cache-mb", a->cache_mb,
+                  "Memory for the brick caches of all datasets in MiB, split among the .strata files (plain volumes "
+                  "are held whole on top)")
+      ->capture_default_str()
+      ->check(CLI::Range(16, 1 << 20));
+  cmd->add_option("--queue", a->queue, "Frames that may wait for the renderer; more get 503 Retry-After: 1")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 256));
+  cmd->callback([a, &global] { run_serve(*a, global); });
+}
+
+}  // namespace strata::cli

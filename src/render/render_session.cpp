@@ -1,0 +1,322 @@
+// RenderSession: opening a file, describing it and rendering frames (slices, values and label
+// colours are in session_slices.cpp).
+#include "strata/render/render_session.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "render/render_session_parts.hpp"
+#include "strata/core/error.hpp"
+#include "strata/core/stopwatch.hpp"
+#include "strata/io/volume_io.hpp"
+#include "strata/lod/histogram_bins.hpp"
+#include "strata/store/brick_histogram.hpp"
+
+namespace strata::render {
+
+std::string_view dataset_kind_name(DatasetKind kind) {
+  switch (kind) {
+    case DatasetKind::scalar: return "scalar";
+    case DatasetKind::labels: return "labels";
+    case DatasetKind::plain: break;
+  }
+  return "plain";
+}
+
+RenderOptions render_options(const FrameSettings& s, const std::array<float, 4>& background) {
+  RenderOptions o;
+  o.step = s.step;
+  o.shading = s.shading;
+  o.background = background;
+  return o;
+}
+
+const TransferFunction& frame_tf(const FrameSettings& settings) {
+  static const TransferFunction ct = TransferFunction::preset("ct");
+  return settings.tf ? *settings.tf : ct;
+}
+
+RayCaster& CasterSlot::get(const TransferFunction& tf, const RenderOptions& options) {
+  std::string key = fmt::format("{}|{}|{}", tf.to_json().dump(), options.step, options.shading);
+  if (!caster_ || key != key_) {
+    caster_ = std::make_unique<RayCaster>(tf, options);
+    key_ = std::move(key);
+  }
+  return *caster_;
+}
+
+namespace {
+
+lod::ProviderOptions provider_options(const SessionOptions& s) {
+  lod::ProviderOptions o;
+  o.cache_bytes = s.cache_bytes;
+  o.model_cache_bytes = s.model_cache_bytes;
+  o.loader_threads = s.loader_threads;
+  return o;
+}
+
+nlohmann::json json_of(const Extent& e) { return {e.x, e.y, e.z}; }
+nlohmann::json json_of(const Spacing& s) { return {s.x, s.y, s.z}; }
+
+}  // namespace
+
+RenderSession::Scalar::Scalar(std::unique_ptr<store::ContainerReader> input, const SessionOptions& s)
+    : volume(std::move(input)), provider(volume, provider_options(s)) {
+  selection.max_bricks = s.max_bricks;
+  selection.memory_budget = s.cache_bytes;
+}
+
+Image RenderSession::Scalar::frame(const Camera& camera, const FrameSettings& settings, const RenderOptions& options,
+                                   nlohmann::json& stats) {
+  const TransferFunction& tf = frame_tf(settings);
+  RayCaster& caster = casters.get(tf, options);
+  const auto t0 = SteadyClock::now();
+  lod::SelectionOptions cut_options = selection;
+  cut_options.lod = settings.lod;
+  const std::uint64_t visible_bins = tf.visible_bins(volume.value_min(), volume.value_max());
+  const lod::Selection cut = lod::select_cut(volume, camera.view(), visible_bins, cut_options);
+  const double select_ms = ms_since(t0);
+  const int rank = settings.rank > 0 ? settings.rank : volume.rank();
+  const lod::FrameBricks bricks = provider.acquire(cut, rank, settings.quality == FrameQuality::exact);
+  FrameInput input;
+  input.bricks = &bricks;
+  input.geometry = &volume.geometry();
+  input.spacing = volume.source_info().spacing;
+  input.value_min = volume.value_min();
+  input.value_max = volume.value_max();
+  input.index = &volume.container();
+  RenderStats rs;
+  Image image = caster.render(camera, input, &rs);
+  stats = stats_json(rs, &bricks.stats);
+  stats["selection"] = {{"bricks", cut.bricks.size()},  {"per_level", cut.per_level},
+                        {"bytes", cut.bytes},           {"budget_hit", cut.budget_hit()},
+                        {"culled_frustum", cut.culled_frustum}, {"culled_empty", cut.culled_empty},
+                        {"select_ms", select_ms}};
+  stats["rank"] = provider.clamp_rank(rank);
+  return image;
+}
+
+// One count per level-0 brick and histogram bin it touches (the index's occupancy masks).
+std::vector<std::uint64_t> RenderSession::Scalar::histogram() const {
+  std::vector<std::uint64_t> counts(store::kHistogramBins, 0);
+  for (const store::BrickEntry& e : volume.container().bricks()) {
+    if (e.key.level != 0) continue;
+    if (e.kind == store::PayloadKind::constant) {
+      ++counts[std::size_t(lod::histogram_bin(e.min, volume.value_min(), volume.value_max()))];
+      continue;
+    }
+    for (int bin = 0; bin < store::kHistogramBins; ++bin) counts[std::size_t(bin)] += (e.histogram >> bin) & 1u;
+  }
+  return counts;
+}
+
+RenderSession::Labels::Labels(std::unique_ptr<store::ContainerReader> input)
+    : labels(std::move(input)), scene(labels, LabelColorMap{}) {}
+
+Image RenderSession::Labels::frame(const Camera& camera, const FrameSettings& settings,
+                                   const std::array<float, 4>& background, nlohmann::json& stats) {
+  LabelRenderOptions options;
+  options.lod_bias = settings.lod_bias;
+  options.step = settings.step;
+  options.shading = settings.shading;
+  options.background = {background[0], background[1], background[2], background[3]};
+  LabelRenderStats st;
+  Image image = render_labels(scene, camera, options, &st);
+  stats = stats_json(st);
+  return image;
+}
+
+namespace {
+
+Volume load_as_float(const std::filesystem::path& input, DType& source_dtype) {
+  Volume source = io::read_volume(input);
+  source_dtype = source.dtype();
+  return source.converted(DType::f32);
+}
+
+std::pair<double, double> sample_range(const Volume& v) {
+  const auto s = v.samples<float>();
+  if (s.empty()) return {0, 0};
+  const auto [lo, hi] = std::minmax_element(s.begin(), s.end());
+  return {*lo, *hi};
+}
+
+}  // namespace
+
+RenderSession::Plain::Plain(const std::filesystem::path& input)
+    : volume(load_as_float(input, source_dtype)), range(sample_range(volume)), prepared(volume) {}
+
+Image RenderSession::Plain::frame(const Camera& camera, const FrameSettings& settings, const RenderOptions& options,
+                                  nlohmann::json& stats) {
+  RayCaster& caster = casters.get(frame_tf(settings), options);
+  RenderStats rs;
+  Image image = caster.render(camera, prepared, &rs);
+  stats = stats_json(rs);
+  return image;
+}
+
+// Exact voxel counts in 64 bins over the value range, binned as the compressor bins bricks.
+std::vector<std::uint64_t> RenderSession::Plain::histogram() const {
+  std::vector<std::uint64_t> counts(store::kHistogramBins, 0);
+  const store::HistogramBinning binning(range.first, range.second);
+  for (float v : volume.samples<float>()) ++counts[std::size_t(binning.bin(v))];
+  return counts;
+}
+
+RenderSession::RenderSession(const std::filesystem::path& input, const SessionOptions& options)
+    : path_(input), options_(options) {
+  if (!(options.target_fps >= 0)) throw ParameterError("SessionOptions::target_fps", "must be >= 0");
+  if (!(options.min_interactive_scale >= 1))
+    throw ParameterError("SessionOptions::min_interactive_scale", "must be >= 1");
+  if (!store::is_strata_file(input)) {
+    plain_ = std::make_unique<Plain>(input);
+    return;
+  }
+  // One reader, opened once: its codec picks the session kind, which takes it over.
+  auto reader = std::make_unique<store::ContainerReader>(input);
+  if (reader->metadata().value("codec", std::string()) == mixture::kMixtureCodecName)
+    labels_ = std::make_unique<Labels>(std::move(reader));
+  else
+    scalar_ = std::make_unique<Scalar>(std::move(reader), options);
+}
+
+RenderSession::~RenderSession() = default;
+
+DatasetKind RenderSession::kind() const {
+  return plain_ ? DatasetKind::plain : labels_ ? DatasetKind::labels : DatasetKind::scalar;
+}
+
+Extent RenderSession::dims() const { return level_dims(0); }
+
+Spacing RenderSession::spacing() const {
+  if (plain_) return plain_->volume.spacing();
+  return labels_ ? labels_->labels.spacing() : scalar_->volume.source_info().spacing;
+}
+
+int RenderSession::level_count() const {
+  if (plain_) return 1;
+  return labels_ ? labels_->labels.level_count() : scalar_->volume.geometry().level_count();
+}
+
+void RenderSession::check_level(int level) const {
+  if (level < 0 || level >= level_count())
+    throw ParameterError("level", path_.string() + ": level " + std::to_string(level) + " is not in 0.." +
+                                      std::to_string(level_count() - 1));
+}
+
+Extent RenderSession::level_dims(int level) const {
+  check_level(level);
+  if (plain_) return plain_->volume.dims();
+  return labels_ ? labels_->labels.level_dims(level) : scalar_->volume.geometry().level(level).dims;
+}
+
+int RenderSession::stored_rank() const { return scalar_ ? scalar_->volume.rank() : 0; }
+
+std::pair<double, double> RenderSession::value_range() const {
+  if (plain_) return plain_->range;
+  if (scalar_) return {scalar_->volume.value_min(), scalar_->volume.value_max()};
+  const auto values = labels_->labels.label_map().values();
+  return values.empty() ? std::pair{0.0, 0.0} : std::pair{double(values.front()), double(values.back())};
+}
+
+bool RenderSession::has_label(std::int64_t label) const {
+  return labels_ && labels_->labels.label_map().id_of(label).has_value();
+}
+
+nlohmann::json RenderSession::describe() const {
+  const auto [lo, hi] = value_range();
+  const DType dtype = plain_    ? plain_->source_dtype
+                      : labels_ ? labels_->labels.label_map().dtype()
+                                : scalar_->volume.source_info().dtype;
+  const std::vector<std::uint64_t> histogram = plain_    ? plain_->histogram()
+                                               : scalar_ ? scalar_->histogram()
+                                                         : std::vector<std::uint64_t>{};
+  return {{"name", path_.filename().string()},
+          {"kind", dataset_kind_name(kind())},
+          {"dims", json_of(dims())},
+          {"spacing", json_of(spacing())},
+          {"dtype", dtype_name(dtype)},
+          {"levels", level_count()},
+          {"rank", stored_rank()},
+          {"value_range", {lo, hi}},
+          {"histogram", histogram},
+          {"label_count", labels_ ? labels_->labels.label_map().size() : 0u}};
+}
+
+namespace {
+
+// The ray casting share of a frame (a loading frame also waits for decoding).
+double ray_cast_ms(const nlohmann::json& stats, double frame_ms) {
+  if (stats.contains("render") && stats["render"].contains("raycast_ms")) return stats["render"]["raycast_ms"].get<double>();
+  if (stats.contains("render") && stats["render"].contains("march_ms")) return stats["render"]["march_ms"].get<double>();
+  return frame_ms;
+}
+
+}  // namespace
+
+// Frame time scales with the ray count, i.e. with 1 / scale^2. The first measurement sets the
+// scale outright; later ones are damped so one slow frame (a burst of misses) does not swing
+// the resolution. Aim 10% under the budget so the mean holds it despite jitter.
+void RenderSession::adapt_image_scale(double used_scale, double frame_ms) {
+  const double budget_ms = 0.9 * 1000.0 / options_.target_fps;
+  const double wanted = std::clamp(used_scale * std::sqrt(frame_ms / budget_ms), 1.0, 8.0);
+  image_scale_ = calibrated_ ? 0.5 * (image_scale_ + wanted) : wanted;
+  calibrated_ = true;
+}
+
+Image RenderSession::frame(const FrameSettings& settings, nlohmann::json& stats) {
+  const CameraSpec& spec = settings.camera;
+  const bool adaptive = settings.quality == FrameQuality::interactive;
+  const double scale = adaptive ? std::max(options_.min_interactive_scale, options_.target_fps > 0 ? image_scale_ : 1.0)
+                                : 1.0;
+  CameraSpec cast = spec;
+  cast.width = std::max(1, int(std::lround(spec.width / scale)));
+  cast.height = std::max(1, int(std::lround(spec.height / scale)));
+  const Camera camera(cast, dims(), spacing());
+  const RenderOptions options = render_options(settings, options_.background);
+  const double c0 = cpu_seconds();
+  const auto t0 = SteadyClock::now();
+  Image image = plain_    ? plain_->frame(camera, settings, options, stats)
+                : labels_ ? labels_->frame(camera, settings, options_.background, stats)
+                          : scalar_->frame(camera, settings, options, stats);
+  if (image.width() != spec.width || image.height() != spec.height)
+    image = resize_bilinear(image, spec.width, spec.height);
+  const double ms = ms_since(t0);
+  stats["frame_ms"] = ms;
+  stats["cpu_s"] = cpu_seconds() - c0;
+  stats["image_scale"] = scale;
+  if (options_.target_fps > 0) adapt_image_scale(scale, adaptive ? ms : ray_cast_ms(stats, ms));
+  return image;
+}
+
+namespace {
+
+nlohmann::json summarise(const nlohmann::json& frames, std::size_t first) {
+  double total = 0, decode = 0, cpu = 0;
+  for (std::size_t i = first; i < frames.size(); ++i) {
+    const auto& f = frames[i];
+    total += f.value("frame_ms", 0.0);
+    cpu += f.value("cpu_s", 0.0);
+    if (f.contains("load")) decode += f["load"].value("decode_ms", 0.0);
+  }
+  const std::size_t count = frames.size() > first ? frames.size() - first : 0;
+  const double n = double(std::max<std::size_t>(1, count));
+  return {{"frames", count},
+          {"mean_frame_ms", total / n},
+          {"frames_per_s", total > 0 ? 1000.0 * n / total : 0.0},
+          {"cpu_s_per_frame", cpu / n},
+          {"decode_share", total > 0 ? decode / total : 0.0}};
+}
+
+}  // namespace
+
+nlohmann::json frame_summary(const nlohmann::json& frames) {
+  nlohmann::json all = summarise(frames, 0);
+  // An orbit's first frame loads the whole cut; the rest show the interactive rate.
+  if (frames.size() > 1) all["after_first"] = summarise(frames, 1);
+  return all;
+}
+
+}  // namespace strata::render

@@ -1,0 +1,248 @@
+// The router of the API: datasets, paths, static files, errors (endpoints in api_render.cpp,
+// api_views.cpp, api_labels.cpp).
+#include "strata/server/api.hpp"
+
+#include <algorithm>
+#include <fmt/format.h>
+
+#include "server/api_detail.hpp"
+#include "server/static_files.hpp"
+#include "strata/core/error.hpp"
+#include "strata/mixture/encoded_labels.hpp"
+#include "strata/store/container.hpp"
+
+namespace strata::server {
+
+using detail::ApiError;
+using detail::Dataset;
+
+namespace detail {
+
+const mixture::BoxQuery& Dataset::box_query() {
+  std::call_once(query_once_, [this] {
+    const mixture::EncodedLabels& labels = session->labels();
+    query_ = std::make_unique<mixture::BoxQuery>(labels, labels.lookup(), labels.label_map().size());
+  });
+  return *query_;
+}
+
+HttpResponse json_response(const nlohmann::json& body) {
+  HttpResponse r;
+  r.body = body.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+  return r;
+}
+
+HttpResponse bytes_response(std::string content_type, const std::vector<std::uint8_t>& bytes) {
+  HttpResponse r;
+  r.content_type = std::move(content_type);
+  r.body.assign(bytes.begin(), bytes.end());
+  return r;
+}
+
+void require_kind(const Dataset& d, std::initializer_list<render::DatasetKind> kinds, const std::string& parameter) {
+  const render::DatasetKind kind = d.session->kind();
+  if (std::find(kinds.begin(), kinds.end(), kind) != kinds.end()) return;
+  std::string names;
+  for (render::DatasetKind k : kinds) names += (names.empty() ? "" : " or ") + std::string(render::dataset_kind_name(k));
+  bad_parameter(parameter, fmt::format("applies to {} datasets; dataset {} is {}", names, d.id,
+                                       render::dataset_kind_name(kind)));
+}
+
+std::shared_ptr<const render::TransferFunction> parse_tf(const std::string& text) {
+  if (render::TransferFunction::is_preset(text))
+    return std::make_shared<const render::TransferFunction>(render::TransferFunction::preset(text));
+  try {
+    return std::make_shared<const render::TransferFunction>(render::TransferFunction::from_points_text(text));
+  } catch (const ParameterError& e) {
+    bad_parameter("tf", "a preset name or v:r:g:b:a;...: " + e.problem());
+  }
+}
+
+int parse_rank(const Params& p, const Dataset& d) {
+  if (!p.has("rank")) return 0;
+  require_kind(d, {render::DatasetKind::scalar}, "rank");
+  return int(*p.integer("rank", 1, d.session->stored_rank()));
+}
+
+}  // namespace detail
+
+struct Api::Impl {
+  ApiOptions options;
+  std::vector<std::unique_ptr<Dataset>> datasets;
+  RenderQueue queue;
+
+  Impl(const std::vector<std::filesystem::path>& files, const ApiOptions& o);
+  HttpResponse route(const HttpRequest& r);
+  HttpResponse list_datasets() const;
+  HttpResponse dataset_endpoint(Dataset& d, const std::string& endpoint, const HttpRequest& r);
+  Dataset* dataset(std::string_view id) const;
+};
+
+namespace {
+
+render::SessionOptions session_options(const ApiOptions& o, std::size_t strata_files) {
+  const std::uint64_t share = o.cache_bytes / std::max<std::size_t>(1, strata_files);
+  // A share must hold a useful cut of 32^3 bricks (128 KiB each), not just one brick.
+  constexpr std::uint64_t kMinShare = 4ull << 20;
+  if (share < kMinShare)
+    throw ParameterError("ApiOptions::cache_bytes",
+                         fmt::format("{} MiB cannot give each of the {} .strata files the {} MiB it needs at least",
+                                     o.cache_bytes >> 20, strata_files, kMinShare >> 20));
+  render::SessionOptions s;
+  s.cache_bytes = share - share / 4;
+  s.model_cache_bytes = share / 4;
+  s.loader_threads = o.loader_threads;
+  s.target_fps = o.coarse_fps;
+  s.min_interactive_scale = o.coarse_min_scale;
+  return s;
+}
+
+std::string size_text(const nlohmann::json& d) {
+  return fmt::format("{}x{}x{}", d["dims"][0].get<std::int64_t>(), d["dims"][1].get<std::int64_t>(),
+                     d["dims"][2].get<std::int64_t>());
+}
+
+}  // namespace
+
+Api::Impl::Impl(const std::vector<std::filesystem::path>& files, const ApiOptions& o)
+    : options(o), queue(o.queue_capacity) {
+  if (files.empty()) throw ParameterError("files", "no volumes to serve");
+  const std::size_t strata_files =
+      std::size_t(std::count_if(files.begin(), files.end(), [](const auto& f) { return store::is_strata_file(f); }));
+  const render::SessionOptions session = session_options(o, strata_files);
+  for (const std::filesystem::path& file : files) {
+    auto d = std::make_unique<Dataset>();
+    d->id = int(datasets.size());
+    d->path = file;
+    d->session = std::make_unique<render::RenderSession>(file, session);
+    d->description = d->session->describe();
+    d->description["id"] = d->id;
+    datasets.push_back(std::move(d));
+  }
+}
+
+Dataset* Api::Impl::dataset(std::string_view id) const {
+  const auto index = detail::parse_integer(id);
+  // Digits only: "+1", "01" and the like are not ids.
+  if (!index || std::to_string(*index) != id || *index < 0 || *index >= std::int64_t(datasets.size())) return nullptr;
+  return datasets[std::size_t(*index)].get();
+}
+
+HttpResponse Api::Impl::list_datasets() const {
+  nlohmann::json list = nlohmann::json::array();
+  for (const auto& d : datasets) list.push_back(d->description);
+  return detail::json_response(list);
+}
+
+namespace {
+
+HttpResponse method_not_allowed(const std::string& allowed, const std::string& what) {
+  HttpResponse e = error_response(405, "use " + allowed + " for " + what);
+  e.set_header("Allow", allowed);
+  return e;
+}
+
+}  // namespace
+
+HttpResponse Api::Impl::dataset_endpoint(Dataset& d, const std::string& endpoint, const HttpRequest& r) {
+  const bool post = endpoint == "palette";
+  if (endpoint != "render" && endpoint != "slice" && endpoint != "value" && endpoint != "query" && !post)
+    throw ApiError(404, "", "no such endpoint: " + endpoint);
+  if (r.method != (post ? "POST" : "GET")) return method_not_allowed(post ? "POST" : "GET", endpoint);
+  if (endpoint == "render") return detail::render_frame(d, queue, r);
+  if (endpoint == "slice") return detail::slice_image(d, r);
+  if (endpoint == "value") return detail::voxel_value(d, r);
+  if (endpoint == "query") return detail::query_box(d, r);
+  return detail::set_palette(d, r);
+}
+
+namespace {
+
+HttpResponse static_file(std::string_view path) {
+  const std::string_view rel = path == "/" ? std::string_view("index.html") : path.substr(std::string_view("/static/").size());
+  if (const auto file = detail::find_embedded(rel)) {
+    HttpResponse r;
+    r.content_type = detail::content_type_of(rel);
+    r.body.assign(reinterpret_cast<const char*>(file->data), file->size);
+    return r;
+  }
+  if (path == "/") {
+    HttpResponse r;
+    r.content_type = "text/html; charset=utf-8";
+    r.body = detail::missing_client_page();
+    return r;
+  }
+  throw ApiError(404, "", "not found");
+}
+
+}  // namespace
+
+HttpResponse Api::Impl::route(const HttpRequest& r) {
+  const std::string& path = r.path;
+  if (path == "/" || path.starts_with("/static/")) {
+    if (r.method != "GET") return method_not_allowed("GET", "the client's files");
+    return static_file(path);
+  }
+  if (path == "/api/datasets") {
+    if (r.method != "GET") return method_not_allowed("GET", path);
+    detail::Params(r, {});
+    return list_datasets();
+  }
+  constexpr std::string_view prefix = "/api/datasets/";
+  if (!path.starts_with(prefix)) throw ApiError(404, "", "not found");
+  const std::string_view rest = std::string_view(path).substr(prefix.size());
+  const std::size_t slash = rest.find('/');
+  if (slash == std::string_view::npos) throw ApiError(404, "", "not found");
+  Dataset* d = dataset(rest.substr(0, slash));
+  if (!d) throw ApiError(404, "id", "unknown dataset " + std::string(rest.substr(0, slash)));
+  return dataset_endpoint(*d, std::string(rest.substr(slash + 1)), r);
+}
+
+namespace {
+
+// Library parameter names (ParameterError) as the API's query parameters.
+std::string api_parameter(const std::string& library) {
+  if (library == "SliceSpec::index") return "index";
+  if (library == "SliceSpec::level" || library == "level") return "level";
+  if (library == "voxel") return "x";
+  if (library == "text") return "tf";
+  return library;
+}
+
+}  // namespace
+
+Api::Api(const std::vector<std::filesystem::path>& files, const ApiOptions& options)
+    : impl_(std::make_unique<Impl>(files, options)) {}
+
+Api::~Api() = default;
+
+HttpResponse Api::handle(const HttpRequest& request) {
+  HttpResponse response;
+  try {
+    response = impl_->route(request);
+  } catch (const ApiError& e) {
+    response = error_response(e.status(), e.what(), e.parameter());
+  } catch (const ParameterError& e) {
+    response = error_response(400, e.what(), api_parameter(e.parameter()));
+  } catch (const std::exception& e) {
+    response = error_response(500, e.what());
+  }
+  response.set_header("Cache-Control", "no-store");
+  return response;
+}
+
+std::size_t Api::dataset_count() const { return impl_->datasets.size(); }
+
+std::vector<std::string> Api::summary() const {
+  std::vector<std::string> lines;
+  for (const auto& d : impl_->datasets)
+    lines.push_back(fmt::format("{:3}  {:<8} {:>14}  {}", d->id, d->description["kind"].get<std::string>(),
+                                size_text(d->description), d->path.string()));
+  return lines;
+}
+
+RenderQueue& Api::render_queue() { return impl_->queue; }
+
+void Api::stop_rendering() { impl_->queue.stop(); }
+
+}  // namespace strata::server

@@ -1,0 +1,54 @@
+#pragma once
+// What the endpoints of the API share (api.cpp routes; api_render.cpp, api_views.cpp and
+// api_labels.cpp answer).
+#include <filesystem>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "server/params.hpp"
+#include "strata/mixture/box_query.hpp"
+#include "strata/render/render_session.hpp"
+#include "strata/server/http_message.hpp"
+#include "strata/server/render_queue.hpp"
+
+namespace strata::server::detail {
+
+// One served file.
+struct Dataset {
+  int id = 0;
+  std::filesystem::path path;
+  std::unique_ptr<render::RenderSession> session;
+  nlohmann::json description;  // GET /api/datasets entry, worked out once
+  std::mutex mutex;            // session calls one at a time (RenderSession is not thread-safe)
+
+  // Box queries only read the encoded labels, so they run outside `mutex` (BoxQuery is const
+  // and thread-safe); built on the first query.
+  const mixture::BoxQuery& box_query();
+
+ private:
+  std::once_flag query_once_;
+  std::unique_ptr<mixture::BoxQuery> query_;
+};
+
+HttpResponse json_response(const nlohmann::json& body);
+HttpResponse bytes_response(std::string content_type, const std::vector<std::uint8_t>& bytes);
+
+// 400 naming `parameter` unless the dataset is of one of `kinds`.
+void require_kind(const Dataset& d, std::initializer_list<render::DatasetKind> kinds, const std::string& parameter);
+// The `tf` parameter: a preset name or the compact points text; never a file.
+std::shared_ptr<const render::TransferFunction> parse_tf(const std::string& text);
+// The `rank` parameter (scalar datasets only, 1..stored rank); 0 when absent.
+int parse_rank(const Params& p, const Dataset& d);
+
+HttpResponse render_frame(Dataset& d, RenderQueue& queue, const HttpRequest& r);
+HttpResponse slice_image(Dataset& d, const HttpRequest& r);
+HttpResponse voxel_value(Dataset& d, const HttpRequest& r);
+HttpResponse set_palette(Dataset& d, const HttpRequest& r);
+HttpResponse query_box(Dataset& d, const HttpRequest& r);
+
+}  // namespace strata::server::detail
