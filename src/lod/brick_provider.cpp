@@ -131,6 +131,15 @@ FrameBricks BrickProvider::acquire(const Selection& cut, int rank, bool exact) {
   return frame;
 }
 
+void BrickProvider::prefetch(const Selection& cut, int rank) {
+  loader_.rethrow_failure();
+  const int k = clamp_rank(rank);
+  std::vector<LoadRequest> requests;
+  for (const CutBrick& b : cut.bricks)
+    if (b.entry->kind != store::PayloadKind::constant && !cache_.find(b.key, k)) requests.push_back({{b.key, k}, b.depth});
+  loader_.submit(requests);
+}
+
 void BrickProvider::wait_idle() { loader_.wait_idle(); }
 
 }  // namespace strata::lod

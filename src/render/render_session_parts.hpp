@@ -45,6 +45,10 @@ struct RenderSession::Scalar {
   // read through the provider (exact: waits for every brick the box meets).
   template <class F>
   void visit_box(int level, const Box& box, int rank, F&& f);
+  // Queues the bricks of the brick layers before and after a slice's (along its axis) on the
+  // loader without waiting: a viewer scrolls through slices, and the next layer is then
+  // decoded in the background instead of while the user waits.
+  void prefetch_slice_neighbours(int level, const Box& slice, SliceAxis axis, int rank);
   std::vector<std::uint64_t> histogram() const;
 };
 

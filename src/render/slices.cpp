@@ -48,16 +48,14 @@ std::uint8_t byte_of(double unit) { return std::uint8_t(std::lround(std::clamp(u
 
 }  // namespace
 
-Image grey_image(const Slice<float>& slice, double lo, double hi) {
+std::vector<std::uint8_t> grey_levels(const Slice<float>& slice, double lo, double hi) {
   if (!(std::isfinite(lo) && std::isfinite(hi) && lo < hi)) throw ParameterError("window", "expected lo < hi, both finite");
-  Image image(slice.width, slice.height);
+  std::vector<std::uint8_t> grey(slice.values.size());
   const double scale = 1.0 / (hi - lo);
-  for (std::size_t i = 0; i < slice.values.size(); ++i) {
-    const std::uint8_t g = byte_of((slice.values[i] - lo) * scale);
-    image.pixels()[i] = {g, g, g, 255};
-  }
-  return image;
+  for (std::size_t i = 0; i < slice.values.size(); ++i) grey[i] = byte_of((slice.values[i] - lo) * scale);
+  return grey;
 }
+
 
 Image tf_image(const Slice<float>& slice, const TransferFunction& tf, double value_lo, double value_hi) {
   Image image(slice.width, slice.height);

@@ -74,6 +74,26 @@ TEST(LodBrickProvider, ExactModeReturnsTheFullCut) {
   EXPECT_EQ(again.stats.decode_ms, 0.0);
 }
 
+// Prefetching queues the cut on the loader without waiting; once it is idle the same cut is
+// all hits, the reading counted in that frame's stats.
+TEST(LodBrickProvider, PrefetchedBricksAreHitsOnceLoaded) {
+  const ta::TaVolume& t = Prisms64::volume();
+  const Selection cut = select_cut(t, view_from(t, 150), kAllBins);
+  ASSERT_GT(non_constant(cut), 0u);
+  BrickProvider p(t);
+  p.prefetch(cut, t.rank());
+  p.wait_idle();
+  const FrameBricks f = p.acquire(cut, t.rank(), true);
+  EXPECT_EQ(f.stats.cache_hits, cut.bricks.size());
+  EXPECT_EQ(f.stats.cache_misses, 0u);
+  EXPECT_GT(f.stats.bytes_read, 0u);
+  expect_exact_frame(t, cut, f, t.rank());
+  // Another rank is another brick: prefetching it misses nothing already cached at the first.
+  p.prefetch(cut, 2);
+  p.wait_idle();
+  EXPECT_EQ(p.acquire(cut, 2, true).stats.cache_misses, 0u);
+}
+
 TEST(LodBrickProvider, RankChangeReusesCachedPayloads) {
   const ta::TaVolume& t = Prisms64::volume();
   const Selection cut = select_cut(t, view_from(t, 150), kAllBins);

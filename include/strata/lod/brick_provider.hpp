@@ -41,6 +41,10 @@ class BrickProvider {
   // (constant bricks are hits: they need no decode).
   FrameBricks acquire(const Selection& cut, int rank, bool exact);
 
+  // Queues the cut's missing bricks at rank K on the loader and returns at once (a viewer's
+  // guess at what it shows next); the loading counts in the next acquire's stats.
+  void prefetch(const Selection& cut, int rank);
+
   // Blocks until the loader has nothing queued or running (tests, --exact batch rendering).
   void wait_idle();
 

@@ -3,6 +3,7 @@
 // temporary file and renamed, so a failed write never leaves a partial image.
 #include <cstdint>
 #include <filesystem>
+#include <span>
 #include <vector>
 
 namespace strata::render {
@@ -35,8 +36,12 @@ class Image {
 Image resize_bilinear(const Image& image, int width, int height);
 
 void write_png(const Image& image, const std::filesystem::path& path);  // throws Error naming the file
-/// @brief The PNG file bytes of `image` (RGBA, 8 bits); throws Error on an empty image.
+/// @brief The PNG file bytes of `image` (RGBA, 8 bits), encoded for speed over size (deflate level
+/// 1, one filter): the images a viewer is served. Throws Error on an empty image.
 std::vector<std::uint8_t> encode_png(const Image& image);
+/// @brief The same for an 8-bit grey image (`grey` holds width x height samples, rows first): a
+/// quarter of the bytes to filter and deflate. Throws Error if the sizes disagree.
+std::vector<std::uint8_t> encode_grey_png(std::span<const std::uint8_t> grey, int width, int height);
 /// @brief A baseline JPEG of `image`'s colour (alpha dropped), 4:2:0, quality 1..100 (libturbojpeg):
 /// the small frames a viewer shows while the camera moves. Throws Error on an empty image.
 std::vector<std::uint8_t> encode_jpeg(const Image& image, int quality = 80);

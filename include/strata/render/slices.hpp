@@ -59,9 +59,9 @@ std::pair<int, int> slice_size(const Box& box, SliceAxis axis);
 /// Throws ParameterError("zoom") unless zoom is finite and positive.
 int slice_level_for_zoom(double zoom, int level_count);
 
-/// @brief Grey image: [lo, hi] maps linearly to 0..255, clamped; opaque. Requires lo < hi
-/// (ParameterError("window") otherwise).
-Image grey_image(const Slice<float>& slice, double lo, double hi);
+/// @brief Grey levels, one byte per voxel in slice order: [lo, hi] maps linearly to 0..255,
+/// clamped. Requires lo < hi (ParameterError("window") otherwise).
+std::vector<std::uint8_t> grey_levels(const Slice<float>& slice, double lo, double hi);
 /// @brief Colour image through a transfer function (value mapping as for rendering over
 /// [value_lo, value_hi] unless the TF has its own range): the TF's straight colour where its
 /// opacity is positive, black where it is transparent; opaque.

@@ -31,7 +31,7 @@ struct ApiOptions {
   /// models. Plain volumes are held whole and label volumes keep their decoded node ids, on top.
   std::uint64_t cache_bytes = 1024ull << 20;
   std::size_t queue_capacity = 4;  ///< render jobs that may wait (RenderQueue)
-  double coarse_fps = 12;          ///< quality=coarse frames aim at this rate
+  double coarse_fps = 15;          ///< quality=coarse frames aim at this rate (rendering; encoding and HTTP add ~10 ms)
   double coarse_min_scale = 2;     ///< quality=coarse casts at most 1/this rays per image edge
   int loader_threads = 0;          ///< per TA dataset; 0 = lod::default_loader_threads()
 };
