@@ -4,7 +4,7 @@
 Starts `strata serve` on a free port with a scalar `.strata` file and a label `.strata` file,
 then measures, each as median / p95 / max over repeated requests (standard library only):
 
-- slice: `GET slice` across x, y and z at level 0, cycling through indices (one request in
+- slice: `GET slice` across x, y and z at level 0, `--slice-step` slices apart (one request in
   flight, as a slice view scrolls); reported per axis size;
 - coarse: `GET render?quality=coarse` JPEG frames of w x h while the azimuth moves 3 degrees
   per frame (one request in flight, as a dragging client keeps it);
@@ -105,18 +105,18 @@ def find_datasets(base, scalar_name, labels_name):
     return by_name[scalar_name], by_name[labels_name]
 
 
-def bench_slices(base, ds, repeats):
+def bench_slices(base, ds, repeats, step):
     out = {}
     dims = ds["dims"]
     for axis, a in (("z", 2), ("y", 1), ("x", 0)):
         n = dims[a]
         times = []
         for i in range(repeats):
-            index = (n // 4 + 7 * i) % n  # scrolling through the volume, not one cached slice
+            index = (n // 4 + step * i) % n  # scrolling through the volume, not one cached slice
             ms, _, headers, _ = request(base, f"/api/datasets/{ds['id']}/slice?axis={axis}&index={index}&level=0")
             times.append(ms)
         w, h = headers.get("X-Strata-Dims", "?,?").split(",")
-        out[axis] = {"image": f"{w}x{h}", **summarize(times)}
+        out[axis] = {"image": f"{w}x{h}", "step": step, **summarize(times)}
     return out
 
 
@@ -185,6 +185,8 @@ def main():
     p.add_argument("--drags", type=int, default=8, help="camera drags, each ending in an exact frame")
     p.add_argument("--frames-per-drag", type=int, default=15)
     p.add_argument("--slices", type=int, default=60, help="slice requests per axis")
+    p.add_argument("--slice-step", type=int, default=7,
+                   help="slices scrolled per request (7: a new 28-voxel brick layer every fourth request)")
     p.add_argument("--palettes", type=int, default=40)
     p.add_argument("--cache-mb", type=int, default=1024)
     args = p.parse_args()
@@ -202,8 +204,8 @@ def main():
         result["first_exact_frame_ms"] = round(ms, 1)
         result["frames"] = bench_frames(server.base, scalar, args)
         result["rank_change_exact"] = bench_rank(server.base, scalar, args)
-        result["slices_scalar"] = bench_slices(server.base, scalar, args.slices)
-        result["slices_labels"] = bench_slices(server.base, labels, args.slices)
+        result["slices_scalar"] = bench_slices(server.base, scalar, args.slices, args.slice_step)
+        result["slices_labels"] = bench_slices(server.base, labels, args.slices, args.slice_step)
         result["palette"] = bench_palette(server.base, labels, args.palettes)
         result["run_seconds"] = round(time.perf_counter() - t0, 1)
     finally:

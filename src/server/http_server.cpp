@@ -38,8 +38,16 @@ struct HttpServer::Impl {
 void HttpServer::Impl::handle(const httplib::Request& request, httplib::Response& response) {
   HttpRequest r;
   r.method = request.method;
-  r.path = request.path;  // httplib has percent-decoded it, as it has the parameters
-  for (const auto& [key, value] : request.params) r.params.emplace(key, value);
+  r.path = request.path;  // httplib has percent-decoded it
+  // Parameters come from the URL's query only: httplib also parses a form-encoded body into
+  // `request.params`, so a JSON body posted with a form content type (curl -d's default)
+  // would turn into a parameter named after the JSON.
+  const std::size_t query = request.target.find('?');
+  if (query != std::string::npos) {
+    httplib::Params params;
+    httplib::detail::parse_query_text(request.target.substr(query + 1), params);  // percent-decodes
+    for (const auto& [key, value] : params) r.params.emplace(key, value);
+  }
   r.body = request.body;
   HttpResponse out = api.handle(r);
   response.status = out.status;

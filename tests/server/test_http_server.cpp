@@ -82,6 +82,14 @@ TEST(ServerHttp, ServesTheApiOnLoopback) {
   const auto palette = c.Post("/api/datasets/1/palette", R"({"default": "hash", "opacity": 0.8})", "application/json");
   ASSERT_TRUE(palette);
   EXPECT_EQ(palette->status, 200) << palette->body;
+  // The body is JSON whatever the content type says (curl -d sends it as a form).
+  const auto form = c.Post("/api/datasets/1/palette", R"({"opacity": 0.5})", "application/x-www-form-urlencoded");
+  ASSERT_TRUE(form);
+  EXPECT_EQ(form->status, 200) << form->body;
+  // Query parameters still arrive percent-decoded.
+  const auto encoded = c.Get("/api/datasets/0/render?w=32&h=24&tf=%67rayscale");
+  ASSERT_TRUE(encoded);
+  EXPECT_EQ(encoded->status, 200) << encoded->body;
 
   const auto root = c.Get("/");
   ASSERT_TRUE(root);
