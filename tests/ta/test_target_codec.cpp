@@ -265,7 +265,10 @@ TEST(TaTargetCodec, TheHosvdBasisIsTriedEverywhereOnlyWhereItPays) {
   std::uniform_real_distribution<float> u(0.0f, 100.0f);
   const Volume rough = filled([&](std::int64_t, std::int64_t, std::int64_t) { return u(rng); }, dims);
   // Marschner-Lobb: the HOSVD codes it in half the bytes of the block DCT.
-  const Volume smooth = gen::generate({gen::Kind::marschner_lobb, dims});
+  gen::Params smooth_params;
+  smooth_params.kind = gen::Kind::marschner_lobb;
+  smooth_params.dims = dims;
+  const Volume smooth = gen::generate(smooth_params);
   auto tried_share = [&](const Volume& v) {
     const CompressReport r = compress(v, dir / "v.strata", target_params(TargetKind::psnr, 40, 32));
     const LevelCounts& l0 = r.levels[0];
