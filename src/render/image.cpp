@@ -43,7 +43,6 @@ struct PngBufferDeleter {
   void operator()(void* p) const { std::free(p); }
 };
 
-// PNG bytes of `image` in a buffer libspng allocated; `what` names the destination in errors.
 // The pixels of an 8-bit PNG: RGBA (4 bytes per pixel) or grey (1).
 struct PngPixels {
   const void* data;
@@ -51,6 +50,7 @@ struct PngPixels {
   bool grey;
 };
 
+// PNG bytes of `image` in a buffer libspng allocated; `what` names the destination in errors.
 std::unique_ptr<void, PngBufferDeleter> png_buffer(const PngPixels& image, const std::filesystem::path& what,
                                                    std::size_t& length, bool fast = false) {
   if (image.width <= 0 || image.height <= 0) throw Error(what.string() + ": cannot write an empty image");
@@ -79,6 +79,14 @@ std::unique_ptr<void, PngBufferDeleter> png_buffer(const PngPixels& image, const
   return buffer;
 }
 
+// A served image: encoded for speed (see png_buffer), copied out of libspng's buffer.
+std::vector<std::uint8_t> served_png(const PngPixels& image) {
+  std::size_t length = 0;
+  const auto buffer = png_buffer(image, "PNG image", length, true);
+  const auto* bytes = static_cast<const std::uint8_t*>(buffer.get());
+  return {bytes, bytes + length};
+}
+
 struct TjDeleter {
   void operator()(void* handle) const { tjDestroy(handle); }
 };
@@ -95,20 +103,14 @@ void write_png(const Image& image, const std::filesystem::path& path) {
 }
 
 std::vector<std::uint8_t> encode_png(const Image& image) {
-  std::size_t length = 0;
-  const auto buffer = png_buffer({image.pixels().data(), image.width(), image.height(), false}, "PNG image", length, true);
-  const auto* bytes = static_cast<const std::uint8_t*>(buffer.get());
-  return {bytes, bytes + length};
+  return served_png({image.pixels().data(), image.width(), image.height(), false});
 }
 
 std::vector<std::uint8_t> encode_grey_png(std::span<const std::uint8_t> grey, int width, int height) {
   if (grey.size() != std::size_t(std::max(width, 0)) * std::size_t(std::max(height, 0)))
     throw Error("PNG image: " + std::to_string(grey.size()) + " grey samples for " + std::to_string(width) + "x" +
                 std::to_string(height));
-  std::size_t length = 0;
-  const auto buffer = png_buffer({grey.data(), width, height, true}, "PNG image", length, true);
-  const auto* bytes = static_cast<const std::uint8_t*>(buffer.get());
-  return {bytes, bytes + length};
+  return served_png({grey.data(), width, height, true});
 }
 
 std::vector<std::uint8_t> encode_jpeg(const Image& image, int quality) {

@@ -45,10 +45,13 @@ struct RenderSession::Scalar {
   // read through the provider (exact: waits for every brick the box meets).
   template <class F>
   void visit_box(int level, const Box& box, int rank, F&& f);
-  // Queues the bricks of the brick layers before and after a slice's (along its axis) on the
-  // loader without waiting: a viewer scrolls through slices, and the next layer is then
+  // Queues the bricks of the brick layers before and after the slice's (along its axis) on
+  // the loader without waiting: a viewer scrolls through slices, and the next layer is then
   // decoded in the background instead of while the user waits.
-  void prefetch_slice_neighbours(int level, const Box& slice, SliceAxis axis, int rank);
+  void prefetch_slice_neighbours(const SliceSpec& spec);
+  // Calls f(cut brick) for every brick of `level` whose core meets `box` (level coordinates).
+  template <class F>
+  void for_each_brick_in(int level, const Box& box, F&& f) const;
   std::vector<std::uint64_t> histogram() const;
 };
 
@@ -96,7 +99,7 @@ const TransferFunction& frame_tf(const FrameSettings& settings);
 template <class F>
 void RenderSession::Scalar::visit_box(int level, const Box& box, int rank, F&& f) {
   const ta::OctreeGeometry& geometry = volume.geometry();
-  const int core = geometry.layout().core(), b = geometry.layout().brick;
+  const int b = geometry.layout().brick;
   // A slice one voxel thick needs whole B^3 bricks: they are acquired a batch at a time, so a
   // large slice holds at most a batch beyond what the cache keeps.
   constexpr std::size_t kBatch = 64;
@@ -115,14 +118,22 @@ void RenderSession::Scalar::visit_box(int level, const Box& box, int rank, F&& f
     }
     cut.bricks.clear();
   };
+  for_each_brick_in(level, box, [&](const lod::CutBrick& brick) {
+    cut.bricks.push_back(brick);
+    if (cut.bricks.size() == kBatch) visit_batch();
+  });
+  if (!cut.bricks.empty()) visit_batch();
+}
+
+template <class F>
+void RenderSession::Scalar::for_each_brick_in(int level, const Box& box, F&& f) const {
+  const int core = volume.geometry().layout().core();
   for (std::int64_t bz = box.lo.z / core; bz <= (box.hi.z - 1) / core; ++bz)
     for (std::int64_t by = box.lo.y / core; by <= (box.hi.y - 1) / core; ++by)
       for (std::int64_t bx = box.lo.x / core; bx <= (box.hi.x - 1) / core; ++bx) {
         const store::BrickKey key{std::uint8_t(level), std::int32_t(bx), std::int32_t(by), std::int32_t(bz)};
-        cut.bricks.push_back({key, &volume.entry(key), 0.0, 0.0});
-        if (cut.bricks.size() == kBatch) visit_batch();
+        f(lod::CutBrick{key, &volume.entry(key), 0.0, 0.0});
       }
-  if (!cut.bricks.empty()) visit_batch();
 }
 
 }  // namespace strata::render

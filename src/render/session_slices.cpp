@@ -41,29 +41,18 @@ std::uint8_t unit_byte(float v) { return std::uint8_t(std::clamp(v, 0.0f, 1.0f) 
 
 }  // namespace
 
-void RenderSession::Scalar::prefetch_slice_neighbours(int level, const Box& slice, SliceAxis axis, int rank) {
-  const ta::OctreeGeometry& geometry = volume.geometry();
-  const std::int64_t core = geometry.layout().core();
-  const Extent& dims = geometry.level(level).dims;
-  const Extent bricks{(dims.x + core - 1) / core, (dims.y + core - 1) / core, (dims.z + core - 1) / core};
-  const int a = axis == SliceAxis::x ? 0 : axis == SliceAxis::y ? 1 : 2;
-  auto along = [a](Extent& e) -> std::int64_t& { return a == 0 ? e.x : a == 1 ? e.y : e.z; };
-  Extent lo = slice.lo, count = bricks;
-  const std::int64_t layer = along(lo) / core, layers = along(count);
+void RenderSession::Scalar::prefetch_slice_neighbours(const SliceSpec& spec) {
+  const Extent& dims = volume.geometry().level(spec.level).dims;
+  const std::int64_t core = volume.geometry().layout().core();
+  const std::int64_t extent = spec.axis == SliceAxis::x ? dims.x : spec.axis == SliceAxis::y ? dims.y : dims.z;
+  const std::int64_t index = spec.index >> spec.level;
   lod::Selection cut;
-  for (std::int64_t neighbour : {layer + 1, layer - 1}) {
-    if (neighbour < 0 || neighbour >= layers) continue;
-    Box range{{0, 0, 0}, bricks};
-    along(range.lo) = neighbour;
-    along(range.hi) = neighbour + 1;
-    for (std::int64_t bz = range.lo.z; bz < range.hi.z; ++bz)
-      for (std::int64_t by = range.lo.y; by < range.hi.y; ++by)
-        for (std::int64_t bx = range.lo.x; bx < range.hi.x; ++bx) {
-          const store::BrickKey key{std::uint8_t(level), std::int32_t(bx), std::int32_t(by), std::int32_t(bz)};
-          cut.bricks.push_back({key, &volume.entry(key), 0.0, 0.0});
-        }
-  }
-  provider.prefetch(cut, rank > 0 ? rank : volume.rank());
+  // A slice one core width away lies in the neighbouring layer (clamped: at the volume's edge
+  // it is the slice's own layer, whose bricks are resident and not queued again).
+  for (const std::int64_t neighbour : {index + core, index - core})
+    for_each_brick_in(spec.level, slice_box(dims, spec.axis, std::clamp<std::int64_t>(neighbour, 0, extent - 1)),
+                      [&](const lod::CutBrick& brick) { cut.bricks.push_back(brick); });
+  provider.prefetch(cut, spec.rank > 0 ? spec.rank : volume.rank());
 }
 
 std::vector<std::uint32_t> RenderSession::Labels::slice_nodes(const SliceSpec& spec, std::pair<int, int>& size) const {
@@ -84,7 +73,7 @@ Slice<float> RenderSession::value_slice(const SliceSpec& spec) {
   };
   if (scalar_) {
     scalar_->visit_box(spec.level, box, spec.rank, put);
-    scalar_->prefetch_slice_neighbours(spec.level, box, spec.axis, spec.rank);
+    scalar_->prefetch_slice_neighbours(spec);
     return out;
   }
   const auto v = plain_->volume.view<float>();

@@ -82,7 +82,6 @@ void RenderQueue::work() {
     if (queue_.empty()) return;  // stopping, and stop() has answered the rest
     std::shared_ptr<Entry> entry = queue_.front();
     queue_.pop_front();
-    running_ = true;
     lock.unlock();
     HttpResponse response;
     try {
@@ -92,7 +91,6 @@ void RenderQueue::work() {
     }
     entry->done.set_value(std::move(response));
     lock.lock();
-    running_ = false;
   }
 }
 
@@ -122,11 +120,6 @@ void RenderQueue::stop() {
 std::size_t RenderQueue::queued() const {
   std::lock_guard lock(mutex_);
   return queue_.size();
-}
-
-bool RenderQueue::running() const {
-  std::lock_guard lock(mutex_);
-  return running_;
 }
 
 }  // namespace strata::server

@@ -115,7 +115,8 @@ class RenderSession {
   /// when the label does not occur.
   Slice<float> label_fraction_slice(const SliceSpec& spec, std::int64_t label);
   /// @brief Label files: the slice in the current label colours (set_label_colors), each voxel
-  /// the coverage-weighted mean colour of its visible labels, opaque over black.
+  /// the coverage-weighted mean colour of its visible labels with their coverage as (straight)
+  /// alpha; transparent where no visible label is.
   Image palette_slice(const SliceSpec& spec);
 
   /// @brief Scalar and plain files: the value at a level-0 voxel, at rank `rank` (0 = stored).

@@ -48,7 +48,6 @@ class RenderQueue {
   void stop();
 
   std::size_t queued() const;
-  bool running() const;
   std::size_t capacity() const { return capacity_; }
 
  private:
@@ -62,7 +61,7 @@ class RenderQueue {
   std::condition_variable wake_;
   std::deque<std::shared_ptr<Entry>> queue_;
   std::unordered_map<std::string, std::uint64_t> newest_;  // newest accepted seq per client
-  bool paused_ = false, stopping_ = false, running_ = false;
+  bool paused_ = false, stopping_ = false;
   std::thread worker_;  // last: started after everything it uses
 };
 
