@@ -2,6 +2,7 @@
 // estimate), and beside it the exact count (method=naive) for comparison.
 import { apiUrl, getJson } from './api.js';
 import { formatNumber } from './transfer-function.js';
+import { parseBox } from './state.js';
 
 const MAX_ROWS = 500;
 
@@ -31,15 +32,7 @@ export class QueryPanel {
 
   // "x0,y0,z0,x1,y1,z1" (half-open, level-0 voxels) -> box, or an error message.
   parse(text) {
-    const values = text.split(/[\s,;:]+/).filter(Boolean).map(Number);
-    if (values.length !== 6 || !values.every(Number.isInteger)) return { error: 'expected six integers x0,y0,z0,x1,y1,z1' };
-    const dims = this.viewer.labelDataset()?.dims;
-    for (let i = 0; i < 3; i++) {
-      if (values[i] < 0 || values[i + 3] > dims[i] || values[i] >= values[i + 3]) {
-        return { error: `box must satisfy 0 <= ${'xyz'[i]}0 < ${'xyz'[i]}1 <= ${dims[i]}` };
-      }
-    }
-    return { box: values };
+    return parseBox(text, this.viewer.labelDataset()?.dims ?? [0, 0, 0]);
   }
 
   runFromInput(method) {

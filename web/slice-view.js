@@ -31,7 +31,6 @@ export class SliceView {
     this.readout = section.querySelector('.view-readout');
     const report = (error) => viewer.reportError(error);
     this.channels = { scalar: new LatestChannel(report), labels: new LatestChannel(report) };
-    this.valueChannel = new LatestChannel(report);
     this.images = { scalar: null, labels: null };
     this.requested = { scalar: null, labels: null };
     this.zoom = 1;

@@ -77,7 +77,12 @@ export function parseHash(hash) {
   const fields = {};
   for (const part of hash.replace(/^#/, '').split('&')) {
     const eq = part.indexOf('=');
-    if (eq > 0) fields[part.slice(0, eq)] = decodeURIComponent(part.slice(eq + 1));
+    if (eq <= 0) continue;
+    try {
+      fields[part.slice(0, eq)] = decodeURIComponent(part.slice(eq + 1));
+    } catch {
+      // A malformed escape (a hand-edited link): that field falls back to its default.
+    }
   }
   return fields;
 }
@@ -119,9 +124,21 @@ export function applyHash(state, fields, reference) {
   applyRenderFields(state, fields);
   applyLabelFields(state, fields);
   if (LAYOUTS.includes(fields.layout)) state.layout = fields.layout;
-  const box = fields.box && numbers(fields.box, 6);
-  if (box) state.box = box;
+  const box = fields.box && parseBox(fields.box, dims);
+  if (box && !box.error) state.box = box.box;
   return state;
+}
+
+// "x0,y0,z0,x1,y1,z1" (half-open, level-0 voxels inside `dims`) -> {box} or {error}.
+export function parseBox(text, dims) {
+  const values = text.split(/[\s,;:]+/).filter(Boolean).map(Number);
+  if (values.length !== 6 || !values.every(Number.isInteger)) return { error: 'expected six integers x0,y0,z0,x1,y1,z1' };
+  for (let i = 0; i < 3; i++) {
+    if (values[i] < 0 || values[i + 3] > dims[i] || values[i] >= values[i + 3]) {
+      return { error: `box must satisfy 0 <= ${'xyz'[i]}0 < ${'xyz'[i]}1 <= ${dims[i]}` };
+    }
+  }
+  return { box: values };
 }
 
 function applyRenderFields(state, fields) {

@@ -68,6 +68,7 @@ export function tfFromString(text) {
   }
   if (points.length < 2) return null;
   for (let i = 1; i < points.length; i++) if (points[i].v < points[i - 1].v) return null;
+  if (!(points[0].v < points.at(-1).v)) return null;  // the server needs a range to map
   return points;
 }
 

@@ -2,7 +2,7 @@
 //   node --test state.test.mjs
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { applyHash, datasetsFromHash, defaultState, encodeState, parseHash } from '../../web/state.js';
+import { applyHash, datasetsFromHash, defaultState, encodeState, parseBox, parseHash } from '../../web/state.js';
 import { evaluate, presetPoints, tfFromString, tfToString } from '../../web/transfer-function.js';
 import { hashLabelColor, hexToRgb, rgbToHex } from '../../web/colors.js';
 
@@ -101,4 +101,19 @@ test('hash colours are deterministic, saturated and distinct for neighbours', ()
   assert.ok(colors.size >= 49);
   for (const color of colors) assert.ok(Math.max(...hexToRgb(color)) >= 0.74, `${color} too dark`);
   assert.equal(rgbToHex(hexToRgb('#12abef')), '#12abef');
+});
+
+test('a malformed escape or an impossible box in a hand-edited link falls back to the defaults', () => {
+  const fields = parseHash('#v=0&l=1&cam=%E0&rank=3&box=0,0,0,99,10,10');
+  assert.equal(fields.cam, undefined);
+  const state = applyHash(defaultState(scalar, labels), fields, scalar);
+  assert.equal(state.rank, 3);
+  assert.deepEqual(state.box, defaultState(scalar, labels).box);
+  assert.deepEqual(parseBox('1,2,3,4,5,6', scalar.dims), { box: [1, 2, 3, 4, 5, 6] });
+  assert.ok(parseBox('4,2,3,1,5,6', scalar.dims).error);
+  assert.ok(parseBox('0,0,0,1.5,1,1', scalar.dims).error);
+});
+
+test('a TF string whose first and last values coincide is refused (no range to map)', () => {
+  assert.equal(tfFromString('5:0:0:0:0;5:1:1:1:1'), null);
 });
