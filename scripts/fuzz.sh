@@ -23,7 +23,7 @@ if ! command -v clang++ >/dev/null; then
   exit 1
 fi
 if [ ! -f build/fuzz/build.ninja ]; then
-  CC=clang CXX=clang++ cmake -S . -B build/fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSTRATA_FUZZ=ON \
+  CC=clang CXX=clang++ cmake -S . -B build/fuzz -G Ninja -DCMAKE_BUILD_TYPE=Release -DSTRATA_FUZZ=ON \
     -DSTRATA_BUILD_TESTS=OFF -DSTRATA_BUILD_BENCH=OFF >/dev/null
 fi
 cmake --build build/fuzz --target "${targets[@]/#/fuzz_}"
@@ -41,7 +41,10 @@ run_one() {
     find "$root/fuzz/regressions/$t" -maxdepth 1 -type f ! -name 'pending-*' -exec cp {} "$dir/regressions/" \;
   fi
   local status=0
-  ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1} UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1} OMP_NUM_THREADS=1 \
+  # The targets write each input to a file under TMPDIR: memory, not disk, where there is /dev/shm.
+  local tmp=${TMPDIR:-/tmp}
+  if [ -z "${TMPDIR:-}" ] && [ -d /dev/shm ] && [ -w /dev/shm ]; then tmp=/dev/shm; fi
+  TMPDIR=$tmp ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1} UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1} OMP_NUM_THREADS=1 \
     "$root/build/fuzz/fuzz/fuzz_$t" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
     -artifact_prefix="$dir/crashes/" -print_final_stats=1 \
     "$dir/corpus" "$root/fuzz/corpus/$t" "$dir/regressions" >"$dir/log" 2>&1 || status=$?

@@ -82,9 +82,13 @@ VolumeStatistics StatisticsAccumulator::result() const {
   s.stddev = std::sqrt(std::max(0.0, sum_sq_ / double(n_) - s.mean * s.mean));
   s.zero_fraction = double(zeros_) / double(n_);
   const double range = max_ - min_;
+  // Non-finite samples (a float volume may hold NaN or infinities, and then so may min_, max_
+  // and range) land in the first bin (NaN) or the end bins, never in a cast from NaN or infinity.
   auto bin_of = [&](double v) {
-    if (range <= 0) return std::size_t(0);
-    return std::min<std::size_t>(s.histogram.size() - 1, std::size_t((v - min_) / range * double(s.histogram.size())));
+    const double bins = double(s.histogram.size());
+    const double t = range > 0 ? (v - min_) / range * bins : 0.0;
+    if (!(t >= 1.0)) return std::size_t(0);
+    return t >= bins ? s.histogram.size() - 1 : std::size_t(t);
   };
   if (!small_counts_.empty()) {
     std::uint64_t distinct = 0;

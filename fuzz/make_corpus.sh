@@ -1,0 +1,43 @@
+#!/usr/bin/env bash
+# Makes the seed corpora of fuzz/corpus again (and fuzz/data, the server target's datasets) from
+# tiny volumes: strata generate/convert/compress/labels encode (build/release/strata) and
+# fuzz_extract_seeds (build/fuzz) for the payload and section targets. The transfer-function,
+# colour-map and server seeds are written by hand and kept.
+#   fuzz/make_corpus.sh
+set -euo pipefail
+cd "$(dirname "$0")/.."
+strata="build/release/strata --progress none"
+cmake --build build/release --target strata >/dev/null
+cmake --build build/fuzz --target fuzz_extract_seeds >/dev/null
+w=$(mktemp -d)
+trap 'rm -rf "$w"' EXIT
+$strata generate prisms --size 10,9,8 -o "$w/prisms.nrrd"
+$strata generate voronoi --size 10,9,8 --count 6 -o "$w/cells.nrrd"
+$strata generate sphere --size 6 --dtype f32 -o "$w/sphere.nrrd"
+$strata convert "$w/prisms.nrrd" "$w/prisms_raw.nrrd" --uncompressed
+for f in prisms.nii prisms.nii.gz cells.nii prisms.tif cells.tif sphere.tif prisms.raw sphere.raw; do
+  src=${f%%.*}.nrrd
+  $strata convert "$w/$src" "$w/$f"
+done
+$strata compress "$w/prisms.nrrd" -o "$w/scalar.strata" --brick 8 --overlap 1 --rank 4
+$strata compress "$w/prisms.nrrd" -o "$w/scalar_nozstd.strata" --brick 8 --overlap 1 --rank 4 --zstd 0 --quant u8,b8lin
+$strata compress "$w/prisms.nrrd" -o "$w/coded.strata" --brick 8 --overlap 1 --psnr 40
+$strata compress "$w/prisms.nrrd" -o "$w/coded_max.strata" --brick 8 --overlap 1 --max-error 0.5
+$strata labels encode "$w/cells.nrrd" -o "$w/labels.strata"
+$strata labels encode "$w/cells.nrrd" -o "$w/labels_fixed.strata" --ids fixed
+
+c=fuzz/corpus
+mkdir -p $c/{nrrd,nifti,tiff,raw_sidecar,container} fuzz/data
+cp "$w/prisms.nrrd" $c/nrrd/prisms_gzip.nrrd
+cp "$w/prisms_raw.nrrd" $c/nrrd/prisms_raw.nrrd
+cp "$w/cells.nrrd" $c/nrrd/cells.nrrd
+cp "$w/sphere.nrrd" $c/nrrd/sphere_f32.nrrd
+cp tests/data/fibsem_medulla_sp_crop20.nrrd $c/nrrd/
+cp "$w/prisms.nii" "$w/prisms.nii.gz" "$w/cells.nii" $c/nifti/
+cp "$w/prisms.tif" "$w/cells.tif" "$w/sphere.tif" $c/tiff/
+for f in prisms sphere; do (cat "$w/$f.raw.json"; printf '\n--\n'; cat "$w/$f.raw") >$c/raw_sidecar/$f; done
+cp "$w"/{scalar,scalar_nozstd,coded,coded_max,labels,labels_fixed}.strata $c/container/
+build/fuzz/fuzz/fuzz_extract_seeds $c "$w"/{scalar,scalar_nozstd,coded,coded_max,labels,labels_fixed}.strata
+cp "$w/scalar.strata" fuzz/data/scalar.strata
+cp "$w/labels.strata" fuzz/data/labels.strata
+cp "$w/sphere.nrrd" fuzz/data/plain.nrrd
