@@ -11,6 +11,10 @@ std::string Extent::to_string() const {
   return std::to_string(x) + "x" + std::to_string(y) + "x" + std::to_string(z);
 }
 
+void Extent::throw_voxel_count_overflow() const {
+  throw Error("dims " + to_string() + ": the voxel count overflows 64 bits");
+}
+
 std::string Box::to_string() const {
   return std::to_string(lo.x) + "," + std::to_string(lo.y) + "," + std::to_string(lo.z) + ":" +
          std::to_string(hi.x) + "," + std::to_string(hi.y) + "," + std::to_string(hi.z);

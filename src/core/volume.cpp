@@ -2,12 +2,64 @@
 
 #include <cmath>
 #include <limits>
+#include <new>
+#include <stdexcept>
+
+#include "strata/core/checked.hpp"
+#include "strata/core/error.hpp"
 
 namespace strata {
 
+namespace {
+
+std::optional<std::uint64_t> checked_bytes(std::initializer_list<std::int64_t> counts, DType dtype) {
+  for (std::int64_t c : counts)
+    if (c < 0) return std::nullopt;
+  std::optional<std::int64_t> bytes = checked_product(counts);
+  if (bytes) bytes = checked_mul(*bytes, std::int64_t(dtype_size(dtype)));
+  if (!bytes) return std::nullopt;
+  return std::uint64_t(*bytes);
+}
+
+[[noreturn]] void throw_size_overflow(const VolumeInfo& info, const char* what) {
+  throw Error("dims " + info.dims.to_string() + " of " + std::string(dtype_name(info.dtype)) + ": the " + what +
+              " overflows 64 bits");
+}
+
+}  // namespace
+
+std::optional<std::uint64_t> VolumeInfo::checked_bytes_per_slice() const { return checked_bytes({dims.x, dims.y}, dtype); }
+
+std::optional<std::uint64_t> VolumeInfo::checked_byte_size() const {
+  return checked_bytes({dims.x, dims.y, dims.z}, dtype);
+}
+
+std::size_t VolumeInfo::bytes_per_slice() const {
+  if (const auto bytes = checked_bytes_per_slice()) return std::size_t(*bytes);
+  throw_size_overflow(*this, "byte size of a slice");
+}
+
+std::size_t VolumeInfo::byte_size() const {
+  if (const auto bytes = checked_byte_size()) return std::size_t(*bytes);
+  throw_size_overflow(*this, "byte size");
+}
+
 Volume::Volume(Extent dims, DType dtype, Spacing spacing) : info_{dims, dtype, spacing} {
   if (dims.x < 0 || dims.y < 0 || dims.z < 0) throw Error("Volume: negative dimensions " + dims.to_string());
-  bytes_.resize(info_.byte_size());
+  const std::size_t bytes = info_.byte_size();
+  // A size that passed every header check can still exceed memory: say so instead of letting
+  // std::bad_alloc reach the user without the volume it was for.
+  const auto cannot_allocate = [&](const char* why) {
+    return Error("Volume: cannot allocate " + std::to_string(bytes) + " bytes for " + dims.to_string() + " " +
+                 std::string(dtype_name(dtype)) + " samples (" + why + ")");
+  };
+  try {
+    bytes_.resize(bytes);
+  } catch (const std::bad_alloc&) {
+    throw cannot_allocate("out of memory");
+  } catch (const std::length_error&) {
+    throw cannot_allocate("more than the address space");
+  }
 }
 
 void Volume::check_type(DType requested) const {

@@ -38,27 +38,30 @@ std::uint64_t page_size() {
 // MappedFile
 
 MappedFile::MappedFile(const std::filesystem::path& path) {
-  int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  // O_NONBLOCK: opening a FIFO must not wait for a writer; it is refused below like any
+  // other file that is not a regular file.
+  int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK);
   if (fd < 0) throw Error(fmt::format("{}: cannot open: {}", path.string(), system_error_text()));
+  struct Close { int fd; ~Close() { ::close(fd); } } closer{fd};
+  map(fd, path.string());
+}
+
+MappedFile::MappedFile(int fd, const std::string& name) { map(fd, name); }
+
+void MappedFile::map(int fd, const std::string& name) {
   struct stat st {};
-  if (::fstat(fd, &st) != 0) {
-    std::string why = system_error_text();
-    ::close(fd);
-    throw Error(fmt::format("{}: cannot stat: {}", path.string(), why));
-  }
+  if (::fstat(fd, &st) != 0) throw Error(fmt::format("{}: cannot stat: {}", name, system_error_text()));
+  if (S_ISDIR(st.st_mode)) throw Error(fmt::format("{}: is a folder, expected a file", name));
+  if (!S_ISREG(st.st_mode)) throw Error(fmt::format("{}: is not a regular file (a device, FIFO or socket)", name));
   size_ = std::uint64_t(st.st_size);
   // mmap rejects a zero length; an empty file simply has no bytes to map.
   if (size_ > 0) {
     // MAP_SHARED so that pages dropped by release() are refilled from the file if touched again.
     void* p = ::mmap(nullptr, size_, PROT_READ, MAP_SHARED, fd, 0);
-    if (p == MAP_FAILED) {
-      std::string why = system_error_text();
-      ::close(fd);
-      throw Error(fmt::format("{}: cannot memory-map {} bytes: {}", path.string(), size_, why));
-    }
+    if (p == MAP_FAILED) throw Error(fmt::format("{}: cannot memory-map {} bytes: {}", name, size_, system_error_text()));
     data_ = static_cast<const std::byte*>(p);
   }
-  ::close(fd);  // the mapping keeps the file alive
+  // The caller closes `fd`: the mapping keeps the file alive.
 }
 
 MappedFile::~MappedFile() {
@@ -138,6 +141,41 @@ TempFile::~TempFile() {
 }
 
 // ---------------------------------------------------------------------------------------------
+// UnnamedTempFile
+
+UnnamedTempFile::UnnamedTempFile(const std::filesystem::path& dir, const std::string& stem) : dir_(dir) {
+#ifdef O_TMPFILE
+  fd_ = ::open(dir.c_str(), O_TMPFILE | O_RDWR | O_CLOEXEC, 0600);
+#endif
+  if (fd_ >= 0) return;
+  // No O_TMPFILE here (some file systems lack it): a named file, unlinked before anything is
+  // written, so at most an empty file can outlive a kill in the instant between the two calls.
+  std::string pattern = (dir / (stem + "-XXXXXX")).string();
+  std::vector<char> name(pattern.begin(), pattern.end());
+  name.push_back('\0');
+  fd_ = ::mkostemp(name.data(), O_CLOEXEC);
+  if (fd_ < 0) throw Error(fmt::format("{}: cannot create a temporary file: {}", dir.string(), system_error_text()));
+  ::unlink(name.data());
+}
+
+UnnamedTempFile::~UnnamedTempFile() {
+  if (fd_ >= 0) ::close(fd_);
+}
+
+void UnnamedTempFile::write(const void* data, std::size_t bytes) {
+  const auto* p = static_cast<const char*>(data);
+  while (bytes > 0) {
+    const ssize_t n = ::write(fd_, p, bytes);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0)
+      throw Error(fmt::format("{}: cannot write a temporary file: {}", dir_.string(),
+                              n < 0 ? system_error_text() : std::string("no space written")));
+    p += n;
+    bytes -= std::size_t(n);
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
 // read_json_file
 
 nlohmann::json read_json_file(const std::filesystem::path& path, std::string_view field) {
@@ -146,7 +184,14 @@ nlohmann::json read_json_file(const std::filesystem::path& path, std::string_vie
   try {
     return nlohmann::json::parse(in);
   } catch (const nlohmann::json::exception& e) {
-    throw FormatError(path.string(), std::string(field), std::string("invalid JSON: ") + e.what());
+    // The library prefixes its text with "[json.exception.<kind>.<id>] "; users get the rest
+    // ("parse error at line 1, column 9: ...", "number overflow parsing '1e999'").
+    std::string_view why = e.what();
+    if (why.starts_with("[json.exception.")) {
+      const auto end = why.find("] ");
+      if (end != std::string_view::npos) why.remove_prefix(end + 2);
+    }
+    throw FormatError(path.string(), std::string(field), fmt::format("invalid JSON: {}", why));
   }
 }
 

@@ -116,10 +116,12 @@ namespace {
 using ChunkSink = std::function<void(const unsigned char*, std::size_t)>;
 
 // Inflates gzip members back to back (as `gzip` and `cat a.gz b.gz` produce), handing every
-// decoded chunk to `sink`. Throws FormatError on corrupt data and on a stream that stops
-// before its end-of-member marker (a truncated file).
-void inflate_gzip(const std::byte* data, std::uint64_t size, const std::string& file, const std::string& field,
-                  ProgressSink& progress, const ChunkSink& sink) {
+// decoded chunk to `sink`, and returns the number of decoded bytes. Stops as soon as `limit`
+// bytes are decoded, without looking at the rest of the stream. Throws FormatError on corrupt
+// data and on a stream that stops before its end-of-member marker (a truncated file).
+std::uint64_t inflate_gzip(const std::byte* data, std::uint64_t size, const std::string& file,
+                           const std::string& field, ProgressSink& progress, std::uint64_t limit,
+                           const ChunkSink& sink) {
   if (!looks_gzipped(data, size)) throw FormatError(file, field, "not a gzip stream (missing the 1f 8b signature)");
   z_stream stream{};
   // windowBits 15 + 32: accept gzip (and zlib) headers, detected automatically.
@@ -128,7 +130,7 @@ void inflate_gzip(const std::byte* data, std::uint64_t size, const std::string& 
 
   ProgressTask task(progress, "decompress", size, "bytes");
   std::vector<unsigned char> out(kInflateBufferBytes);
-  std::uint64_t consumed = 0;
+  std::uint64_t consumed = 0, produced = 0;
   bool member_ended = false;
   while (consumed < size) {
     if (member_ended) {
@@ -142,15 +144,18 @@ void inflate_gzip(const std::byte* data, std::uint64_t size, const std::string& 
     // decoded bytes (and the end-of-member marker) back until it gets more output space.
     bool output_full = true;
     while (!member_ended && (stream.avail_in > 0 || output_full)) {
+      if (produced == limit) return produced;
+      const auto room = uInt(std::min<std::uint64_t>(out.size(), limit - produced));
       stream.next_out = out.data();
-      stream.avail_out = uInt(out.size());
+      stream.avail_out = room;
       int status = inflate(&stream, Z_NO_FLUSH);
       if (status == Z_NEED_DICT || status == Z_DATA_ERROR || status == Z_STREAM_ERROR || status == Z_MEM_ERROR) {
         throw FormatError(file, field,
                           fmt::format("corrupt gzip stream near compressed byte {}: {}",
                                       consumed + (chunk - stream.avail_in), stream.msg ? stream.msg : "invalid data"));
       }
-      sink(out.data(), out.size() - stream.avail_out);
+      sink(out.data(), room - stream.avail_out);
+      produced += room - stream.avail_out;
       output_full = stream.avail_out == 0;
       if (status == Z_STREAM_END) member_ended = true;
       // Z_BUF_ERROR: no progress without more input; the outer loop feeds the next chunk or,
@@ -162,37 +167,23 @@ void inflate_gzip(const std::byte* data, std::uint64_t size, const std::string& 
     task.advance(used);
     // Bytes after a finished member that do not start another gzip member are padding some
     // tools append (often zeros); gzip(1) ignores them, and so do we.
-    if (member_ended && consumed < size && !looks_gzipped(data + consumed, size - consumed)) return;
+    if (member_ended && consumed < size && !looks_gzipped(data + consumed, size - consumed)) return produced;
   }
   if (!member_ended)
     throw FormatError(file, field, fmt::format("truncated gzip stream: ended after {} compressed bytes", size));
+  return produced;
 }
 
 }  // namespace
 
-void gunzip_to_file(const std::byte* data, std::uint64_t size, const std::filesystem::path& out,
-                    const std::string& file_for_errors, const std::string& field, ProgressSink& progress) {
-  std::FILE* f = std::fopen(out.c_str(), "wb");
-  if (!f) throw Error(fmt::format("{}: cannot create: {}", out.string(), system_error_text()));
-  struct Close { std::FILE* f; ~Close() { if (f) std::fclose(f); } } closer{f};
-  inflate_gzip(data, size, file_for_errors, field, progress, [&](const unsigned char* p, std::size_t n) {
-    if (n > 0 && std::fwrite(p, 1, n, f) != n)
-      throw Error(fmt::format("{}: write failed while decoding {}: {}", out.string(), file_for_errors,
-                              system_error_text()));
-  });
-  closer.f = nullptr;
-  if (std::fclose(f) != 0)
-    throw Error(fmt::format("{}: write failed while decoding {}: {}", out.string(), file_for_errors,
-                            system_error_text()));
-}
-
 std::vector<std::byte> gunzip_to_memory(const std::byte* data, std::uint64_t size, const std::string& file_for_errors,
-                                        const std::string& field) {
+                                        const std::string& field, std::uint64_t limit) {
   std::vector<std::byte> result;
-  inflate_gzip(data, size, file_for_errors, field, silent_progress(), [&](const unsigned char* p, std::size_t n) {
-    auto* b = reinterpret_cast<const std::byte*>(p);
-    result.insert(result.end(), b, b + n);
-  });
+  inflate_gzip(data, size, file_for_errors, field, silent_progress(), limit,
+               [&](const unsigned char* p, std::size_t n) {
+                 auto* b = reinterpret_cast<const std::byte*>(p);
+                 result.insert(result.end(), b, b + n);
+               });
   return result;
 }
 
@@ -200,14 +191,41 @@ bool looks_gzipped(const std::byte* data, std::uint64_t size) {
   return size >= 2 && data[0] == std::byte{0x1f} && data[1] == std::byte{0x8b};
 }
 
-std::shared_ptr<TempFile> gunzip_to_temp_file(const std::byte* data, std::uint64_t size, const ReadOptions& options,
-                                              const std::string& stem, const std::string& file_for_errors,
-                                              const std::string& field) {
+std::shared_ptr<MappedFile> gunzip_to_temp_file(const std::byte* data, std::uint64_t size, const ReadOptions& options,
+                                                const std::string& stem, const std::string& file_for_errors,
+                                                const std::string& field, const DeclaredSize& declared) {
   const std::filesystem::path dir = options.temp_dir.value_or(std::filesystem::temp_directory_path());
-  auto decoded = std::make_shared<TempFile>(dir, stem);
+  UnnamedTempFile decoded(dir, stem);
   ProgressSink& progress = options.progress ? *options.progress : silent_progress();
-  gunzip_to_file(data, size, decoded->path(), file_for_errors, field, progress);
-  return decoded;
+  // One byte past the declared size is enough to tell that the stream holds more.
+  const std::uint64_t limit = declared.bytes == kNoDecodeLimit ? declared.bytes : declared.bytes + 1;
+  const std::uint64_t produced =
+      inflate_gzip(data, size, file_for_errors, field, progress, limit, [&](const unsigned char* p, std::size_t n) {
+        try {
+          decoded.write(p, n);
+        } catch (const Error& e) {
+          throw Error(fmt::format("{} (while decoding {})", e.what(), file_for_errors));
+        }
+      });
+  if (produced > declared.bytes)
+    throw FormatError(file_for_errors, field,
+                      fmt::format("the gzip stream decodes to more than the {} bytes {} declares; stopped decoding "
+                                  "there (wrong header, or a gzip bomb)",
+                                  declared.bytes, declared.declared_by));
+  return std::make_shared<MappedFile>(decoded.descriptor(), fmt::format("{} (decoded)", file_for_errors));
+}
+
+std::uint64_t checked_volume_bytes(const VolumeInfo& info, const std::string& file, const std::string& field) {
+  const Extent& d = info.dims;
+  if (d.x <= 0 || d.y <= 0 || d.z <= 0)
+    throw FormatError(file, field, fmt::format("dims {} must all be positive", d.to_string()));
+  const auto bytes = info.checked_byte_size();
+  if (!bytes)
+    throw FormatError(file, field,
+                      fmt::format("{} x {} x {} samples of {} ({} bytes each) do not fit in a 64-bit byte count "
+                                  "(corrupt or hostile header)",
+                                  d.x, d.y, d.z, dtype_name(info.dtype), dtype_size(info.dtype)));
+  return *bytes;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -252,9 +270,8 @@ namespace {
 class MappedSource final : public VolumeSource {
  public:
   MappedSource(std::shared_ptr<MappedFile> file, std::uint64_t offset, const VolumeInfo& info, bool swap,
-               std::filesystem::path path, std::shared_ptr<TempFile> keep_alive)
-      : file_(std::move(file)), offset_(offset), info_(info), swap_(swap), path_(std::move(path)),
-        keep_alive_(std::move(keep_alive)) {}
+               std::filesystem::path path)
+      : file_(std::move(file)), offset_(offset), info_(info), swap_(swap), path_(std::move(path)) {}
 
   const VolumeInfo& info() const override { return info_; }
   const std::filesystem::path& path() const override { return path_; }
@@ -314,13 +331,7 @@ class MappedSource final : public VolumeSource {
   VolumeInfo info_;
   bool swap_;
   std::filesystem::path path_;
-  std::shared_ptr<TempFile> keep_alive_;  // a decoded temporary lives as long as its mapping
 };
-
-void check_mapped_info(const VolumeInfo& info, const std::filesystem::path& path, const std::string& field) {
-  if (info.dims.x <= 0 || info.dims.y <= 0 || info.dims.z <= 0)
-    throw FormatError(path.string(), field, fmt::format("dims {} must all be positive", info.dims.to_string()));
-}
 
 }  // namespace
 
@@ -332,10 +343,8 @@ void check_box_inside(const Box& box, const Extent& dims, const std::filesystem:
 
 std::unique_ptr<VolumeSource> make_mapped_source(std::shared_ptr<MappedFile> file, std::uint64_t offset,
                                                  const VolumeInfo& info, bool big_endian,
-                                                 std::filesystem::path path, const std::string& field,
-                                                 std::shared_ptr<TempFile> keep_alive) {
-  check_mapped_info(info, path, field);
-  const std::uint64_t needed = std::uint64_t(info.dims.voxel_count()) * dtype_size(info.dtype);
+                                                 std::filesystem::path path, const std::string& field) {
+  const std::uint64_t needed = checked_volume_bytes(info, path.string(), field);
   if (offset > file->size() || file->size() - offset < needed) {
     std::uint64_t available = offset > file->size() ? 0 : file->size() - offset;
     throw FormatError(path.string(), field,
@@ -344,7 +353,7 @@ std::unique_ptr<VolumeSource> make_mapped_source(std::shared_ptr<MappedFile> fil
   }
   const bool file_is_big = big_endian;
   const bool swap = file_is_big != (std::endian::native == std::endian::big);
-  return std::make_unique<MappedSource>(std::move(file), offset, info, swap, std::move(path), std::move(keep_alive));
+  return std::make_unique<MappedSource>(std::move(file), offset, info, swap, std::move(path));
 }
 
 }  // namespace strata::io::detail

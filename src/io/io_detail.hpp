@@ -49,19 +49,37 @@ class OutputStream {
   std::unique_ptr<GzipWriter> gzip_;  // declared after file_: destroyed first, it refers to file_
 };
 
-// Decodes gzip data (one or more members) to a raw file, reporting progress in input bytes.
-// Throws FormatError(file, field, ...) on a corrupt or truncated stream.
-void gunzip_to_file(const std::byte* data, std::uint64_t size, const std::filesystem::path& out,
-                    const std::string& file_for_errors, const std::string& field, ProgressSink& progress);
-// Decodes a whole gzip buffer into memory (small headers, tests).
+// Decoding stops after this many bytes unless the caller gives a bound.
+inline constexpr std::uint64_t kNoDecodeLimit = ~std::uint64_t(0);
+
+// Decodes gzip data (one or more members) into memory, at most `limit` bytes: a stream that
+// decodes to more is cut there without reading (or checking) the rest, so a caller that needs a
+// header reads only the header. Throws FormatError(file, field, ...) on a corrupt stream and on
+// one that ends before its end-of-member marker (a truncated file).
 std::vector<std::byte> gunzip_to_memory(const std::byte* data, std::uint64_t size, const std::string& file_for_errors,
-                                        const std::string& field);
+                                        const std::string& field, std::uint64_t limit = kNoDecodeLimit);
 bool looks_gzipped(const std::byte* data, std::uint64_t size);
-// Decodes gzip data into a new temporary file `<stem>-XXXXXX` in options.temp_dir (default: the
-// system temp dir), reporting progress to options.progress; the file goes when the result dies.
-std::shared_ptr<TempFile> gunzip_to_temp_file(const std::byte* data, std::uint64_t size, const ReadOptions& options,
-                                              const std::string& stem, const std::string& file_for_errors,
-                                              const std::string& field);
+
+// What the header of a gzip-compressed volume says its decoded data holds.
+struct DeclaredSize {
+  std::uint64_t bytes;     // the decoded size the header declares
+  std::string declared_by;  // the header fields that say so, for the message ("sizes 4x4x4 of uint8")
+};
+
+// Decodes gzip data into an unnamed temporary file in options.temp_dir (default: the system temp
+// dir; `stem` names it where the file system needs a name for an instant), reporting progress to
+// options.progress, and maps it. Nothing is left in the folder whatever stops the process; the
+// space is freed with the mapping. At most declared.bytes + 1 bytes are decoded: a stream that
+// decodes to more (a gzip bomb, or the wrong header) throws FormatError(file, field, ...) before
+// it can fill the disk. A shorter stream is returned as is; the caller reports the shortfall.
+std::shared_ptr<MappedFile> gunzip_to_temp_file(const std::byte* data, std::uint64_t size, const ReadOptions& options,
+                                                const std::string& stem, const std::string& file_for_errors,
+                                                const std::string& field, const DeclaredSize& declared);
+
+// info.byte_size(), or FormatError(file, field, ...) when the dims are not all positive or
+// dims × sample size overflows 64 bits: every reader checks dims from a header with this
+// before it computes anything from them.
+std::uint64_t checked_volume_bytes(const VolumeInfo& info, const std::string& file, const std::string& field);
 
 // Throws Error naming `path` unless `box` is non-empty and lies inside `dims` (VolumeSource::read_box).
 void check_box_inside(const Box& box, const Extent& dims, const std::filesystem::path& path);
@@ -70,8 +88,7 @@ void check_box_inside(const Box& box, const Extent& dims, const std::filesystem:
 // Checks that offset + info.byte_size() fits in the file (else FormatError naming `field`).
 std::unique_ptr<VolumeSource> make_mapped_source(std::shared_ptr<MappedFile> file, std::uint64_t offset,
                                                  const VolumeInfo& info, bool big_endian,
-                                                 std::filesystem::path path, const std::string& field,
-                                                 std::shared_ptr<TempFile> keep_alive = nullptr);
+                                                 std::filesystem::path path, const std::string& field);
 
 // Swaps bytes of `count` samples of `sample_size` bytes in place (big endian <-> native).
 void byte_swap(std::byte* data, std::size_t count, std::size_t sample_size);

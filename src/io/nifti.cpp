@@ -140,20 +140,27 @@ DType read_dtype(const HeaderBytes& h, const std::string& file) {
   return it->dtype;
 }
 
-// Spacing from pixdim[1..3]. Some writers store 0 (unknown) or a negative size (a flip that
-// belongs in the orientation, not the size): unknown means 1, a size is its magnitude.
-Spacing read_spacing(const HeaderBytes& h) {
+// Spacing from pixdim[1..3]. Many writers store 0 for "unknown", so 0 reads as 1; a negative,
+// NaN or infinite size is not a voxel size and is refused (an orientation flip belongs in
+// qform/sform, and the magnitude of a negative size would be a guess).
+Spacing read_spacing(const HeaderBytes& h, const std::string& file) {
   auto size_at = [&](int axis) {
-    const double v = std::fabs(double(h.get<float>(field_at::pixdim + 4 * std::size_t(axis))));
-    return std::isfinite(v) && v > 0 ? v : 1.0;
+    const double v = double(h.get<float>(field_at::pixdim + 4 * std::size_t(axis)));
+    if (v == 0) return 1.0;
+    if (!(v > 0) || !std::isfinite(v))
+      throw FormatError(file, fmt::format("pixdim[{}]", axis),
+                        fmt::format("is {}; expected a positive voxel size (or 0 for unknown, read as 1)", v));
+    return v;
   };
   return {size_at(1), size_at(2), size_at(3)};
 }
 
 std::uint64_t read_vox_offset(const HeaderBytes& h, const std::string& file) {
   const double offset = h.get<float>(field_at::vox_offset);
-  if (!std::isfinite(offset) || offset < double(kHeaderBytes) || offset != std::floor(offset))
-    throw FormatError(file, "vox_offset", fmt::format("is {}; expected a whole number >= 348", offset));
+  // The upper bound keeps the conversion below defined; no real file is anywhere near it.
+  constexpr double kLargest = 0x1p62;
+  if (!std::isfinite(offset) || offset < double(kHeaderBytes) || offset != std::floor(offset) || offset > kLargest)
+    throw FormatError(file, "vox_offset", fmt::format("is {}; expected a whole number from 348 to 2^62", offset));
   return std::uint64_t(offset);
 }
 
@@ -175,9 +182,10 @@ NiftiHeader parse_header(const std::byte* data, std::uint64_t size, const std::s
   check_magic(data, file);
   header.stored.dims = read_dims(h, file);
   header.stored.dtype = read_dtype(h, file);
-  header.stored.spacing = read_spacing(h);
+  header.stored.spacing = read_spacing(h, file);
   header.vox_offset = read_vox_offset(h, file);
   header.scaling = read_scaling(h);
+  checked_volume_bytes(header.stored, file, "dim");
   return header;
 }
 
@@ -224,20 +232,27 @@ class ScaledSource final : public VolumeSource {
 bool has_gz_name(const fs::path& path) { return ascii_lower(path.filename().string()).ends_with(".gz"); }
 
 // `file` holds a whole uncompressed NIfTI-1 file; `shown_path` is what the user named.
-std::unique_ptr<VolumeSource> source_over(std::shared_ptr<MappedFile> file, const fs::path& shown_path,
-                                          std::shared_ptr<TempFile> keep_alive) {
+std::unique_ptr<VolumeSource> source_over(std::shared_ptr<MappedFile> file, const fs::path& shown_path) {
   const NiftiHeader header = parse_header(file->data(), file->size(), shown_path.string());
   auto stored = make_mapped_source(std::move(file), header.vox_offset, header.stored, header.big_endian, shown_path,
-                                   "dim", std::move(keep_alive));
+                                   "dim");
   if (!header.scaling) return stored;
   return std::make_unique<ScaledSource>(std::move(stored), *header.scaling);
 }
 
+// The header is decoded first: its dims, datatype and vox_offset bound what the whole stream
+// may decode to, so a stream that inflates to more stops there instead of filling the disk.
 std::unique_ptr<VolumeSource> open_gzipped(const fs::path& path, const MappedFile& compressed,
                                            const ReadOptions& options) {
-  auto decoded = gunzip_to_temp_file(compressed.data(), compressed.size(), options,
-                                     "strata-" + path.filename().string(), path.string(), "gzip");
-  return source_over(std::make_shared<MappedFile>(decoded->path()), path, decoded);
+  const std::string file = path.string();
+  const auto head = gunzip_to_memory(compressed.data(), compressed.size(), file, "gzip", kHeaderBytes);
+  const NiftiHeader header = parse_header(head.data(), head.size(), file);
+  const std::uint64_t declared = header.vox_offset + header.stored.byte_size();  // both far below 2^63
+  auto decoded = gunzip_to_temp_file(
+      compressed.data(), compressed.size(), options, "strata-" + path.filename().string(), file, "gzip",
+      {declared, fmt::format("the header (vox_offset {} + dim {} of {})", header.vox_offset,
+                             header.stored.dims.to_string(), dtype_name(header.stored.dtype))});
+  return source_over(std::move(decoded), path);
 }
 
 // Writes the 352-byte prefix (header + empty extension flag) for `info`, little endian.
@@ -295,7 +310,7 @@ std::unique_ptr<VolumeSource> open_nifti(const std::filesystem::path& path, cons
   // Content decides, so a compressed file named .nii still opens; a .gz name that is not gzip
   // is reported by the decoder as a bad gzip stream rather than as a bad NIfTI header.
   if (has_gz_name(path) || looks_gzipped(file->data(), file->size())) return open_gzipped(path, *file, options);
-  return source_over(std::move(file), path, nullptr);
+  return source_over(std::move(file), path);
 }
 
 std::unique_ptr<VolumeWriter> create_nifti_writer(const std::filesystem::path& path, const VolumeInfo& info,

@@ -12,6 +12,7 @@
 #include <fmt/format.h>
 
 #include "io/io_detail.hpp"
+#include "strata/core/checked.hpp"
 
 namespace strata::io::detail {
 
@@ -132,7 +133,10 @@ struct HeaderParser {
       std::replace(inside.begin(), inside.end(), ',', ' ');
       double sum_sq = 0;
       for (const auto& w : words(inside)) {
-        double c = parse_double(w, "space directions");
+        const double c = parse_double(w, "space directions");
+        if (std::isnan(c))
+          fail("space directions", fmt::format("vector {} has a nan component; write none for an axis without "
+                                               "a direction", value.substr(i, close - i + 1)));
         sum_sq += c * c;
       }
       norms.push_back(std::sqrt(sum_sq));
@@ -156,7 +160,11 @@ struct HeaderParser {
 
   void apply_field(const std::string& field, const std::string& value) {
     if (field == "type") header.dtype = parse_type(value);
-    else if (field == "dimension") header.dimension = int(parse_int(value, field));
+    else if (field == "dimension") {
+      const std::int64_t d = parse_int(value, field);
+      if (d < 1 || d > 16) fail(field, fmt::format("{} is not a dimension count (a 3-D volume is expected)", d));
+      header.dimension = int(d);
+    }
     else if (field == "sizes") {
       header.sizes.clear();
       for (const auto& w : words(value)) header.sizes.push_back(parse_int(w, field));
@@ -232,12 +240,26 @@ void drop_leading_unit_axis(NrrdHeader& h) {
   h.dimension = 3;
 }
 
-Spacing spacing_of(const NrrdHeader& h) {
-  // `spacings` and `space directions` are alternatives; an unknown (nan) axis keeps 1.
-  const std::vector<double>& s = !h.spacings.empty() ? h.spacings : h.direction_norms;
+// `spacings` and `space directions` are alternatives. The rule for odd values: nan in
+// `spacings` and none in `space directions` are NRRD's spellings of "unknown" and give 1;
+// a spacing of 0 or below (a zero-length direction) is an error, never silently replaced.
+Spacing spacing_of(const NrrdHeader& h, const std::string& file) {
+  const bool from_spacings = !h.spacings.empty();
+  const std::vector<double>& s = from_spacings ? h.spacings : h.direction_norms;
   if (s.size() != 3) return {};
-  auto pick = [](double v) { return std::isfinite(v) && v > 0 ? v : 1.0; };
-  return {pick(s[0]), pick(s[1]), pick(s[2])};
+  const auto pick = [&](std::size_t axis) {
+    const double v = s[axis];
+    if (std::isnan(v)) return 1.0;
+    if (!(v > 0) || !std::isfinite(v)) {
+      if (from_spacings)
+        throw FormatError(file, "spacings",
+                          fmt::format("axis {} is {}; expected a positive number (or nan for unknown)", axis, v));
+      throw FormatError(file, "space directions",
+                        fmt::format("axis {} has a zero-length vector; expected a non-zero vector (or none)", axis));
+    }
+    return v;
+  };
+  return {pick(0), pick(1), pick(2)};
 }
 
 void check_required(const NrrdHeader& h, const std::string& file) {
@@ -273,7 +295,8 @@ NrrdLayout make_layout(NrrdHeader h, const std::filesystem::path& path) {
   drop_leading_unit_axis(h);
   check_required(h, file);
   NrrdLayout layout;
-  layout.info = VolumeInfo{{h.sizes[0], h.sizes[1], h.sizes[2]}, *h.dtype, spacing_of(h)};
+  layout.info = VolumeInfo{{h.sizes[0], h.sizes[1], h.sizes[2]}, *h.dtype, spacing_of(h, file)};
+  checked_volume_bytes(layout.info, file, "sizes");
   layout.encoding = *h.encoding;
   layout.big_endian = h.big_endian.value_or(false);
   layout.byte_skip = h.byte_skip;
@@ -345,20 +368,28 @@ std::unique_ptr<VolumeSource> open_raw_encoded(const std::filesystem::path& path
 
 std::unique_ptr<VolumeSource> open_gzip_encoded(const std::filesystem::path& path, const NrrdLayout& layout,
                                                 const ReadOptions& options) {
-  std::shared_ptr<TempFile> decoded;
+  // For compressed encodings the byte skip counts decoded bytes (as teem does).
+  const auto skip = std::uint64_t(layout.byte_skip);
+  // Decoded sizes are file sizes: they must fit in a signed 64-bit offset.
+  const auto declared = checked_add(layout.byte_skip, std::int64_t(layout.info.byte_size()));
+  if (!declared)
+    throw FormatError(path.string(), "byte skip",
+                      fmt::format("{} plus the {} bytes of samples overflows a 64-bit file offset", skip,
+                                  layout.info.byte_size()));
+  std::shared_ptr<MappedFile> data;
   {
     auto compressed = map_data_file(path, layout);
     const std::uint64_t start = skip_lines(*compressed, layout.data_start, layout.line_skip, path.string());
     if (start >= compressed->size())
       throw FormatError(path.string(), "data", "no gzip data follows the header (truncated file)");
-    decoded = gunzip_to_temp_file(compressed->data() + start, compressed->size() - start, options, "strata-nrrd",
-                                  path.string(), "data");
+    const std::string declared_by =
+        fmt::format("the header (sizes {} of type {}{})", layout.info.dims.to_string(), dtype_name(layout.info.dtype),
+                    skip ? fmt::format(" after a byte skip of {}", skip) : "");
+    data = gunzip_to_temp_file(compressed->data() + start, compressed->size() - start, options, "strata-nrrd",
+                               path.string(), "data", {std::uint64_t(*declared), declared_by});
   }
-  auto data = std::make_shared<MappedFile>(decoded->path());
-  // For compressed encodings the byte skip counts decoded bytes (as teem does).
-  const auto skip = std::uint64_t(layout.byte_skip);
   check_data_bytes(path.string(), layout, skip > data->size() ? 0 : data->size() - skip, "the decoded gzip stream");
-  return make_mapped_source(std::move(data), skip, layout.info, layout.big_endian, path, "data", std::move(decoded));
+  return make_mapped_source(std::move(data), skip, layout.info, layout.big_endian, path, "data");
 }
 
 // ---------------------------------------------------------------------------------------------

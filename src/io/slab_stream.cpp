@@ -15,7 +15,7 @@ void for_each_slab(VolumeSource& source, const std::function<void(const Volume&,
   const std::int64_t step = slices_per_slab(info, max_bytes);
   ProgressTask bar(progress, task, std::uint64_t(info.dims.voxel_count()), "vox");
   for (std::int64_t z0 = 0; z0 < info.dims.z; z0 += step) {
-    const std::int64_t z1 = std::min(info.dims.z, z0 + step);
+    const std::int64_t z1 = z0 + std::min(step, info.dims.z - z0);  // never past dims.z, never overflowing
     Volume slab = source.read_slab(z0, z1);
     visit(slab, z0);
     bar.advance(std::uint64_t(slab.voxel_count()));

@@ -358,7 +358,9 @@ class TiffSource final : public VolumeSource {
 };
 
 VolumeInfo info_from(const PageFormat& f, std::int64_t pages, const Spacing& spacing, const std::string& where) {
-  return {{f.width, f.height, pages}, dtype_of_format(f, where), spacing};
+  VolumeInfo info{{f.width, f.height, pages}, dtype_of_format(f, where), spacing};
+  checked_volume_bytes(info, where, "ImageWidth/ImageLength");
+  return info;
 }
 
 std::unique_ptr<VolumeSource> open_multi_page(const fs::path& path) {
@@ -377,6 +379,7 @@ std::unique_ptr<VolumeSource> open_multi_page(const fs::path& path) {
     throw FormatError(label(pages.size()), "IFD", fmt::format("cannot read the page directory: {}", file->take_errors()));
   VolumeInfo info = info0;
   info.dims.z = std::int64_t(pages.size());
+  checked_volume_bytes(info, path.string(), "pages");
   return std::make_unique<TiffSource>(path, info, first, std::move(pages), std::move(file));
 }
 

@@ -1,6 +1,9 @@
 // Format detection and dispatch; the checks every writer shares.
 #include "strata/io/volume_io.hpp"
 
+#include <fstream>
+#include <string_view>
+
 #include <fmt/format.h>
 
 #include "io/io_detail.hpp"
@@ -53,6 +56,31 @@ class CheckedWriter final : public VolumeWriter {
 
 }  // namespace
 
+namespace {
+
+// The first bytes of a .strata container (docs/format.md).
+constexpr std::string_view kStrataSignature{"\x89STRATA\n", 8};
+
+// Why a file named .strata is not something this module reads: the caller asked for a volume
+// (a .strata file that is one goes to the container reader), so say what the file is instead.
+[[noreturn]] void throw_not_a_volume(const std::filesystem::path& path) {
+  std::error_code ec;
+  const auto size = std::filesystem::file_size(path, ec);
+  if (ec) throw Error(fmt::format("{}: cannot open: {}", path.string(), ec.message()));
+  if (size == 0) throw Error(fmt::format("{}: empty file (0 bytes), expected a .strata container", path.string()));
+  std::string head(kStrataSignature.size(), '\0');
+  std::ifstream in(path, std::ios::binary);
+  in.read(head.data(), std::streamsize(head.size()));
+  if (!in || head != kStrataSignature)
+    throw Error(fmt::format("{}: not a .strata container: its {} bytes do not start with the .strata signature "
+                            "(a damaged or mislabelled file)",
+                            path.string(), size));
+  throw Error(fmt::format("{}: a .strata container, not a volume in one of the formats raw, NRRD, NIfTI-1 or TIFF",
+                          path.string()));
+}
+
+}  // namespace
+
 FileFormat detect_format(const std::filesystem::path& path) {
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec)) return FileFormat::tiff;
@@ -61,6 +89,7 @@ FileFormat detect_format(const std::filesystem::path& path) {
   if (name.ends_with(".nrrd") || name.ends_with(".nhdr")) return FileFormat::nrrd;
   if (name.ends_with(".nii") || name.ends_with(".nii.gz")) return FileFormat::nifti;
   if (name.ends_with(".tif") || name.ends_with(".tiff")) return FileFormat::tiff;
+  if (name.ends_with(".strata") && std::filesystem::exists(path, ec)) throw_not_a_volume(path);
   throw Error(fmt::format("{}: unknown volume format (expected .raw, .bin, .nrrd, .nhdr, .nii, .nii.gz, .tif, "
                           ".tiff or a directory of TIFF slices)",
                           path.string()));
@@ -90,7 +119,12 @@ Volume VolumeSource::read_slab(std::int64_t z0, std::int64_t z1) {
 Volume VolumeSource::read_all() { return read_box(Box::whole(info().dims)); }
 
 std::unique_ptr<VolumeSource> open_volume(const std::filesystem::path& path, const ReadOptions& options) {
-  switch (detect_format(path)) {
+  const FileFormat format = detect_format(path);
+  // Every format needs some bytes; an empty file is reported as such, not as a bad header.
+  std::error_code ec;
+  if (std::filesystem::is_regular_file(path, ec) && std::filesystem::file_size(path, ec) == 0 && !ec)
+    throw FormatError(path.string(), "size", fmt::format("empty file (0 bytes), expected a {} volume", format_name(format)));
+  switch (format) {
     case FileFormat::raw: return detail::open_raw(path, options);
     case FileFormat::nrrd: return detail::open_nrrd(path, options);
     case FileFormat::nifti: return detail::open_nifti(path, options);

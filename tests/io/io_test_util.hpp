@@ -114,6 +114,15 @@ inline void write_gzipped(const std::filesystem::path& p, const void* data, std:
   out.commit();
 }
 
+// Whether this process maps a file that lives (or lived: unlinked files count) in `dir`.
+inline bool maps_a_file_in(const std::filesystem::path& dir) {
+  std::ifstream maps("/proc/self/maps");
+  const std::string prefix = dir.string() + "/";
+  for (std::string line; std::getline(maps, line);)
+    if (line.find(prefix) != std::string::npos) return true;
+  return false;
+}
+
 inline std::size_t file_count(const std::filesystem::path& dir) {
   return std::size_t(std::distance(std::filesystem::directory_iterator(dir), std::filesystem::directory_iterator{}));
 }

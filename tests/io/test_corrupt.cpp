@@ -111,7 +111,7 @@ TEST(IoCorrupt, HeaderProblemsNameTheirField) {
   write_text(dir / "magic.nrrd", "P5\n1 1\n255\n" + one);
   expect_open_error(dir / "magic.nrrd", {"magic"});
   write_text(dir / "empty.nrrd", "");
-  expect_open_error(dir / "empty.nrrd", {"magic"});
+  expect_open_error(dir / "empty.nrrd", {"empty file (0 bytes)"});
   write_text(dir / "junk.nrrd", nrrd_header("type: uint8\nthis line has no colon\n") + one);
   expect_open_error(dir / "junk.nrrd", {"header", "line 3"});
   write_text(dir / "sp.nrrd", nrrd_header("type: uint8\ndimension: 3\nsizes: 1 1 1\nspacings: 1 one 1\n"

@@ -371,7 +371,9 @@ TEST(IoNifti, GzipDecodesIntoTempDirWithProgress) {
   options.progress = &progress;
   {
     auto source = io::open_volume(dir / "v.nii.gz", options);
-    EXPECT_EQ(file_count(dir / "scratch"), 1u);
+    // The decoded samples are mapped from temp_dir, from a file without a name.
+    EXPECT_TRUE(maps_a_file_in(dir / "scratch"));
+    EXPECT_EQ(file_count(dir / "scratch"), 0u);
     EXPECT_EQ(source->path(), dir / "v.nii.gz");
     EXPECT_TRUE(source->read_all() == v);
   }

@@ -1,7 +1,10 @@
 #pragma once
 #include <algorithm>
 #include <cstdint>
+#include <optional>
 #include <string>
+
+#include "strata/core/checked.hpp"
 
 namespace strata {
 
@@ -9,9 +12,18 @@ namespace strata {
 struct Extent {
   std::int64_t x = 0, y = 0, z = 0;
 
-  constexpr std::int64_t voxel_count() const { return x * y * z; }
+  /// x * y * z, or std::nullopt when the product overflows 64 bits (dims read from a hostile header).
+  constexpr std::optional<std::int64_t> checked_voxel_count() const { return checked_product<std::int64_t>({x, y, z}); }
+  /// x * y * z; throws Error when the product overflows 64 bits (readers reject such dims first).
+  constexpr std::int64_t voxel_count() const {
+    if (const auto n = checked_voxel_count()) return *n;
+    throw_voxel_count_overflow();
+  }
   constexpr bool operator==(const Extent&) const = default;
   std::string to_string() const;  // "XxYxZ"
+
+ private:
+  [[noreturn]] void throw_voxel_count_overflow() const;
 };
 
 // A half-open axis-aligned box [lo, hi) in voxel coordinates.

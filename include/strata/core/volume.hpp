@@ -1,6 +1,7 @@
 #pragma once
 #include <cstddef>
 #include <cstring>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -21,8 +22,14 @@ struct VolumeInfo {
   DType dtype = DType::u8;
   Spacing spacing;
 
-  std::size_t bytes_per_slice() const { return std::size_t(dims.x * dims.y) * dtype_size(dtype); }
-  std::size_t byte_size() const { return std::size_t(dims.voxel_count()) * dtype_size(dtype); }
+  /// dims.x * dims.y * sample size and dims.x * dims.y * dims.z * sample size, or std::nullopt
+  /// when a dimension is negative or the product does not fit in a signed 64-bit count (the
+  /// range of file offsets). Readers check these before trusting dims from a header.
+  std::optional<std::uint64_t> checked_bytes_per_slice() const;
+  std::optional<std::uint64_t> checked_byte_size() const;
+  /// The same; throw Error naming the dims and dtype when the size overflows.
+  std::size_t bytes_per_slice() const;
+  std::size_t byte_size() const;
 };
 
 // Typed, non-owning view of x-fastest voxels.

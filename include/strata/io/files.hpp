@@ -14,10 +14,14 @@
 namespace strata::io {
 
 // Read-only mmap of a whole file. release() drops pages already consumed so streaming a
-// file larger than memory keeps the resident set small.
+// file larger than memory keeps the resident set small. Only regular files are mapped: a folder,
+// FIFO or device is refused with an Error naming the path (a FIFO never blocks the open).
 class MappedFile {
  public:
   explicit MappedFile(const std::filesystem::path& path);  // throws Error naming the path
+  // Maps the file open as `fd` (not closed, not owned: the mapping outlives it); `name` is
+  // what errors call the file.
+  MappedFile(int fd, const std::string& name);
   ~MappedFile();
   MappedFile(const MappedFile&) = delete;
   MappedFile& operator=(const MappedFile&) = delete;
@@ -25,6 +29,7 @@ class MappedFile {
   std::uint64_t size() const { return size_; }
   void release(std::uint64_t offset, std::uint64_t length) const;  // madvise(DONTNEED)
  private:
+  void map(int fd, const std::string& name);
   const std::byte* data_ = nullptr;
   std::uint64_t size_ = 0;
 };
@@ -55,6 +60,25 @@ class TempFile {
   const std::filesystem::path& path() const { return path_; }
  private:
   std::filesystem::path path_;
+};
+
+// A temporary file with no name: opened with O_TMPFILE in `dir` where the file system supports
+// it, else created by mkstemp as `<dir>/<stem>-XXXXXX` and unlinked at once. Whatever stops the
+// process (SIGKILL included), nothing is left in `dir`; the space is freed when the descriptor
+// and every mapping of it (MappedFile(descriptor(), ...)) are gone.
+class UnnamedTempFile {
+ public:
+  UnnamedTempFile(const std::filesystem::path& dir, const std::string& stem);
+  ~UnnamedTempFile();
+  UnnamedTempFile(const UnnamedTempFile&) = delete;
+  UnnamedTempFile& operator=(const UnnamedTempFile&) = delete;
+  int descriptor() const { return fd_; }
+  const std::filesystem::path& dir() const { return dir_; }
+  // Appends `bytes` bytes; throws Error naming the folder (disk full) on failure.
+  void write(const void* data, std::size_t bytes);
+ private:
+  std::filesystem::path dir_;
+  int fd_ = -1;
 };
 
 // Parses the whole file at `path` as JSON. Throws Error "<path>: cannot open" if it cannot be
