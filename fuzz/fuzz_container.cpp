@@ -31,8 +31,10 @@ void read_container(const std::filesystem::path& path) {
     if (++checked == 64) break;
   }
   if (m.contains("sections") && m["sections"].is_object())
-    for (const auto& [name, value] : m["sections"].items())
+    for (const auto& item : m["sections"].items()) {
+      const std::string name = item.key();
       if (reader->has_section(name)) strata::fuzz::run_guarded([&] { (void)reader->section(name); });
+    }
   const std::string codec = m.contains("codec") && m["codec"].is_string() ? m["codec"].get<std::string>() : "";
   if (codec == "ta-bricked") {
     const strata::ta::TaVolume volume(std::move(reader));
