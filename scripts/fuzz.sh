@@ -47,7 +47,8 @@ run_one() {
   TMPDIR=$tmp ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1} UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1} OMP_NUM_THREADS=1 \
     "$root/build/fuzz/fuzz/fuzz_$t" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
     -artifact_prefix="$dir/crashes/" -print_final_stats=1 \
-    "$dir/corpus" "$root/fuzz/corpus/$t" "$dir/regressions" >"$dir/log" 2>&1 || status=$?
+    "$dir/corpus" "$dir/regressions" $([ -d "$root/fuzz/corpus/$t" ] && echo "$root/fuzz/corpus/$t") \
+    >"$dir/log" 2>&1 || status=$?
   echo "$status" >"$dir/status"
 }
 export -f run_one
