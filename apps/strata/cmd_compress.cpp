@@ -1,8 +1,12 @@
 // `strata compress IN -o OUT.strata`: bricked tensor-approximation octree (paper 1).
+#include <cmath>
 #include <cstdio>
+
+#include <fmt/format.h>
 #include <optional>
 #include <tuple>
 
+#include "cli_checks.hpp"
 #include "commands.hpp"
 #include "report.hpp"
 #include "strata/core/error.hpp"
@@ -13,6 +17,8 @@
 namespace strata::cli {
 
 namespace {
+
+constexpr double kMinRmse = 1e-150;
 
 struct CompressArgs {
   std::string input, output, quant = "u16,b8log+", memory_limit;
@@ -40,6 +46,12 @@ ta::ErrorTarget to_target(const CompressArgs& args) {
 }
 
 ta::CompressParams to_params(const CompressArgs& args) {
+  if (!(std::isfinite(args.coarse_growth) && args.coarse_growth >= 1))
+    throw Error("--coarse-growth: must be a finite factor >= 1, got " + std::to_string(args.coarse_growth));
+  // The encoder works with squared errors: a smaller target underflows to 0.
+  if (args.rmse && std::isfinite(*args.rmse) && *args.rmse > 0 && *args.rmse < kMinRmse)
+    throw Error(fmt::format("--rmse: must be at least {:g} (below, its square is no longer a positive number), got {:g}",
+                            kMinRmse, *args.rmse));
   ta::CompressParams p;
   p.layout = {args.brick, args.overlap};
   p.layout.validate();
@@ -57,6 +69,7 @@ ta::CompressParams to_params(const CompressArgs& args) {
 
 void run_compress(const CompressArgs& args, const GlobalOptions& global) {
   const ta::CompressParams params = to_params(args);
+  check_output_file(args.output, "--output", {args.input}, {".strata"});
   auto progress = global.make_progress();
   io::ReadOptions read = args.raw.to_read_options();
   read.progress = progress.get();
@@ -97,7 +110,9 @@ void register_compress(CLI::App& app, const GlobalOptions& global) {
                                 "Quantization: f32 | u16,b8log+ | u16,b8log | u8,b8lin | u16,b16lin | u16,b12log+ | "
                                 "u16,b8mu+ ...")
                     ->capture_default_str();
-  auto* hooi = cmd->add_option("--hooi", args->hooi, "HOOI sweeps after HOSVD (0 = HOSVD only)")->capture_default_str();
+  auto* hooi = cmd->add_option("--hooi", args->hooi, "HOOI sweeps after HOSVD (0 = HOSVD only; at most 100)")
+                   ->capture_default_str()
+                   ->check(CLI::Range(0, 100));
   cmd->add_option("--zstd", args->zstd,
                   "Lossless zstd level over each quantized brick (0 = off); with a target, of bricks stored losslessly")
       ->capture_default_str()

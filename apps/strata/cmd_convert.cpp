@@ -1,4 +1,5 @@
 // `strata convert IN OUT`: between raw, NRRD, NIfTI and TIFF, streamed slab by slab.
+#include "cli_checks.hpp"
 #include "commands.hpp"
 #include "report.hpp"
 #include "strata/core/error.hpp"
@@ -16,6 +17,7 @@ struct ConvertArgs {
 };
 
 void run_convert(const ConvertArgs& args, const GlobalOptions& global) {
+  check_volume_output(args.output, "output", {args.input});
   auto progress = global.make_progress();
   io::ReadOptions read = args.raw.to_read_options();
   read.progress = progress.get();

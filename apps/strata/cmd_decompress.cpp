@@ -1,4 +1,5 @@
 // `strata decompress IN.strata -o OUT [--level L] [--rank K] [--box ...]`.
+#include "cli_checks.hpp"
 #include "commands.hpp"
 #include "strata/core/error.hpp"
 #include "strata/io/volume_io.hpp"
@@ -22,6 +23,7 @@ Volume to_output_type(Volume decoded, const ta::TaVolume& volume, const Decompre
 }
 
 void run_decompress(const DecompressArgs& args, const GlobalOptions&) {
+  check_volume_output(args.output, "--output", {args.input});
   ta::TaVolume volume(args.input);
   volume.check_level(args.level);
   const Extent dims = volume.geometry().level(args.level).dims;

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <nlohmann/json.hpp>
 
+#include "cli_checks.hpp"
 #include "commands.hpp"
 #include "strata/mixture/encoded_labels.hpp"
 #include "strata/mixture/query_calibration.hpp"
@@ -76,7 +77,7 @@ void register_labels_calibrate(CLI::App& labels, const GlobalOptions& global) {
       ->capture_default_str()
       ->check(CLI::IsMember({"hybrid", "footprint", "coarse"}));
   cmd->add_flag("--json", args->json, "Print JSON");
-  cmd->callback([args, &global] { run_labels_calibrate(*args, global); });
+  cmd->callback([args, &global] { naming_files({args->input}, [&] { run_labels_calibrate(*args, global); }); });
 }
 
 }  // namespace strata::cli

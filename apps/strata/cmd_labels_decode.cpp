@@ -2,6 +2,7 @@
 #include <cstdio>
 #include <optional>
 
+#include "cli_checks.hpp"
 #include "commands.hpp"
 #include "strata/core/error.hpp"
 #include "strata/io/volume_io.hpp"
@@ -18,6 +19,7 @@ struct LabelsDecodeArgs {
 };
 
 void run_labels_decode(const LabelsDecodeArgs& args, const GlobalOptions&) {
+  check_volume_output(args.output, "--output", {args.input});
   const mixture::EncodedLabels labels(args.input);
   if (args.level < 0 || args.level >= labels.level_count())
     throw Error("--level: " + std::to_string(args.level) + " is not in 0.." + std::to_string(labels.level_count() - 1) +
@@ -40,7 +42,9 @@ void register_labels_decode(CLI::App& labels, const GlobalOptions& global) {
   cmd->add_option("-o,--output", args->output, "Output volume (.nrrd, .nii, .nii.gz, .raw, .tif)")->required();
   cmd->add_option("--level", args->level, "Mip level (0 = full resolution)")->capture_default_str();
   cmd->add_option("--label", args->label, "Write the fraction (f32, 0..1) of this label value instead");
-  cmd->callback([args, &global] { run_labels_decode(*args, global); });
+  cmd->callback([args, &global] {
+    naming_files({args->input, args->output}, [&] { run_labels_decode(*args, global); });
+  });
 }
 
 }  // namespace strata::cli

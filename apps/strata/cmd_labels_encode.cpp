@@ -1,6 +1,7 @@
 // `strata labels encode IN -o OUT.strata`: Mixture Graph of a label volume (paper 4).
 #include <cstdio>
 
+#include "cli_checks.hpp"
 #include "commands.hpp"
 #include "report.hpp"
 #include "strata/core/error.hpp"
@@ -30,8 +31,13 @@ void run_labels_encode(const LabelsEncodeArgs& args, const GlobalOptions& global
   auto progress = global.make_progress();
   io::ReadOptions read = args.raw.to_read_options();
   read.progress = progress.get();
+  check_output_file(args.output, "--output", {args.input}, {".strata"});
   auto source = io::open_volume(args.input, read);
   const Extent dims = source->info().dims;
+  if (!dtype_is_integer(source->info().dtype))
+    throw Error(args.input + ": " + std::string(dtype_name(source->info().dtype)) +
+                " samples: a label volume needs integer samples (u8, i8, u16, i16, u32 or i32); convert the "
+                "segmentation to an integer type first");
   const mixture::EncodeReport r = mixture::encode_labels(*source, args.output, o, *progress);
   if (args.json) {
     nlohmann::json j{{"file", args.output},        {"nodes", r.nodes},
@@ -81,7 +87,9 @@ void register_labels_encode(CLI::App& labels, const GlobalOptions& global) {
   cmd->add_flag("--no-error", args->no_error, "Skip measuring the max l1 reconstruction error");
   cmd->add_flag("--json", args->json, "Print the report as JSON");
   args->raw.add_to(*cmd);
-  cmd->callback([args, &global] { run_labels_encode(*args, global); });
+  cmd->callback([args, &global] {
+    naming_files({args->input, args->output}, [&] { run_labels_encode(*args, global); });
+  });
 }
 
 }  // namespace strata::cli

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <nlohmann/json.hpp>
 
+#include "cli_checks.hpp"
 #include "commands.hpp"
 #include "strata/core/error.hpp"
 #include "strata/io/files.hpp"
@@ -32,6 +33,7 @@ std::array<float, 4> parse_rgba(const nlohmann::json& j, const std::string& file
 
 void run_labels_palette(const LabelsPaletteArgs& args, const GlobalOptions&) {
   using clock = std::chrono::steady_clock;
+  check_output_file(args.output, "--output", {args.input, args.colors}, {".json"});
   const mixture::EncodedLabels labels(args.input);
   nlohmann::json colors = io::read_json_file(args.colors, "json");
   if (!colors.is_object()) throw FormatError(args.colors, "json", "expected an object {\"<label>\": [r, g, b, a], ...}");
@@ -86,7 +88,9 @@ void register_labels_palette(CLI::App& labels, const GlobalOptions& global) {
   cmd->add_option("input", args->input, "Input .strata label file")->required();
   cmd->add_option("--colors", args->colors, "JSON {\"<label value>\": [r,g,b,a], ..., \"default\": [r,g,b,a]}")->required();
   cmd->add_option("-o,--output", args->output, "Output palette JSON")->required();
-  cmd->callback([args, &global] { run_labels_palette(*args, global); });
+  cmd->callback([args, &global] {
+    naming_files({args->input, args->colors, args->output}, [&] { run_labels_palette(*args, global); });
+  });
 }
 
 }  // namespace strata::cli

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <nlohmann/json.hpp>
 
+#include "cli_checks.hpp"
 #include "commands.hpp"
 #include "strata/core/error.hpp"
 #include "strata/core/extent.hpp"
@@ -108,7 +109,7 @@ void register_labels_query(CLI::App& labels, const GlobalOptions& global) {
   cmd->add_flag("--naive", args->naive, "Exact count by scanning level 0 (same as --method naive; uses --threads)");
   cmd->add_option("--top", args->top, "Only the N labels with the largest counts (default: all, by label value)");
   cmd->add_flag("--json", args->json, "Print JSON");
-  cmd->callback([args, &global] { run_labels_query(*args, global); });
+  cmd->callback([args, &global] { naming_files({args->input}, [&] { run_labels_query(*args, global); }); });
 }
 
 }  // namespace strata::cli

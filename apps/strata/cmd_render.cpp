@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "cli_checks.hpp"
 #include "commands.hpp"
 #include "report.hpp"
 #include "strata/core/error.hpp"
@@ -19,6 +20,9 @@ namespace strata::cli {
 namespace fs = std::filesystem;
 
 namespace {
+
+// --orbit: at most one frame per tenth of a degree.
+constexpr int kMaxOrbitFrames = 3600;
 
 struct RenderArgs {
   std::string input, output, size = "1024x768", tf = "ct", shading = "on", stats, colors, background = "0,0,0";
@@ -33,11 +37,13 @@ std::pair<int, int> parse_size(const std::string& text) {
   const auto x = text.find('x');
   try {
     if (x == std::string::npos) throw std::invalid_argument("no x");
-    const int w = std::stoi(text.substr(0, x)), h = std::stoi(text.substr(x + 1));
-    if (w > 0 && h > 0 && w <= 16384 && h <= 16384) return {w, h};
+    std::size_t used_w = 0, used_h = 0;
+    const int w = std::stoi(text.substr(0, x), &used_w), h = std::stoi(text.substr(x + 1), &used_h);
+    const bool whole = used_w == x && used_h == text.size() - x - 1;
+    if (whole && w > 0 && h > 0 && w <= render::kMaxImageEdge && h <= render::kMaxImageEdge) return {w, h};
   } catch (const std::exception&) {
   }
-  throw Error("--size: expected WIDTHxHEIGHT (1..16384 each), got '" + text + "'");
+  throw Error(fmt::format("--size: expected WIDTHxHEIGHT (1..{} each), got '{}'", render::kMaxImageEdge, text));
 }
 
 std::array<float, 4> parse_background(const std::string& text) {
@@ -99,29 +105,49 @@ void print_summary(const char* what, const nlohmann::json& sum) {
               100.0 * sum["decode_share"].get<double>());
 }
 
+// Checked by the library (validate(SessionOptions)) before the file is opened.
 render::SessionOptions session_options(const RenderArgs& a) {
   render::SessionOptions s;
   s.background = parse_background(a.background);
   s.cache_bytes = parse_byte_size(a.cache, "--cache");
   s.max_bricks = a.max_bricks;
   s.target_fps = a.target_fps;
+  as_usage_error([&] { render::validate(s); });
   return s;
 }
 
-// Everything but the camera's azimuth and the quality, which change per frame.
+// Everything but the quality, which changes per frame; checked by the library
+// (validate(FrameSettings)) for every azimuth of the run before any work.
 render::FrameSettings frame_settings(const RenderArgs& a) {
-  if (!(a.step > 0)) throw Error("--step: must be positive");
-  if (!(a.lod > 0)) throw Error("--lod: must be positive");
-  if (a.shading != "on" && a.shading != "off") throw Error("--shading: expected on or off, got '" + a.shading + "'");
+  if (a.shading != "on" && a.shading != "off")
+    throw UsageError("--shading", "expected on or off, got '" + a.shading + "'");
   render::FrameSettings f;
-  f.camera = camera_spec(a);  // fails on a bad --size before any work
-  f.tf = std::make_shared<const render::TransferFunction>(render::TransferFunction::from_argument(a.tf));
+  f.camera = camera_spec(a);
   f.rank = a.rank;
   f.lod = a.lod;
   f.lod_bias = a.lod_bias;
   f.step = a.step;
   f.shading = a.shading == "on";
+  as_usage_error([&] {
+    for (const int i : {0, std::max(0, a.orbit - 1)}) {
+      f.camera.orbit.azimuth_deg = frame_azimuth(a, i);
+      render::validate(f);
+    }
+  });
+  f.tf = std::make_shared<const render::TransferFunction>(render::TransferFunction::from_argument(a.tf));
   return f;
+}
+
+// The files this run reads, and where it writes: refused before any work when an output is an
+// input, has the wrong extension or cannot be written.
+void check_outputs(const RenderArgs& a) {
+  std::vector<std::string> inputs{a.input, a.colors};
+  if (!render::TransferFunction::is_preset(a.tf)) inputs.push_back(a.tf);
+  if (a.orbit > 0) check_output_folder(a.output, "--output", inputs);
+  else check_output_file(a.output, "--output", inputs, {".png"});
+  if (a.stats.empty()) return;
+  check_output_file(a.stats, "--stats", inputs, {".json"});
+  if (a.orbit == 0) check_distinct_outputs(a.output, "--output", a.stats, "--stats");
 }
 
 // A still, and the first frame of an orbit, show the complete cut; later orbit frames draw
@@ -133,12 +159,19 @@ render::FrameQuality frame_quality(const RenderArgs& a, int i) {
 }
 
 void run_render(const RenderArgs& a, const GlobalOptions&) {
-  if (a.orbit < 0) throw Error("--orbit: must be >= 0");
+  if (a.orbit < 0 || a.orbit > kMaxOrbitFrames)
+    throw UsageError("--orbit", fmt::format("must lie in 0..{} frames, got {}", kMaxOrbitFrames, a.orbit));
   render::FrameSettings settings = frame_settings(a);
-  render::RenderSession session(a.input, session_options(a));
+  const render::SessionOptions options = session_options(a);
+  check_outputs(a);
+  render::RenderSession session(a.input, options);
   if (!a.colors.empty() && session.kind() == render::DatasetKind::labels)
     session.set_label_colors(render::LabelColorMap::load(a.colors));
-  if (a.orbit > 0) fs::create_directories(a.output);
+  OutputSet outputs;  // removed again unless every frame and the statistics are written
+  if (a.orbit > 0 && !fs::exists(a.output)) {
+    fs::create_directories(a.output);
+    outputs.created_folder(a.output);
+  }
   nlohmann::json frames = nlohmann::json::array();
   const int count = std::max(1, a.orbit);
   for (int i = 0; i < count; ++i) {
@@ -150,11 +183,13 @@ void run_render(const RenderArgs& a, const GlobalOptions&) {
     s["azimuth"] = settings.camera.orbit.azimuth_deg;
     const fs::path path = frame_path(a, i);
     render::write_png(image, path);
+    outputs.add(path);
     print_frame(path, s);
     frames.push_back(std::move(s));
   }
   const nlohmann::json sum = render::frame_summary(frames);
   if (!a.stats.empty()) write_json_file(a.stats, {{"input", a.input}, {"summary", sum}, {"frames", frames}});
+  outputs.commit();
   if (a.orbit > 0) print_summary("all frames", sum);
   if (sum.contains("after_first")) print_summary("after the first", sum["after_first"]);
 }
@@ -168,34 +203,33 @@ void register_render(CLI::App& app, const GlobalOptions& global) {
   cmd->add_option("input", a->input, "Input .strata file, or a raw/NRRD/NIfTI/TIFF volume (loaded whole)")->required()->check(CLI::ExistingFile);
   cmd->add_option("-o,--output", a->output, "Output PNG (with --orbit: a folder of frame_NNNN.png)")->required();
   cmd->add_option("--size", a->size, "Image size WIDTHxHEIGHT")->capture_default_str();
-  cmd->add_option("--azimuth", a->azimuth, "Degrees around the volume's z axis")->capture_default_str();
-  cmd->add_option("--elevation", a->elevation, "Degrees above the xy plane")->capture_default_str();
-  cmd->add_option("--distance", a->distance, "Distance from the volume centre in world units (0 = fit)")
+  cmd->add_option("--azimuth", a->azimuth, "Degrees around the volume's z axis (finite, |A| <= 1e6)")->capture_default_str();
+  cmd->add_option("--elevation", a->elevation, "Degrees above the xy plane (-90..90)")->capture_default_str();
+  cmd->add_option("--distance", a->distance, "Distance from the volume centre in world units (0 = fit; at most 1e12)")
       ->capture_default_str();
-  cmd->add_option("--fov", a->fov, "Vertical field of view in degrees (perspective)")->capture_default_str();
+  cmd->add_option("--fov", a->fov, "Vertical field of view in degrees (perspective; between 0 and 180)")->capture_default_str();
   cmd->add_flag("--ortho", a->ortho, "Orthographic projection");
   cmd->add_option("--tf", a->tf, "Transfer function: a preset (grayscale, ct, bone, mri, fire) or a JSON file")
       ->capture_default_str();
   cmd->add_option("--rank", a->rank, "Reconstruction rank K (0 = the stored rank): the feature-scale slider")
       ->capture_default_str();
-  cmd->add_option("--lod", a->lod, "Refine bricks while a voxel covers more than this many pixels")
+  cmd->add_option("--lod", a->lod, "Refine bricks while a voxel covers more than this many pixels (0 < L <= 64)")
       ->capture_default_str();
   cmd->add_option("--shading", a->shading, "Blinn-Phong shading: on | off")->capture_default_str();
-  cmd->add_option("--step", a->step, "Sample distance in voxels of the sampled level")->capture_default_str();
+  cmd->add_option("--step", a->step, "Sample distance in voxels of the sampled level (0.05..16)")->capture_default_str();
   cmd->add_option("--background", a->background, "Background colour r,g,b in [0,1]")->capture_default_str();
   cmd->add_flag("--exact", a->exact, "Wait for every brick of the cut in every frame (no progressive refinement)");
-  cmd->add_option("--orbit", a->orbit, "Render N frames around the volume into the output folder")
+  cmd->add_option("--orbit", a->orbit, "Render N frames around the volume into the output folder (0..3600)")
       ->capture_default_str();
   cmd->add_option("--target-fps", a->target_fps,
                   "Orbit frames after the first (not --exact): cast rays on a coarser image grid to hold this rate "
-                  "(0 = full resolution)")
-      ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
+                  "(0 = full resolution; at most 1e6)")
+      ->capture_default_str();
   cmd->add_option("--stats", a->stats, "Write per-frame statistics as JSON");
   cmd->add_option("--cache", a->cache, "Brick cache and LOD memory budget (e.g. 512M, 2G)")->capture_default_str();
-  cmd->add_option("--max-bricks", a->max_bricks, "Brick budget of the LOD cut")->capture_default_str();
+  cmd->add_option("--max-bricks", a->max_bricks, "Brick budget of the LOD cut (>= 1)")->capture_default_str();
   cmd->add_option("--colors", a->colors, "Label files: JSON colour map (default: a hash colour per label)");
-  cmd->add_option("--lod-bias", a->lod_bias, "Label files: added to the mip level chosen per sample")
+  cmd->add_option("--lod-bias", a->lod_bias, "Label files: added to the mip level chosen per sample (-64..64)")
       ->capture_default_str();
   cmd->callback([a, &global] { run_render(*a, global); });
 }

@@ -5,6 +5,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "strata/core/error.hpp"
 #include "strata/core/progress.hpp"
@@ -35,5 +36,10 @@ void register_serve(CLI::App& app, const GlobalOptions& global);
 // by the flag that sets it in the running subcommand (or the app), when there is one
 // (parameter_flags.cpp holds the table); otherwise e.what() unchanged.
 std::string cli_message(const ParameterError& e, const CLI::App& app);
+
+// The app and the subcommands this run parsed, outermost first.
+std::vector<const CLI::App*> running_commands(const CLI::App& app);
+// "compress", "labels encode": the subcommand this run parsed ("strata" before one was).
+std::string running_command_name(const CLI::App& app);
 
 }  // namespace strata::cli

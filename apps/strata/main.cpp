@@ -1,11 +1,16 @@
 // `strata`: the command line. Exit codes: 0 ok, 1 runtime error, 2 usage error.
+#include <algorithm>
 #include <cstdio>
 #include <exception>
+#include <filesystem>
+#include <new>
 #include <string>
+#include <thread>
 #if defined(__GLIBC__)
 #include <malloc.h>
 #endif
 
+#include "cli_checks.hpp"
 #include "commands.hpp"
 #include "strata/core/error.hpp"
 #include "strata/core/isa.hpp"
@@ -34,6 +39,31 @@ void keep_brick_buffers_mapped() {
 #endif
 }
 
+// --threads at most this many times the hardware threads: more only adds scheduling and
+// per-thread buffers, and the runtimes fail (crash or abort) long before 100000 threads.
+constexpr int kThreadsPerHardwareThread = 4;
+
+int max_threads() { return kThreadsPerHardwareThread * std::max(1, int(std::thread::hardware_concurrency())); }
+
+void apply_thread_option(int threads) {
+  if (threads > max_threads())
+    throw strata::cli::UsageError(
+        "--threads", "at most " + std::to_string(max_threads()) + " (" + std::to_string(kThreadsPerHardwareThread) +
+                         " x the " + std::to_string(max_threads() / kThreadsPerHardwareThread) +
+                         " hardware threads of this machine), got " + std::to_string(threads));
+  strata::set_thread_count(threads);
+}
+
+// What to change when a subcommand runs out of memory.
+std::string memory_hint(const std::string& command) {
+  if (command == "compress") return "give a smaller --memory-limit or --brick, or fewer --threads";
+  if (command == "generate") return "give a smaller --size or --count";
+  if (command == "render") return "give a smaller --size, --cache or --max-bricks, or render the .strata file instead";
+  if (command == "serve") return "give a smaller --cache-mb or serve fewer or smaller volumes";
+  if (command.starts_with("labels")) return "the label volume's histogram mipmap did not fit: use a smaller volume";
+  return "use fewer --threads or a smaller input";
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -43,7 +73,10 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   app.set_version_flag("--version", "strata 0.1.0");
   cli::GlobalOptions global;
-  app.add_option("--threads", global.threads, "Worker threads (default: all hardware threads)")->check(CLI::NonNegativeNumber);
+  app.add_option("--threads", global.threads,
+                 "Worker threads (default: all hardware threads; at most " + std::to_string(kThreadsPerHardwareThread) +
+                     " x the hardware threads, here " + std::to_string(max_threads()) + ")")
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--progress", global.progress, "Progress display: auto (bar on a terminal), bar, json, none")
       ->check(CLI::IsMember({"auto", "bar", "json", "none"}));
   app.add_option("--isa", global.isa,
@@ -51,7 +84,7 @@ int main(int argc, char** argv) {
                  "else all this CPU has)")
       ->check(CLI::IsMember({"generic", "sse4.2", "sse42", "avx2", "avx512"}));
   app.parse_complete_callback([&] {
-    set_thread_count(global.threads);
+    apply_thread_option(global.threads);
     apply_isa_option(global.isa);
   });
 
@@ -72,7 +105,10 @@ int main(int argc, char** argv) {
   } catch (const CLI::Success& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
-    app.exit(e);
+    std::fprintf(stderr, "error: %s\nRun with --help for more information.\n", e.what());
+    return 2;
+  } catch (const cli::UsageError& e) {
+    std::fprintf(stderr, "error: %s\n", cli::cli_message(e, app).c_str());
     return 2;
   } catch (const ParameterError& e) {
     std::fprintf(stderr, "error: %s\n", cli::cli_message(e, app).c_str());
@@ -80,8 +116,23 @@ int main(int argc, char** argv) {
   } catch (const Error& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
     return 1;
+  } catch (const std::bad_alloc&) {
+    const std::string command = cli::running_command_name(app);
+    std::fprintf(stderr, "error: out of memory while running '%s': %s\n", command.c_str(), memory_hint(command).c_str());
+    return 1;
+  } catch (const std::length_error&) {
+    const std::string command = cli::running_command_name(app);
+    std::fprintf(stderr, "error: '%s' needs a buffer larger than this machine can address: %s\n", command.c_str(),
+                 memory_hint(command).c_str());
+    return 1;
+  } catch (const std::filesystem::filesystem_error& e) {
+    const std::string path = e.path1().empty() ? std::string("a file") : e.path1().string();
+    std::fprintf(stderr, "error: %s: %s\n", path.c_str(), e.code().message().c_str());
+    return 1;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
+    // Library code reports through strata::Error; anything else is a failure it did not expect.
+    std::fprintf(stderr, "error: '%s' failed unexpectedly (%s); please report this with the command line\n",
+                 cli::running_command_name(app).c_str(), e.what());
     return 1;
   }
   return 0;

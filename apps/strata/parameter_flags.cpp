@@ -20,10 +20,28 @@ constexpr ParameterFlag kParameterFlags[] = {
     {"CodecParams::rank", "--rank"},
     {"CompressParams::memory_limit", "--memory-limit"},
     {"ErrorTarget::coarse_growth", "--coarse-growth"},
+    {"CameraSpec::fov_deg", "--fov"},
+    {"CameraSpec::height", "--size"},
+    {"CameraSpec::width", "--size"},
+    {"FrameSettings::lod", "--lod"},
+    {"FrameSettings::lod_bias", "--lod-bias"},
+    {"FrameSettings::rank", "--rank"},
+    {"FrameSettings::step", "--step"},
+    {"LabelRenderOptions::lod_bias", "--lod-bias"},
+    {"LabelRenderOptions::step", "--step"},
+    {"OrbitParams::azimuth_deg", "--azimuth"},
+    {"OrbitParams::distance", "--distance"},
+    {"OrbitParams::elevation_deg", "--elevation"},
+    {"Params::count", "--count"},
+    {"Params::dims", "--size"},
     {"ReadOptions::raw_dims", "--dims"},
     {"ReadOptions::raw_dtype", "--dtype"},
     {"RenderOptions::step", "--step"},
     {"RenderOptions::background", "--background"},
+    {"SessionOptions::background", "--background"},
+    {"SessionOptions::cache_bytes", "--cache"},
+    {"SessionOptions::max_bricks", "--max-bricks"},
+    {"SessionOptions::target_fps", "--target-fps"},
     {"box", "--box"},
     {"isa", "--isa"},
     {"level", "--level"},
@@ -33,15 +51,29 @@ constexpr ParameterFlag kParameterFlags[] = {
 
 // Whether `flag` is an option of the app or of one of the subcommands this run parsed.
 bool running_command_has(const CLI::App& app, const std::string& flag) {
-  for (const CLI::App* cmd = &app; cmd != nullptr;) {
+  for (const CLI::App* cmd : running_commands(app))
     if (cmd->get_option_no_throw(flag) != nullptr) return true;
-    const std::vector<CLI::App*> parsed = cmd->get_subcommands();
-    cmd = parsed.empty() ? nullptr : parsed.front();
-  }
   return false;
 }
 
 }  // namespace
+
+std::vector<const CLI::App*> running_commands(const CLI::App& app) {
+  std::vector<const CLI::App*> chain;
+  for (const CLI::App* cmd = &app; cmd != nullptr;) {
+    chain.push_back(cmd);
+    const std::vector<CLI::App*> parsed = cmd->get_subcommands();
+    cmd = parsed.empty() ? nullptr : parsed.front();
+  }
+  return chain;
+}
+
+std::string running_command_name(const CLI::App& app) {
+  std::string name;
+  for (const CLI::App* cmd : running_commands(app))
+    if (cmd != &app) name += (name.empty() ? "" : " ") + cmd->get_name();
+  return name.empty() ? "strata" : name;
+}
 
 std::string cli_message(const ParameterError& e, const CLI::App& app) {
   for (const ParameterFlag& p : kParameterFlags) {

@@ -1,5 +1,6 @@
 #include "report.hpp"
 
+#include <algorithm>
 #include <cstdio>
 #include <sstream>
 
@@ -62,8 +63,11 @@ std::uint64_t parse_byte_size(const std::string& text, const std::string& option
   else if (suffix == "m" || suffix == "M" || suffix == "MiB") scale = 1024.0 * 1024;
   else if (suffix == "g" || suffix == "G" || suffix == "GiB") scale = 1024.0 * 1024 * 1024;
   else if (!suffix.empty()) throw Error(option + ": unknown unit '" + suffix + "' (use k, M or G)");
+  // Up to 1 PiB: a budget no machine reaches, and far inside the 64-bit range.
+  constexpr double kMaxBytes = double(std::uint64_t(1) << 50);
   if (!(value > 0)) throw Error(option + ": must be positive, got '" + text + "'");
-  return std::uint64_t(value * scale);
+  if (!(value * scale <= kMaxBytes)) throw Error(option + ": must be at most 1 PiB (1048576G), got '" + text + "'");
+  return std::max<std::uint64_t>(1, std::uint64_t(value * scale));
 }
 
 void write_json_file(const std::filesystem::path& path, const nlohmann::json& j, int indent) {

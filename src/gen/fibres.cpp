@@ -123,4 +123,17 @@ void FibresGenerator::fill_rows(std::int64_t z, std::int64_t y0, std::int64_t y1
 
 std::unique_ptr<Generator> make_fibres(const Params& params) { return std::make_unique<FibresGenerator>(params); }
 
+// The constructor's objects: per fibre its shape and radius, and its pieces (a fibre at most
+// 1.4 times the common length, cut every clamp(length / 12, 2, 8) voxels) with vector growth
+// and z-bins.
+double fibres_setup_bytes(const Params& p) {
+  const Extent& d = p.dims;
+  const double g = mean_extent(d), n = double(p.count);
+  const double target = -std::log(1.0 - kForegroundFraction) * double(d.x) * double(d.y) * double(d.z);
+  const double length =
+      1.4 * std::clamp(target / (std::numbers::pi * n * kPreferredRadius * kPreferredRadius), 6.0, std::max(6.0, 0.6 * g));
+  const double pieces = std::ceil(length / std::clamp(length / 12.0, 2.0, 8.0));
+  return n * (sizeof(FibreShape) + sizeof(float) + pieces * (1.5 * sizeof(Segment) + 8)) + zbin_index_bytes(d.z);
+}
+
 }  // namespace strata::gen::detail

@@ -43,4 +43,6 @@ double mean_extent(const Extent& dims) {
   return std::cbrt(double(dims.x) * double(dims.y) * double(dims.z));
 }
 
+double zbin_index_bytes(std::int64_t depth) { return (double(depth) / 8 + 2) * sizeof(std::size_t); }
+
 }  // namespace strata::gen::detail

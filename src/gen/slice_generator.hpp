@@ -38,4 +38,12 @@ std::unique_ptr<Generator> make_superpixels(const Params& params);
 // Geometric mean of the dimensions: the length scale object sizes are chosen from.
 double mean_extent(const Extent& dims);
 
+// Bytes the kinds that place objects up front allocate for them (an estimate from the expected
+// object sizes, with vector growth); params.count is resolved (> 0). Never allocates.
+double prisms_setup_bytes(const Params& params);
+double fibres_setup_bytes(const Params& params);
+double voronoi_setup_bytes(const Params& params);
+// Bytes of a z-bin index over `depth` slices (its offsets, before any object).
+double zbin_index_bytes(std::int64_t depth);
+
 }  // namespace strata::gen::detail

@@ -224,4 +224,13 @@ void VoronoiGenerator::fill_rows(std::int64_t z, std::int64_t y0, std::int64_t y
 
 std::unique_ptr<Generator> make_voronoi(const Params& params) { return std::make_unique<VoronoiGenerator>(params); }
 
+// The constructor's objects: per site its position, its id in a bucket and that bucket's heap
+// block; per bucket of the site grid (cells one site spacing wide) an empty vector.
+double voronoi_setup_bytes(const Params& p) {
+  const Extent& d = p.dims;
+  const double cell = std::max(1.0, std::cbrt(double(d.x) * double(d.y) * double(d.z) / double(p.count)));
+  const double buckets = std::ceil(double(d.x) / cell) * std::ceil(double(d.y) / cell) * std::ceil(double(d.z) / cell);
+  return double(p.count) * (sizeof(Vec3) + sizeof(std::uint32_t) + 32) + buckets * sizeof(std::vector<std::uint32_t>);
+}
+
 }  // namespace strata::gen::detail

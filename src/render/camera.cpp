@@ -4,6 +4,8 @@
 #include <cmath>
 #include <numbers>
 
+#include <fmt/format.h>
+
 #include "strata/core/error.hpp"
 
 namespace strata::render {
@@ -12,15 +14,35 @@ namespace {
 
 double radians(double deg) { return deg * std::numbers::pi / 180.0; }
 
+}  // namespace
+
 void validate(const CameraSpec& spec) {
-  if (spec.width <= 0 || spec.height <= 0)
-    throw Error("camera: image size must be positive, got " + std::to_string(spec.width) + "x" +
-                std::to_string(spec.height));
+  const auto edge = [](int v, const char* field) {
+    if (v < 1 || v > kMaxImageEdge)
+      throw ParameterError(field, fmt::format("must lie in 1..{} pixels, got {}", kMaxImageEdge, v));
+  };
+  edge(spec.width, "CameraSpec::width");
+  edge(spec.height, "CameraSpec::height");
   if (!(spec.fov_deg > 0 && spec.fov_deg < 180))
-    throw Error("camera: fov must lie in (0, 180) degrees, got " + std::to_string(spec.fov_deg));
-  if (!(spec.orbit.distance >= 0)) throw Error("camera: distance must be >= 0");
-  if (!(spec.ortho_height >= 0)) throw Error("camera: ortho_height must be >= 0");
+    throw ParameterError("CameraSpec::fov_deg", fmt::format("must lie in (0, 180) degrees, got {}", spec.fov_deg));
+  if (!(std::isfinite(spec.ortho_height) && spec.ortho_height >= 0))
+    throw ParameterError("CameraSpec::ortho_height", fmt::format("must be finite and >= 0, got {}", spec.ortho_height));
+  const OrbitParams& o = spec.orbit;
+  if (!(std::abs(o.azimuth_deg) <= kMaxAzimuthDeg))
+    throw ParameterError("OrbitParams::azimuth_deg",
+                         fmt::format("must be a finite angle in [-{0}, {0}] degrees, got {1}", kMaxAzimuthDeg, o.azimuth_deg));
+  if (!(std::abs(o.elevation_deg) <= 90))
+    throw ParameterError("OrbitParams::elevation_deg",
+                         fmt::format("must lie in [-90, 90] degrees, got {}", o.elevation_deg));
+  if (!(o.distance >= 0 && o.distance <= kMaxDistance))
+    throw ParameterError("OrbitParams::distance",
+                         fmt::format("must lie in [0, {:g}] world units (0 = fit the volume), got {}", kMaxDistance,
+                                     o.distance));
+  if (o.target_set && !(std::isfinite(o.target.x) && std::isfinite(o.target.y) && std::isfinite(o.target.z)))
+    throw ParameterError("OrbitParams::target", "components must be finite");
 }
+
+namespace {
 
 // Inward-facing plane through `point` with normal `n` (normalised here).
 lod::Plane plane_through(const Vec3& n, const Vec3& point) {

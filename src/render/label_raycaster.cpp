@@ -8,10 +8,12 @@
 #include <limits>
 #include <vector>
 
+#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include "strata/core/error.hpp"
 #include "strata/core/threads.hpp"
+#include "strata/render/sampling_limits.hpp"
 #include "strata/render/transfer_function.hpp"  // Rgbaf
 
 namespace strata::render {
@@ -47,17 +49,21 @@ struct RayCounters {
 };
 
 void validate(const LabelRenderOptions& o, int level_count) {
-  if (!(o.step > 0)) throw Error("label render: step must be > 0, got " + std::to_string(o.step));
+  check_step(o.step, "LabelRenderOptions::step");
   if (!(o.termination > 0 && o.termination <= 1))
-    throw Error("label render: termination must lie in (0, 1], got " + std::to_string(o.termination));
-  if (o.tile <= 0) throw Error("label render: tile must be > 0");
+    throw ParameterError("LabelRenderOptions::termination", fmt::format("must lie in (0, 1], got {}", o.termination));
+  if (o.tile <= 0) throw ParameterError("LabelRenderOptions::tile", "must be > 0, got " + std::to_string(o.tile));
   if (o.finest_level < 0 || o.finest_level >= level_count)
-    throw Error("label render: finest_level " + std::to_string(o.finest_level) + " is not in 0.." +
-                std::to_string(level_count - 1));
-  if (!std::isfinite(o.lod_bias)) throw Error("label render: lod_bias must be finite");
-  if (!(o.ambient >= 0 && o.ambient <= 1)) throw Error("label render: ambient must lie in 0..1");
+    throw ParameterError("LabelRenderOptions::finest_level", std::to_string(o.finest_level) + " is not in 0.." +
+                                                                 std::to_string(level_count - 1));
+  if (!(std::abs(o.lod_bias) <= kMaxLevels))
+    throw ParameterError("LabelRenderOptions::lod_bias",
+                         fmt::format("must be a finite number of levels in [-{0}, {0}], got {1}", kMaxLevels, o.lod_bias));
+  if (!(o.ambient >= 0 && o.ambient <= 1))
+    throw ParameterError("LabelRenderOptions::ambient", fmt::format("must lie in 0..1, got {}", o.ambient));
   for (float c : {o.background.r, o.background.g, o.background.b, o.background.a})
-    if (!(c >= 0 && c <= 1)) throw Error("label render: background components must lie in 0..1");
+    if (!(c >= 0 && c <= 1))
+      throw ParameterError("LabelRenderOptions::background", fmt::format("components must lie in 0..1, got {}", c));
 }
 
 // floor(v) for v > -1 by truncation: the baseline x86-64 build has no inline floor, and the

@@ -18,6 +18,7 @@
 #include "render/ray_traversal.hpp"
 #include "strata/core/error.hpp"
 #include "strata/core/threads.hpp"
+#include "strata/render/sampling_limits.hpp"
 
 namespace strata::render {
 
@@ -35,7 +36,7 @@ using detail::Transparency;
 namespace {
 
 void validate(const RenderOptions& o) {
-  if (!(o.step > 0)) throw ParameterError("RenderOptions::step", fmt::format("must be positive, got {}", o.step));
+  check_step(o.step, "RenderOptions::step");
   if (o.table_size < 2 || o.table_size > 4096)
     throw ParameterError("RenderOptions::table_size", "must lie in 2..4096, got " + std::to_string(o.table_size));
   if (o.tile < 1) throw ParameterError("RenderOptions::tile", "must be positive, got " + std::to_string(o.tile));

@@ -12,6 +12,7 @@
 #include "strata/core/stopwatch.hpp"
 #include "strata/io/volume_io.hpp"
 #include "strata/lod/histogram_bins.hpp"
+#include "strata/render/sampling_limits.hpp"
 #include "strata/store/brick_histogram.hpp"
 
 namespace strata::render {
@@ -64,6 +65,12 @@ nlohmann::json json_of(const Spacing& s) { return {s.x, s.y, s.z}; }
 
 RenderSession::Scalar::Scalar(std::unique_ptr<store::ContainerReader> input, const SessionOptions& s)
     : volume(std::move(input)), provider(volume, provider_options(s)) {
+  const auto brick = std::uint64_t(volume.geometry().layout().brick);
+  if (s.cache_bytes < brick * brick * brick * sizeof(float))
+    throw ParameterError("SessionOptions::cache_bytes",
+                         fmt::format("{}: must hold at least one reconstructed brick ({} bytes), got {}",
+                                     volume.container().path().string(), brick * brick * brick * sizeof(float),
+                                     s.cache_bytes));
   selection.max_bricks = s.max_bricks;
   selection.memory_budget = s.cache_bytes;
 }
@@ -165,11 +172,36 @@ std::vector<std::uint64_t> RenderSession::Plain::histogram() const {
   return counts;
 }
 
+void validate(const FrameSettings& s) {
+  validate(s.camera);
+  check_step(s.step, "FrameSettings::step");
+  if (!(s.lod > 0 && s.lod <= 64))
+    throw ParameterError("FrameSettings::lod", fmt::format("must lie in (0, 64] pixels per voxel, got {}", s.lod));
+  if (!(std::abs(s.lod_bias) <= 64))
+    throw ParameterError("FrameSettings::lod_bias", fmt::format("must lie in [-64, 64] levels, got {}", s.lod_bias));
+  if (s.rank < 0) throw ParameterError("FrameSettings::rank", fmt::format("must be >= 0 (0 = the stored rank), got {}", s.rank));
+}
+
+void validate(const SessionOptions& o) {
+  if (o.cache_bytes == 0) throw ParameterError("SessionOptions::cache_bytes", "must be positive");
+  if (o.model_cache_bytes == 0) throw ParameterError("SessionOptions::model_cache_bytes", "must be positive");
+  if (o.max_bricks < 1)
+    throw ParameterError("SessionOptions::max_bricks", fmt::format("must be at least 1, got {}", o.max_bricks));
+  if (o.loader_threads < 0)
+    throw ParameterError("SessionOptions::loader_threads", fmt::format("must be >= 0, got {}", o.loader_threads));
+  if (!(o.target_fps >= 0 && o.target_fps <= 1e6))
+    throw ParameterError("SessionOptions::target_fps", fmt::format("must lie in [0, 1e6] frames/s, got {}", o.target_fps));
+  if (!(o.min_interactive_scale >= 1 && o.min_interactive_scale <= 64))
+    throw ParameterError("SessionOptions::min_interactive_scale",
+                         fmt::format("must lie in [1, 64], got {}", o.min_interactive_scale));
+  for (float c : o.background)
+    if (!(c >= 0 && c <= 1))
+      throw ParameterError("SessionOptions::background", fmt::format("components must lie in [0, 1], got {}", c));
+}
+
 RenderSession::RenderSession(const std::filesystem::path& input, const SessionOptions& options)
     : path_(input), options_(options) {
-  if (!(options.target_fps >= 0)) throw ParameterError("SessionOptions::target_fps", "must be >= 0");
-  if (!(options.min_interactive_scale >= 1))
-    throw ParameterError("SessionOptions::min_interactive_scale", "must be >= 1");
+  validate(options);
   if (!store::is_strata_file(input)) {
     plain_ = std::make_unique<Plain>(input);
     return;
@@ -267,6 +299,7 @@ void RenderSession::adapt_image_scale(double used_scale, double frame_ms) {
 }
 
 Image RenderSession::frame(const FrameSettings& settings, nlohmann::json& stats) {
+  validate(settings);
   const CameraSpec& spec = settings.camera;
   const bool adaptive = settings.quality == FrameQuality::interactive;
   const double scale = adaptive ? std::max(options_.min_interactive_scale, options_.target_fps > 0 ? image_scale_ : 1.0)

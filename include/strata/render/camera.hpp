@@ -43,11 +43,23 @@ struct CameraSpec {
   double ortho_height = 0;
 };
 
+/// @brief Limits of a CameraSpec (validate): image edges in pixels, |azimuth| in degrees (any
+/// turn is reachable; beyond this the angle loses precision), distance in world units.
+inline constexpr int kMaxImageEdge = 16384;
+inline constexpr double kMaxAzimuthDeg = 1e6;
+inline constexpr double kMaxDistance = 1e12;
+
+/// @brief Throws ParameterError naming the field ("CameraSpec::width", "OrbitParams::azimuth_deg",
+/// ...) unless the image is 1..kMaxImageEdge pixels per edge, the field of view lies in (0, 180)
+/// degrees, the azimuth is finite within +-kMaxAzimuthDeg, the elevation lies in [-90, 90], the
+/// distance in [0, kMaxDistance], and the orthographic height and a set target are finite.
+void validate(const CameraSpec& spec);
+
 class Camera {
  public:
   // Resolves defaults (target = volume centre, distance framing the volume's bounding sphere
-  // in both the vertical and the horizontal field of view). Throws Error on a non-positive
-  // image size, a field of view outside (0, 180) or a negative distance.
+  // in both the vertical and the horizontal field of view). Throws ParameterError when
+  // validate(spec) does.
   Camera(const CameraSpec& spec, const Extent& volume_dims, const Spacing& spacing);
 
   int width() const { return spec_.width; }

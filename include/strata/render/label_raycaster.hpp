@@ -54,7 +54,8 @@ struct LabelRenderStats {
 
 // Renders `scene` as seen by `camera` (whose volume dims/spacing should be the scene's).
 // Calls scene.prepare() first, so the first frame decodes the needed levels' ids and later
-// frames only recompute what a colour-map change invalidated. Throws Error on bad options.
+// frames only recompute what a colour-map change invalidated. Throws ParameterError naming the
+// LabelRenderOptions field on bad options (the step as check_step in sampling_limits.hpp).
 Image render_labels(LabelScene& scene, const Camera& camera, const LabelRenderOptions& options = {},
                     LabelRenderStats* stats = nullptr);
 

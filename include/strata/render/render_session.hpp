@@ -73,11 +73,21 @@ struct FrameSettings {
   FrameQuality quality = FrameQuality::exact;
 };
 
+/// @brief Throws ParameterError naming the field unless the camera passes validate(CameraSpec),
+/// the step check_step (sampling_limits.hpp), lod is finite in (0, 64] pixels, lod_bias finite
+/// in [-64, 64] levels and rank >= 0. RenderSession::frame checks this first.
+void validate(const FrameSettings& settings);
+/// @brief Throws ParameterError naming the field unless the cache budgets are positive,
+/// max_bricks >= 1, loader_threads >= 0, target_fps finite in [0, 1e6], min_interactive_scale
+/// finite in [1, 64] and the background components in [0, 1]. The RenderSession constructor
+/// checks this first (and, for TA files, that cache_bytes holds at least one brick).
+void validate(const SessionOptions& options);
+
 class RenderSession {
  public:
   /// @brief Opens `input` (a .strata file of either codec, or any volume file io reads).
-  /// Throws Error (FormatError naming the file) when it cannot be read, and
-  /// ParameterError("SessionOptions::target_fps") for a negative rate.
+  /// Throws Error (FormatError naming the file) when it cannot be read, and ParameterError
+  /// naming the SessionOptions field when validate(options) does.
   RenderSession(const std::filesystem::path& input, const SessionOptions& options = {});
   ~RenderSession();
   RenderSession(const RenderSession&) = delete;
@@ -101,7 +111,7 @@ class RenderSession {
   nlohmann::json describe() const;
 
   /// @brief One frame. `stats` receives its figures (selection, load, render, frame_ms, cpu_s,
-  /// image_scale, rank). Throws Error on an invalid camera or options.
+  /// image_scale, rank). Throws ParameterError when validate(settings) does.
   Image frame(const FrameSettings& settings, nlohmann::json& stats);
 
   /// @brief Scalar and plain files: the values of a slice at its level and rank.

@@ -1,0 +1,146 @@
+#include "cli_checks.hpp"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <system_error>
+
+#include <fmt/format.h>
+
+namespace strata::cli {
+
+namespace fs = std::filesystem;
+
+void as_usage_error(const std::function<void()>& check) {
+  try {
+    check();
+  } catch (const UsageError&) {
+    throw;
+  } catch (const ParameterError& e) {
+    throw UsageError(e.parameter(), e.problem());
+  }
+}
+
+void naming_files(const std::vector<std::string>& files, const std::function<void()>& run) {
+  try {
+    run();
+  } catch (const ParameterError&) {
+    throw;
+  } catch (const Error& e) {
+    const std::string_view message = e.what();
+    const bool named = message.starts_with("-") || std::any_of(files.begin(), files.end(), [&](const std::string& f) {
+                         return !f.empty() && message.find(f) != std::string_view::npos;
+                       });
+    if (named || files.empty()) throw;
+    throw Error(files.front() + ": " + std::string(message));
+  }
+}
+
+void check_finite_range(double value, double lo, double hi, const std::string& flag, std::string_view unit) {
+  if (std::isfinite(value) && value >= lo && value <= hi) return;
+  throw UsageError(flag, fmt::format("must be a finite number in [{}, {}]{}{}, got {}", lo, hi, unit.empty() ? "" : " ",
+                                     unit, value));
+}
+
+namespace {
+
+std::string lower(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  return s;
+}
+
+// The same file as `output` among `inputs`: by identity (device and inode) when both exist, so
+// other spellings, symlinks and hard links of the input are caught.
+void check_not_an_input(const std::string& output, const std::string& flag, const std::vector<std::string>& inputs) {
+  std::error_code ec;
+  if (!fs::exists(output, ec)) return;  // a file that does not exist yet is no input
+  for (const std::string& input : inputs) {
+    if (input.empty() || !fs::equivalent(input, output, ec)) continue;
+    const std::string same = input == output ? "" : " (the same file as the input '" + input + "')";
+    throw UsageError(flag, "'" + output + "' is an input of this command" + same +
+                               "; writing it would destroy the input, choose another output");
+  }
+}
+
+void check_extension(const std::string& output, const std::string& flag,
+                     std::initializer_list<std::string_view> extensions) {
+  if (extensions.size() == 0) return;
+  const std::string name = lower(fs::path(output).filename().string());
+  std::string expected;
+  for (std::string_view e : extensions) {
+    if (name.size() > e.size() && name.ends_with(e)) return;
+    expected += (expected.empty() ? "" : " or ") + std::string(e);
+  }
+  throw UsageError(flag, "'" + output + "': this command writes " + expected + " files, so the name must end with " +
+                             expected);
+}
+
+// The folder a new entry `path` goes into exists and this process may write to it.
+void check_parent_writable(const fs::path& path, const std::string& flag) {
+  const fs::path parent = path.parent_path().empty() ? fs::path(".") : path.parent_path();
+  std::error_code ec;
+  if (!fs::is_directory(parent, ec))
+    throw Error(flag + ": cannot write '" + path.string() + "': the folder '" + parent.string() + "' does not exist");
+  if (::access(parent.c_str(), W_OK | X_OK) != 0)
+    throw Error(flag + ": cannot write '" + path.string() + "': the folder '" + parent.string() + "' is not writable");
+}
+
+}  // namespace
+
+void check_output_file(const std::string& output, const std::string& flag, const std::vector<std::string>& inputs,
+                       std::initializer_list<std::string_view> extensions) {
+  check_not_an_input(output, flag, inputs);
+  check_extension(output, flag, extensions);
+  std::error_code ec;
+  if (fs::is_directory(output, ec)) throw Error(flag + ": '" + output + "' is a folder, expected a file name");
+  check_parent_writable(output, flag);
+}
+
+io::FileFormat check_volume_output(const std::string& output, const std::string& flag,
+                                   const std::vector<std::string>& inputs, const DType* dtype) {
+  check_not_an_input(output, flag, inputs);
+  io::FileFormat format{};
+  try {
+    format = io::detect_format(output);
+  } catch (const Error& e) {
+    throw UsageError(flag, e.what());
+  }
+  if (dtype && !io::format_supports(format, *dtype))
+    throw UsageError(flag, "'" + output + "': " + io::format_name(format) + " cannot store " +
+                               std::string(dtype_name(*dtype)) + " samples");
+  std::error_code ec;
+  if (!(format == io::FileFormat::tiff && fs::is_directory(output, ec))) check_parent_writable(output, flag);
+  return format;
+}
+
+void check_output_folder(const std::string& output, const std::string& flag, const std::vector<std::string>& inputs) {
+  check_not_an_input(output, flag, inputs);
+  std::error_code ec;
+  if (fs::exists(output, ec) && !fs::is_directory(output, ec))
+    throw UsageError(flag, "'" + output + "' is a file, expected a folder");
+  if (fs::exists(output, ec)) return;
+  // The folder and any missing parents are created: the nearest existing ancestor must be writable.
+  fs::path p = fs::path(output).lexically_normal();
+  if (!p.has_filename()) p = p.parent_path();
+  while (p.has_parent_path() && !fs::exists(p.parent_path(), ec)) p = p.parent_path();
+  check_parent_writable(p, flag);
+}
+
+void check_distinct_outputs(const std::string& a, const std::string& flag_a, const std::string& b,
+                            const std::string& flag_b) {
+  std::error_code ec;
+  const bool same = fs::weakly_canonical(a, ec) == fs::weakly_canonical(b, ec) ||
+                    (fs::exists(a, ec) && fs::equivalent(a, b, ec));
+  if (same) throw UsageError(flag_b, "'" + b + "' is also the " + flag_a + " output; choose two different files");
+}
+
+OutputSet::~OutputSet() {
+  if (committed_) return;
+  std::error_code ec;
+  for (const fs::path& p : written_) fs::remove(p, ec);
+  if (!folder_.empty() && fs::is_empty(folder_, ec)) fs::remove(folder_, ec);
+}
+
+}  // namespace strata::cli

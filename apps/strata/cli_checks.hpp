@@ -1,0 +1,73 @@
+#pragma once
+// Checks a subcommand makes before any work starts: flag values it can never accept (a usage
+// error, exit 2) and its outputs (never one of its inputs, the extension of what it writes, a
+// place it can write to), plus the set of outputs a run removes again when it fails.
+#include <filesystem>
+#include <functional>
+#include <initializer_list>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "strata/core/error.hpp"
+#include "strata/io/volume_io.hpp"
+
+namespace strata::cli {
+
+// A value a flag can never take: main prints `error: <flag>: <problem>` and exits with 2 (a
+// value only the input data rejects stays an Error, exit 1). parameter() is the flag, or a
+// library parameter that cli_message maps to one.
+class UsageError : public ParameterError {
+ public:
+  using ParameterError::ParameterError;
+};
+
+// Runs `check`; a ParameterError it throws (a library validation of the flags' values) is
+// rethrown as a UsageError with the same parameter and problem.
+void as_usage_error(const std::function<void()>& check);
+
+// Runs `run`; an Error it throws (not a ParameterError) whose message names none of `files` and
+// no flag is rethrown as "<files[0]>: <message>", so the user learns which file it is about.
+void naming_files(const std::vector<std::string>& files, const std::function<void()>& run);
+
+// Throws UsageError(flag) unless `value` is finite and lies in [lo, hi].
+void check_finite_range(double value, double lo, double hi, const std::string& flag, std::string_view unit = "");
+
+// The checks of one output file before any work:
+//  - it is none of `inputs` (empty entries are skipped): the same file through another path, a
+//    symlink or a hard link is refused, as writing it would destroy the input (UsageError);
+//  - its name ends with one of `extensions` (case-insensitive; none = any name) (UsageError);
+//  - it is not a directory and its directory exists and is writable (Error naming the flag).
+void check_output_file(const std::string& output, const std::string& flag, const std::vector<std::string>& inputs,
+                       std::initializer_list<std::string_view> extensions);
+// check_output_file for a volume file io writes: the format comes from the name (UsageError
+// when unknown) and must be able to hold `dtype` samples when given.
+io::FileFormat check_volume_output(const std::string& output, const std::string& flag,
+                                   const std::vector<std::string>& inputs, const DType* dtype = nullptr);
+// An output folder (created when missing): not one of the inputs, not an existing file, its
+// parent writable.
+void check_output_folder(const std::string& output, const std::string& flag, const std::vector<std::string>& inputs);
+// Refuses two outputs of one run that are the same file (the second would overwrite the first).
+void check_distinct_outputs(const std::string& a, const std::string& flag_a, const std::string& b,
+                            const std::string& flag_b);
+
+// Outputs of a run that writes several files: each is added once written; unless commit() is
+// called, the destructor removes them again (and the folder, when this run created it and it is
+// empty), so a failed run leaves no output behind.
+class OutputSet {
+ public:
+  OutputSet() = default;
+  ~OutputSet();
+  OutputSet(const OutputSet&) = delete;
+  OutputSet& operator=(const OutputSet&) = delete;
+  void created_folder(const std::filesystem::path& folder) { folder_ = folder; }
+  void add(const std::filesystem::path& written) { written_.push_back(written); }
+  void commit() { committed_ = true; }
+
+ private:
+  std::vector<std::filesystem::path> written_;
+  std::filesystem::path folder_;
+  bool committed_ = false;
+};
+
+}  // namespace strata::cli

@@ -1,0 +1,188 @@
+// Careless or hostile arguments: every case here crashed, hung, destroyed its input or printed raw
+// library text before. The program must refuse each one with `error: <flag>: ...` and the exit
+// code of a usage error (2) or a runtime error (1), leave no output behind and keep its inputs.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <thread>
+
+#include "support/test_support.hpp"
+
+using strata::test::run_command;
+using strata::test::shell_quoted;
+using strata::test::TempDir;
+
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string strata_cmd(const std::string& args) { return std::string(STRATA_BINARY) + " --progress none " + args; }
+
+bool has(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
+
+std::uintmax_t size_of(const fs::path& p) { return fs::file_size(p); }
+
+// Small inputs made once: a scalar NRRD and its .strata, a label NRRD and its encoding.
+class HostileCli : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new TempDir();
+    std::string out;
+    ASSERT_EQ(run_command(strata_cmd("generate prisms --size 24 -o " + q("p.nrrd")), &out), 0) << out;
+    ASSERT_EQ(run_command(strata_cmd("compress " + q("p.nrrd") + " --brick 16 -o " + q("p.strata")), &out), 0) << out;
+    ASSERT_EQ(run_command(strata_cmd("generate voronoi --size 16 --count 8 -o " + q("v.nrrd")), &out), 0) << out;
+    ASSERT_EQ(run_command(strata_cmd("labels encode " + q("v.nrrd") + " -o " + q("v.strata")), &out), 0) << out;
+    ASSERT_EQ(run_command(strata_cmd("generate sphere --size 8 -o " + q("f.nrrd")), &out), 0) << out;
+  }
+  static void TearDownTestSuite() {
+    delete dir_;
+    dir_ = nullptr;
+  }
+  static fs::path file(const std::string& name) { return dir_->path() / name; }
+  static std::string q(const std::string& name) { return shell_quoted(file(name)); }
+
+  // Runs `args`, expects exit `code` and `error: <flag>` in the output; returns the output.
+  static std::string refused(const std::string& args, int code, const std::string& flag) {
+    std::string out;
+    EXPECT_EQ(run_command(strata_cmd(args), &out), code) << args << "\n" << out;
+    EXPECT_TRUE(has(out, "error: " + flag)) << args << "\n" << out;
+    return out;
+  }
+
+  static TempDir* dir_;
+};
+
+TempDir* HostileCli::dir_ = nullptr;
+
+TEST_F(HostileCli, RenderRefusesNonFiniteAndOutOfRangeCameraValues) {
+  const std::string png = " -o " + q("r.png") + " --size 32x32 ";
+  for (const std::string input : {"p.strata", "p.nrrd", "v.strata"}) {
+    for (const std::string value : {"inf", "nan", "-inf", "1e300"})
+      refused("render " + q(input) + png + "--azimuth " + value, 2, "--azimuth: ");
+    for (const std::string value : {"inf", "nan", "91", "-1e9"})
+      refused("render " + q(input) + png + "--elevation " + value, 2, "--elevation: ");
+    for (const std::string value : {"inf", "nan", "-1"}) refused("render " + q(input) + png + "--distance " + value, 2, "--distance: ");
+    for (const std::string value : {"0", "180", "nan", "inf"}) refused("render " + q(input) + png + "--fov " + value, 2, "--fov: ");
+    for (const std::string value : {"0", "inf", "nan", "-1"}) refused("render " + q(input) + png + "--lod " + value, 2, "--lod: ");
+    refused("render " + q(input) + png + "--lod-bias nan", 2, "--lod-bias: ");
+    refused("render " + q(input) + png + "--lod-bias 1e300", 2, "--lod-bias: ");
+    refused("render " + q(input) + png + "--rank -3", 2, "--rank: ");
+    refused("render " + q(input) + png + "--target-fps inf", 2, "--target-fps: ");
+    refused("render " + q(input) + png + "--max-bricks 0", 2, "--max-bricks: ");
+    refused("render " + q(input) + " -o " + q("r.png") + " --size 0x5", 1, "--size: ");
+    refused("render " + q(input) + " -o " + q("r.png") + " --size 99999999999x5", 1, "--size: ");
+    refused("render " + q(input) + " -o " + q("r.png") + " --size 5x5junk", 1, "--size: ");
+  }
+  EXPECT_FALSE(fs::exists(file("r.png")));
+}
+
+TEST_F(HostileCli, RenderBoundsSamplesPerRayAndFrames) {
+  const std::string png = " -o " + q("r.png") + " --size 32x32 ";
+  for (const std::string input : {"p.strata", "p.nrrd", "v.strata"}) {
+    const std::string out = refused("render " + q(input) + png + "--step 1e-9", 2, "--step: ");
+    EXPECT_TRUE(has(out, "0.05")) << out;  // the allowed range
+    refused("render " + q(input) + png + "--step inf", 2, "--step: ");
+    refused("render " + q(input) + png + "--step 0", 2, "--step: ");
+  }
+  std::string out = refused("render " + q("p.strata") + " -o " + q("frames") + " --size 16x16 --orbit 100000", 2, "--orbit: ");
+  EXPECT_TRUE(has(out, "3600")) << out;
+  refused("render " + q("p.strata") + " -o " + q("frames") + " --size 16x16 --orbit -1", 2, "--orbit: ");
+  EXPECT_FALSE(fs::exists(file("frames")));
+  refused("render " + q("p.strata") + png + "--cache inf", 1, "--cache: ");
+  refused("render " + q("p.strata") + png + "--cache 1", 1, "--cache: ");
+}
+
+TEST_F(HostileCli, ThreadCountIsCapped) {
+  const int cap = 4 * std::max(1, int(std::thread::hardware_concurrency()));
+  for (const std::string& n : {std::string("100000"), std::to_string(cap + 1)})
+    refused("--threads " + n + " info " + q("p.nrrd"), 2, "--threads: ");
+  refused("--threads 400000 compress " + q("p.nrrd") + " -o " + q("t.strata"), 2, "--threads: ");
+  EXPECT_FALSE(fs::exists(file("t.strata")));
+  // The cap itself is accepted.
+  std::string out;
+  EXPECT_EQ(run_command(strata_cmd("--threads " + std::to_string(cap) + " info " + q("f.nrrd")), &out), 0) << out;
+}
+
+TEST_F(HostileCli, OutputEqualToAnInputIsRefusedAndTheInputKept) {
+  const auto p_nrrd = size_of(file("p.nrrd")), p_strata = size_of(file("p.strata")), v_nrrd = size_of(file("v.nrrd"));
+  refused("compress " + q("p.nrrd") + " -o " + q("p.nrrd"), 2, "--output: ");
+  refused("labels encode " + q("v.nrrd") + " -o " + q("v.nrrd"), 2, "--output: ");
+  refused("render " + q("p.strata") + " -o " + q("p.strata") + " --size 16x16", 2, "--output: ");
+  refused("decompress " + q("p.strata") + " -o " + q("p.strata"), 2, "--output: ");
+  refused("convert " + q("p.nrrd") + " " + q("p.nrrd"), 2, "output: ");
+  refused("labels decode " + q("v.strata") + " -o " + q("v.strata"), 2, "--output: ");
+  // Another spelling, a symlink and a hard link of the input are the same file.
+  fs::create_directories(file("sub"));
+  refused("compress " + q("p.nrrd") + " -o " + shell_quoted(file("sub") / ".." / "p.nrrd"), 2, "--output: ");
+  fs::create_symlink(file("p.nrrd"), file("link.nrrd"));
+  refused("convert " + q("p.nrrd") + " " + q("link.nrrd"), 2, "output: ");
+  fs::create_hard_link(file("p.nrrd"), file("hard.nrrd"));
+  refused("convert " + q("hard.nrrd") + " " + q("p.nrrd"), 2, "output: ");
+  refused("render " + q("p.strata") + " -o " + q("r.png") + " --size 16x16 --stats " + q("p.strata"), 2, "--stats: ");
+  refused("render " + q("p.strata") + " -o " + q("r.json") + " --size 16x16 --stats " + q("r.json"), 2, "--output: ");
+  EXPECT_EQ(size_of(file("p.nrrd")), p_nrrd);
+  EXPECT_EQ(size_of(file("p.strata")), p_strata);
+  EXPECT_EQ(size_of(file("v.nrrd")), v_nrrd);
+}
+
+TEST_F(HostileCli, OutputExtensionsMatchWhatTheCommandWrites) {
+  refused("compress " + q("p.nrrd") + " -o " + q("out.nrrd"), 2, "--output: ");
+  refused("labels encode " + q("v.nrrd") + " -o " + q("out.nrrd"), 2, "--output: ");
+  refused("render " + q("p.strata") + " -o " + q("out.jpg") + " --size 16x16", 2, "--output: ");
+  refused("render " + q("p.strata") + " -o " + q("r.png") + " --size 16x16 --stats " + q("s.txt"), 2, "--stats: ");
+  refused("decompress " + q("p.strata") + " -o " + q("out.strata"), 2, "--output: ");
+  refused("generate sphere --size 8 -o " + q("out.strata"), 2, "--output: ");
+  refused("generate sphere --size 8 --dtype i8 -o " + q("out.nii"), 2, "--output: ");
+  for (const char* name : {"out.nrrd", "out.jpg", "out.strata", "out.nii"}) EXPECT_FALSE(fs::exists(file(name))) << name;
+}
+
+TEST_F(HostileCli, FailedRenderLeavesNoOutput) {
+  std::string out;
+  EXPECT_EQ(run_command(strata_cmd("render " + q("p.strata") + " -o " + q("r.png") +
+                                   " --size 16x16 --stats /nonexistent-strata-dir/s.json"),
+                        &out),
+            1)
+      << out;
+  EXPECT_TRUE(has(out, "error: --stats: ")) << out;
+  EXPECT_FALSE(fs::exists(file("r.png")));
+  EXPECT_EQ(run_command(strata_cmd("render " + q("p.strata") + " -o " + q("orbit") +
+                                   " --size 16x16 --orbit 2 --stats /nonexistent-strata-dir/s.json"),
+                        &out),
+            1)
+      << out;
+  EXPECT_FALSE(fs::exists(file("orbit")));
+  // The orbit folder is an existing file.
+  refused("render " + q("p.strata") + " -o " + q("p.nrrd") + " --size 16x16 --orbit 2", 2, "--output: ");
+}
+
+TEST_F(HostileCli, GeneratorsRefuseWhatCannotStreamInBoundedMemory) {
+  std::string out = refused("generate voronoi --size 16 --count 100000000 -o " + q("g.nrrd"), 2, "--count: ");
+  EXPECT_TRUE(has(out, "4096 voxels")) << out;
+  refused("generate prisms --size 1000000 -o " + q("g.nrrd"), 2, "--size: ");
+  refused("generate prisms --size 4294967296,4294967296,4294967296 -o " + q("g.nrrd"), 2, "--size: ");
+  refused("generate prisms --size 4294967296,2,2 -o " + q("g.nrrd"), 2, "--size: ");
+  refused("generate sphere --size 100000,100000,1 -o " + q("g.nrrd"), 2, "--size: ");
+  refused("generate fibres --size 16 --count 5000 -o " + q("g.nrrd"), 2, "--count: ");
+  refused("generate superpixels --size 16 --count 1000 -o " + q("g.nrrd"), 2, "--count: ");
+  EXPECT_FALSE(fs::exists(file("g.nrrd")));
+  // A deep volume of small slices still streams (memory does not grow with the depth).
+  EXPECT_EQ(run_command(strata_cmd("generate sphere --size 8,8,8192 -o " + q("deep.raw")), &out), 0) << out;
+  EXPECT_EQ(size_of(file("deep.raw")), 8u * 8u * 8192u * 4u);
+}
+
+TEST_F(HostileCli, LibraryTextIsExplained) {
+  // A float volume is no label volume: the message names the file.
+  const std::string out = refused("labels encode " + q("f.nrrd") + " -o " + q("f.strata"), 1, "");
+  EXPECT_TRUE(has(out, "f.nrrd")) << out;
+  EXPECT_TRUE(has(out, "integer")) << out;
+  EXPECT_FALSE(fs::exists(file("f.strata")));
+  refused("compress " + q("p.nrrd") + " -o " + q("t.strata") + " --rmse 1e-300", 1, "--rmse: ");
+  refused("compress " + q("p.nrrd") + " -o " + q("t.strata") + " --coarse-growth nan", 1, "--coarse-growth: ");
+  refused("compress " + q("p.nrrd") + " -o " + q("t.strata") + " --memory-limit 1e30G", 1, "--memory-limit: ");
+  refused("compress " + q("p.nrrd") + " -o " + q("t.strata") + " --hooi 100000", 2, "");
+  EXPECT_FALSE(fs::exists(file("t.strata")));
+}
+
+}  // namespace
