@@ -12,33 +12,19 @@
 #include "strata/mixture/histogram_mipmap.hpp"
 #include "strata/mixture/palette.hpp"
 #include "strata/store/container.hpp"
+#include "strata/store/metadata_json.hpp"
 #include "strata/store/zstd_frame.hpp"
 
 namespace strata::mixture {
 
 namespace {
 
-template <class T>
-T field(const nlohmann::json& j, const char* key, const std::string& file, const std::string& where = "") {
-  const std::string name = where.empty() ? std::string(key) : where + "." + key;
-  if (!j.is_object() || !j.contains(key)) throw FormatError(file, "metadata " + name, "missing");
-  try {
-    return j.at(key).get<T>();
-  } catch (const std::exception&) {
-    throw FormatError(file, "metadata " + name, "has the wrong type (" + j.at(key).dump() + ")");
-  }
-}
+using store::json_member;
+using store::MetadataField;
 
-Extent meta_extent(const nlohmann::json& j, const std::string& file, const std::string& name) {
-  if (!j.is_array() || j.size() != 3) throw FormatError(file, "metadata " + name, "expected [x, y, z]");
-  Extent e;
-  try {
-    e = {j[0].get<std::int64_t>(), j[1].get<std::int64_t>(), j[2].get<std::int64_t>()};
-  } catch (const std::exception&) {
-    throw FormatError(file, "metadata " + name, "expected three integers");
-  }
-  if (e.x < 1 || e.y < 1 || e.z < 1) throw FormatError(file, "metadata " + name, "dimensions must be positive");
-  return e;
+Extent meta_extent(const nlohmann::json& j, const MetadataField& field) {
+  const auto v = store::json_integers(j, 3, field, 1, INT32_MAX);
+  return {v[0], v[1], v[2]};
 }
 
 }  // namespace
@@ -60,46 +46,52 @@ EncodedLabels::EncodedLabels(std::unique_ptr<store::ContainerReader> reader)
     : path_(reader->path()), reader_(std::move(reader)) {
   const std::string file = path_.string();
   const nlohmann::json& m = reader_->metadata();
+  const MetadataField meta{file, "metadata"};
   const std::string codec = m.is_object() && m.contains("codec") && m["codec"].is_string() ? m["codec"].get<std::string>() : "";
   if (codec != kMixtureCodecName)
-    throw FormatError(file, "metadata codec", "expected \"mixture-graph\" (a label file from `strata labels encode`), got \"" + codec + "\"");
-  const int version = field<int>(m, "mixture_graph_version", file);
-  if (version != detail::kFormatVersion)
-    throw FormatError(file, "metadata mixture_graph_version", "unsupported version " + std::to_string(version));
-  const nlohmann::json& src = m.contains("source") ? m["source"] : nlohmann::json();
-  if (!src.is_object()) throw FormatError(file, "metadata source", "missing");
-  const Extent dims = meta_extent(src.value("dims", nlohmann::json()), file, "source.dims");
+    throw FormatError(file, "metadata.codec", "expected \"mixture-graph\" (a label file from `strata labels encode`), got " +
+                                                  (m.contains("codec") ? store::json_excerpt(m["codec"]) : std::string("none")));
+  store::json_integer(json_member(m, "mixture_graph_version", meta), meta / "mixture_graph_version", detail::kFormatVersion,
+                      detail::kFormatVersion);
+  const MetadataField src_field = meta / "source";
+  const nlohmann::json& src = store::json_object(json_member(m, "source", meta), src_field);
+  const Extent dims = meta_extent(json_member(src, "dims", src_field), src_field / "dims");
   DType dtype;
+  const std::string dtype_text = store::json_string(json_member(src, "dtype", src_field), src_field / "dtype");
   try {
-    dtype = parse_dtype(field<std::string>(src, "dtype", file, "source"), "source.dtype");
-  } catch (const FormatError&) {
-    throw;
-  } catch (const Error& e) {
-    throw FormatError(file, "metadata source.dtype", e.what());
+    dtype = parse_dtype(dtype_text, "metadata.source.dtype");
+  } catch (const Error&) {
+    (src_field / "dtype").fail("unknown sample type \"" + dtype_text + "\" (expected u8, i8, u16, i16, u32 or i32)");
   }
+  if (!dtype_is_integer(dtype)) (src_field / "dtype").fail("a label volume has an integer sample type, got " + dtype_text);
   if (src.contains("spacing")) {
-    const auto& s = src["spacing"];
-    if (!s.is_array() || s.size() != 3 || !s[0].is_number() || !s[1].is_number() || !s[2].is_number())
-      throw FormatError(file, "metadata source.spacing", "expected [sx, sy, sz]");
-    spacing_ = {s[0].get<double>(), s[1].get<double>(), s[2].get<double>()};
+    const auto s = store::json_positive_numbers(src["spacing"], 3, src_field / "spacing");
+    spacing_ = {s[0], s[1], s[2]};
   }
-  const std::string ids = field<std::string>(m, "ids", file);
+  const std::string ids = store::json_string(json_member(m, "ids", meta), meta / "ids");
   try {
     ids_mode_ = parse_ids_mode(ids);
-  } catch (const Error& e) {
-    throw FormatError(file, "metadata ids", e.what());
+  } catch (const Error&) {
+    (meta / "ids").fail("expected \"blocks\" or \"fixed\", got \"" + ids + "\"");
   }
 
-  const std::string comp = m.contains("ids_compression") ? field<std::string>(m, "ids_compression", file) : "none";
-  if (comp != "none" && comp != "zstd") throw FormatError(file, "metadata ids_compression", "expected none or zstd, got " + comp);
+  const std::string comp = m.contains("ids_compression") ? store::json_string(m["ids_compression"], meta / "ids_compression") : "none";
+  if (comp != "none" && comp != "zstd") (meta / "ids_compression").fail("expected \"none\" or \"zstd\", got \"" + comp + "\"");
   ids_zstd_ = comp == "zstd";
 
   // Graph.
   graph_ = read_graph_bitstream(reader_->section("mixture_graph"), file, &header_);
   if (header_.resolution != dims)
-    throw FormatError(file, "mixture_graph resolution", "does not match metadata source.dims");
-  if (field<int>(m, "bits", file) != header_.quant_bits)
-    throw FormatError(file, "metadata bits", "does not match the bitstream's quantization bitrate " + std::to_string(header_.quant_bits));
+    throw FormatError(file, "section mixture_graph", "resolution " + detail::extent_json(header_.resolution).dump() +
+                                                         " does not match metadata.source.dims " + detail::extent_json(dims).dump());
+  const auto bits = store::json_integer(json_member(m, "bits", meta), meta / "bits", 1, 16);
+  if (bits != header_.quant_bits)
+    (meta / "bits").fail(std::to_string(bits) + " does not match the bitstream's quantization bitrate " + std::to_string(header_.quant_bits));
+  if (m.contains("bins")) {
+    const std::string bins = store::json_string(m["bins"], meta / "bins");
+    if (bins != weight_bins_name(header_.layout))
+      (meta / "bins").fail("\"" + bins + "\" does not match the bitstream's bin layout \"" + std::string(weight_bins_name(header_.layout)) + "\"");
+  }
 
   // Label map.
   {
@@ -122,15 +114,21 @@ EncodedLabels::EncodedLabels(std::unique_ptr<store::ContainerReader> reader)
 
   // Levels.
   const std::vector<Extent> expect = mip_level_dims(dims);
-  const auto& lv = m.contains("levels") ? m["levels"] : nlohmann::json();
+  const MetadataField lv_field = meta / "levels";
+  const auto& lv = json_member(m, "levels", meta);
   if (!lv.is_array() || lv.size() != expect.size())
-    throw FormatError(file, "metadata levels", "expected " + std::to_string(expect.size()) + " levels for dims " + detail::extent_json(dims).dump());
+    lv_field.fail("expected " + std::to_string(expect.size()) + " levels for dims " + detail::extent_json(dims).dump() + ", got " +
+                  (lv.is_array() ? std::to_string(lv.size()) : store::json_excerpt(lv)));
   for (std::size_t l = 0; l < expect.size(); ++l) {
-    const std::string name = "levels[" + std::to_string(l) + "].dims";
-    if (meta_extent(lv[l].value("dims", nlohmann::json()), file, name) != expect[l])
-      throw FormatError(file, "metadata " + name, "expected " + detail::extent_json(expect[l]).dump());
+    const MetadataField level = lv_field[l];
+    if (meta_extent(json_member(lv[l], "dims", level), level / "dims") != expect[l])
+      (level / "dims").fail("expected " + detail::extent_json(expect[l]).dump() + " for source.dims " + detail::extent_json(dims).dump() +
+                            ", got " + store::json_excerpt(lv[l]["dims"]));
     const std::string sec = detail::level_section(int(l));
     std::span<const std::byte> bytes = reader_->section(sec);
+    if (lv[l].contains("ids_bytes") && store::json_unsigned(lv[l]["ids_bytes"], level / "ids_bytes") != bytes.size())
+      (level / "ids_bytes").fail("says " + std::to_string(lv[l]["ids_bytes"].get<std::uint64_t>()) + " but section " + sec + " holds " +
+                                 std::to_string(bytes.size()) + " bytes");
     std::vector<std::byte> inflated;
     if (ids_zstd_) {
       // Either layout needs at most ~8 bytes per voxel plus headers.

@@ -100,6 +100,17 @@ LabelMap::LabelMap(DType dtype, std::vector<std::int64_t> values) : dtype_(dtype
   if (!dtype_is_integer(dtype)) throw Error("label map: dtype " + std::string(dtype_name(dtype)) + " is not an integer type");
   for (std::size_t i = 1; i < values_.size(); ++i)
     if (values_[i - 1] >= values_[i]) throw Error("label map: values must be strictly increasing");
+  // Every value must survive the cast to the sample type in decode(): sorted, so the ends decide.
+  visit_dtype(dtype_, [&](auto tag) {
+    using T = decltype(tag);
+    if constexpr (std::is_integral_v<T>) {
+      const std::int64_t lo = std::numeric_limits<T>::min(), hi = std::int64_t(std::numeric_limits<T>::max());
+      for (const std::int64_t v : {values_.empty() ? 0 : values_.front(), values_.empty() ? 0 : values_.back()})
+        if (v < lo || v > hi)
+          throw Error("label map: value " + std::to_string(v) + " does not fit the sample type " + std::string(dtype_name(dtype_)) +
+                      " (" + std::to_string(lo) + ".." + std::to_string(hi) + ")");
+    }
+  });
   if (values_.size() > std::numeric_limits<std::uint32_t>::max() - 1)
     throw Error("label map: more than 2^32 - 2 distinct labels");
 }

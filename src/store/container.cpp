@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstring>
 #include <fstream>
 
@@ -11,6 +12,7 @@
 #include "strata/core/error.hpp"
 #include "strata/store/byte_planes.hpp"
 #include "strata/store/crc32c.hpp"
+#include "strata/store/metadata_json.hpp"
 #include "strata/store/zstd_frame.hpp"
 
 namespace strata::store {
@@ -98,7 +100,7 @@ BrickEntry decode_entry(std::span<const std::byte, kIndexEntrySize> b) {
 
 bool known_kind(PayloadKind k) {
   return k == PayloadKind::constant || k == PayloadKind::tucker || k == PayloadKind::tucker_zstd ||
-         k == PayloadKind::tucker_coded || k == PayloadKind::raw_zstd;
+         k == PayloadKind::tucker_coded || k == PayloadKind::raw_zstd || k == PayloadKind::raw_packed;
 }
 
 // Appends value(e) of the entries (with payload_only, of those with payload bytes) as one column
@@ -163,7 +165,47 @@ class ColumnReader {
   std::size_t at_ = 0;
 };
 
+// Format 1.3's binding record (docs/format.md, "Checksums"): what a payload's check value covers
+// after the payload bytes.
+//
+// | offset | type | field                                    |
+// | ------ | ---- | ---------------------------------------- |
+// | 0      | u8   | level                                    |
+// | 1      | u8   | kind                                     |
+// | 2      | u16  | 0                                        |
+// | 4      | i32  | x                                        |
+// | 8      | i32  | y                                        |
+// | 12     | i32  | z                                        |
+// | 16     | u32  | metadata_crc32c (the header's field)     |
+constexpr std::size_t kBindingRecordSize = 20;
+
+std::array<std::byte, kBindingRecordSize> binding_record(const BrickKey& key, PayloadKind kind, std::uint32_t metadata_crc) {
+  std::array<std::byte, kBindingRecordSize> r{};
+  store_field(r, 0, key.level);
+  store_field(r, 1, std::uint8_t(kind));
+  store_field(r, 4, key.x);
+  store_field(r, 8, key.y);
+  store_field(r, 12, key.z);
+  store_field(r, 16, metadata_crc);
+  return r;
+}
+
 }  // namespace
+
+std::uint32_t payload_check_value(std::uint32_t payload_crc, std::uint64_t size, const BrickKey& key, PayloadKind kind,
+                                  std::uint32_t metadata_crc) {
+  if (size == 0) return 0;
+  const auto record = binding_record(key, kind, metadata_crc);
+  return crc32c(record.data(), record.size(), payload_crc);
+}
+
+std::uint32_t section_check_value(std::span<const std::byte> bytes, const std::string& name) {
+  std::array<std::byte, 4> length{};
+  store_field(length, 0, std::uint32_t(name.size()));
+  std::uint32_t crc = crc32c(bytes.data(), bytes.size());
+  crc = crc32c(name.data(), name.size(), crc);
+  return crc32c(length.data(), length.size(), crc);
+}
 
 std::string brick_name(const BrickKey& k) { return fmt::format("brick (level {}, {},{},{})", int(k.level), k.x, k.y, k.z); }
 
@@ -174,6 +216,7 @@ const char* payload_kind_name(PayloadKind k) {
     case PayloadKind::tucker_zstd: return "tucker_zstd";
     case PayloadKind::tucker_coded: return "tucker_coded";
     case PayloadKind::raw_zstd: return "raw_zstd";
+    case PayloadKind::raw_packed: return "raw_packed";
   }
   return "unknown";
 }
@@ -202,6 +245,8 @@ std::uint64_t ContainerWriter::append(std::span<const std::byte> payload, bool a
 }
 
 void ContainerWriter::add_brick(BrickEntry entry, std::span<const std::byte> payload) {
+  // The payload's own CRC-32C; finish() continues it over the binding record, whose metadata
+  // checksum is known only then.
   entry.crc32c = crc32c(payload.data(), payload.size());
   entry.size = payload.size();
   std::lock_guard lock(mutex_);
@@ -212,7 +257,7 @@ void ContainerWriter::add_brick(BrickEntry entry, std::span<const std::byte> pay
 }
 
 void ContainerWriter::add_section(const std::string& name, std::span<const std::byte> payload) {
-  Section s{0, payload.size(), crc32c(payload.data(), payload.size())};
+  Section s{0, payload.size(), section_check_value(payload, name)};
   std::lock_guard lock(mutex_);
   s.offset = append(payload, true);
   sections_.emplace_back(name, s);
@@ -233,6 +278,7 @@ std::uint64_t ContainerWriter::finish(nlohmann::json metadata) {
   h.metadata_size = text.size();
   h.metadata_crc = crc32c(text.data(), text.size());
   h.metadata_offset = append(std::as_bytes(std::span(text)), true);
+  for (BrickEntry& e : entries_) e.crc32c = payload_check_value(e.crc32c, e.size, e.key, e.kind, h.metadata_crc);
 
   const std::vector<std::byte> index = encode_compressed_index(entries_);
   h.flags = kFlagCompressedIndex;
@@ -262,35 +308,45 @@ std::span<const std::byte> ContainerReader::checked_range(std::uint64_t offset, 
 ContainerReader::ContainerReader(const std::filesystem::path& path)
     : path_(path), file_(std::make_shared<io::MappedFile>(path)) {
   const std::string file = path.string();
-  if (file_->size() < kHeaderSize || std::memcmp(file_->data(), kMagic.data(), kMagic.size()) != 0)
+  if (file_->size() < kMagic.size() || std::memcmp(file_->data(), kMagic.data(), kMagic.size()) != 0)
     throw FormatError(file, "magic", "not a .strata file");
+  if (file_->size() < kHeaderSize)
+    throw FormatError(file, "header",
+                      fmt::format("the file ends after {} bytes, inside the {}-byte header (truncated)", file_->size(), kHeaderSize));
   const std::span<const std::byte> h(file_->data(), kHeaderSize);
   if (load_field<std::uint32_t>(h, 60) != crc32c(h.data(), 60)) throw FormatError(file, "header", "checksum mismatch");
   const auto major = load_field<std::uint16_t>(h, 8);
   if (major != kFormatVersionMajor)
     throw FormatError(file, "version", fmt::format("format version {} is not supported (expected {})", major, kFormatVersionMajor));
-  // Minor versions are not checked: additions that older readers cannot ignore set a flag bit or
-  // use a new payload kind, and both are rejected below.
-  const auto minor = load_field<std::uint16_t>(h, 10);
+  // Minor versions are not rejected: additions that older readers cannot ignore set a flag bit
+  // or use a new payload kind, and both are rejected below. The minor version decides which
+  // checksum rule applies (1.3: bound to keys, kinds and names).
+  minor_ = load_field<std::uint16_t>(h, 10);
   const auto flags = load_field<std::uint32_t>(h, 12);
   if ((flags & ~kKnownFlags) != 0)
     throw FormatError(file, "flags",
                       fmt::format("unknown bits {:#x} set (this reader knows bit 0, compressed index)", flags & ~kKnownFlags));
   index_compressed_ = (flags & kFlagCompressedIndex) != 0;
-  if (index_compressed_ && minor < 2)
-    throw FormatError(file, "flags", fmt::format("bit 0 (compressed index) is set in a format 1.{} file; it needs 1.2", minor));
+  if (index_compressed_ && minor_ < 2)
+    throw FormatError(file, "flags", fmt::format("bit 0 (compressed index) is set in a format 1.{} file; it needs 1.2", minor_));
   if (load_field<std::uint32_t>(h, 48) != kIndexEntrySize)
     throw FormatError(file, "index_entry_size", fmt::format("expected {}", kIndexEntrySize));
 
   metadata_size_ = load_field<std::uint64_t>(h, 40);
+  metadata_crc_ = load_field<std::uint32_t>(h, 52);
   auto meta = checked_range(load_field<std::uint64_t>(h, 32), metadata_size_, "metadata");
-  if (crc32c(meta.data(), meta.size()) != load_field<std::uint32_t>(h, 52)) throw FormatError(file, "metadata", "checksum mismatch");
+  if (crc32c(meta.data(), meta.size()) != metadata_crc_) throw FormatError(file, "metadata", "checksum mismatch");
   try {
     metadata_ = nlohmann::json::parse(reinterpret_cast<const char*>(meta.data()),
                                       reinterpret_cast<const char*>(meta.data()) + meta.size());
   } catch (const nlohmann::json::exception& e) {
-    throw FormatError(file, "metadata", std::string("invalid JSON: ") + e.what());
+    // e.what() starts with the library's "[json.exception.parse_error.101] "; keep what follows.
+    const std::string what = e.what();
+    const auto bracket = what.find("] ");
+    throw FormatError(file, "metadata", "invalid JSON (" + (bracket == std::string::npos ? what : what.substr(bracket + 2)) + ")");
   }
+  if (!metadata_.is_object())
+    throw FormatError(file, "metadata", "expected a JSON object, got " + std::string(metadata_.type_name()));
 
   const auto index_offset = load_field<std::uint64_t>(h, 16), count = load_field<std::uint64_t>(h, 24);
   const auto index_crc = load_field<std::uint32_t>(h, 56);
@@ -298,19 +354,42 @@ ContainerReader::ContainerReader(const std::filesystem::path& path)
                                                       : read_plain_index(index_offset, count, index_crc);
   lookup_.reserve(entries.size());
   for (std::size_t i = 0; i < entries.size(); ++i) {
-    const BrickEntry& e = entries[i];
-    if (!known_kind(e.kind))
-      throw FormatError(file, "index", fmt::format("{} has unknown payload kind {}", brick_name(e.key), int(e.kind)));
-    checked_range(e.offset, e.size, brick_name(e.key));
-    if (!lookup_.emplace(e.key, i).second) throw FormatError(file, "index", brick_name(e.key) + " appears twice");
+    check_entry(entries[i]);
+    if (!lookup_.emplace(entries[i].key, i).second) throw FormatError(file, "index", brick_name(entries[i].key) + " appears twice");
   }
   entries_ = std::move(entries);
-  if (metadata_.contains("sections"))
-    for (const auto& [name, s] : metadata_["sections"].items()) {
-      Section sec{s.at("offset").get<std::uint64_t>(), s.at("size").get<std::uint64_t>(), s.at("crc32c").get<std::uint32_t>()};
-      checked_range(sec.offset, sec.size, "section " + name);
-      sections_[name] = sec;
-    }
+  read_sections();
+}
+
+// An index entry the payload kinds table allows: a known kind, a range inside the file, and for
+// a constant brick no payload bytes and min == max (the value every voxel has).
+void ContainerReader::check_entry(const BrickEntry& e) const {
+  const std::string file = path_.string();
+  if (!known_kind(e.kind))
+    throw FormatError(file, "index", fmt::format("{} has unknown payload kind {}", brick_name(e.key), int(e.kind)));
+  checked_range(e.offset, e.size, brick_name(e.key));
+  if (e.kind == PayloadKind::constant && e.size != 0)
+    throw FormatError(file, brick_name(e.key),
+                      fmt::format("a constant brick has no payload, but the index gives it {} bytes", e.size));
+  if (e.kind == PayloadKind::constant && !(e.min == e.max) && !(std::isnan(e.min) && std::isnan(e.max)))
+    throw FormatError(file, brick_name(e.key),
+                      fmt::format("a constant brick needs min == max (its value), got min {} and max {}", e.min, e.max));
+}
+
+// "sections": {"<name>": {"offset": u64, "size": u64, "crc32c": u32}, ...}, every range inside
+// the file.
+void ContainerReader::read_sections() {
+  const auto it = metadata_.find("sections");
+  if (it == metadata_.end()) return;
+  const MetadataField field{path_.string(), "metadata.sections"};
+  for (const auto& [name, s] : json_object(*it, field).items()) {
+    const MetadataField at = field / name;
+    json_object(s, at);
+    Section sec{json_unsigned(json_member(s, "offset", at), at / "offset"), json_unsigned(json_member(s, "size", at), at / "size"),
+                std::uint32_t(json_unsigned(json_member(s, "crc32c", at), at / "crc32c", UINT32_MAX))};
+    checked_range(sec.offset, sec.size, "section " + name);
+    sections_[name] = sec;
+  }
 }
 
 ContainerReader::~ContainerReader() = default;
@@ -390,8 +469,14 @@ const BrickEntry* ContainerReader::find(const BrickKey& key) const {
 
 std::span<const std::byte> ContainerReader::payload(const BrickEntry& e) const {
   auto bytes = checked_range(e.offset, e.size, brick_name(e.key));
-  if (crc32c(bytes.data(), bytes.size()) != e.crc32c)
-    throw FormatError(path_.string(), brick_name(e.key), "payload checksum mismatch (file corrupted)");
+  std::uint32_t check = crc32c(bytes.data(), bytes.size());
+  if (minor_ >= kBoundChecksumsMinor) check = payload_check_value(check, e.size, e.key, e.kind, metadata_crc_);
+  if (check != e.crc32c)
+    throw FormatError(path_.string(), brick_name(e.key),
+                      minor_ >= kBoundChecksumsMinor
+                          ? "payload checksum mismatch (the payload is corrupted, or its index entry or the metadata "
+                            "was altered: the checksum covers the bytes, the key, the kind and the metadata)"
+                          : "payload checksum mismatch (file corrupted)");
   return bytes;
 }
 
@@ -401,8 +486,12 @@ std::span<const std::byte> ContainerReader::section(const std::string& name) con
   auto it = sections_.find(name);
   if (it == sections_.end()) throw FormatError(path_.string(), "sections", "no section named '" + name + "'");
   auto bytes = checked_range(it->second.offset, it->second.size, "section " + name);
-  if (crc32c(bytes.data(), bytes.size()) != it->second.crc32c)
-    throw FormatError(path_.string(), "section " + name, "checksum mismatch (file corrupted)");
+  const bool bound = minor_ >= kBoundChecksumsMinor;
+  if ((bound ? section_check_value(bytes, name) : crc32c(bytes.data(), bytes.size())) != it->second.crc32c)
+    throw FormatError(path_.string(), "section " + name,
+                      bound ? "checksum mismatch (the section is corrupted, or its entry in metadata.sections belongs "
+                              "to another section: the checksum covers the bytes and the name)"
+                            : "checksum mismatch (file corrupted)");
   return bytes;
 }
 

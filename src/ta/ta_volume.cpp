@@ -3,79 +3,136 @@
 #include <algorithm>
 #include <cmath>
 
+#include <fmt/format.h>
+
 #include "strata/core/error.hpp"
 #include "strata/core/threads.hpp"
+#include "strata/store/metadata_json.hpp"
 #include "strata/ta/target_codec.hpp"
 
 namespace strata::ta {
 
 namespace {
 
-// `prefix` is the path of `j` inside the metadata ("metadata" or "metadata.source"), so every
-// message names the full field.
-template <class T>
-T required(const nlohmann::json& j, const char* key, const std::string& file, const std::string& prefix = "metadata") {
-  const std::string field = prefix + "." + key;
-  if (!j.is_object() || !j.contains(key)) throw FormatError(file, field, "missing");
-  try {
-    return j.at(key).get<T>();
-  } catch (const nlohmann::json::exception&) {
-    throw FormatError(file, field, "has the wrong type");
-  }
+using store::json_member;
+using store::json_object;
+using store::MetadataField;
+
+// Payload kinds each mode writes: fixed-rank files (a `quant` scheme) Tucker bricks, error-target
+// files (`quant` "coded") coded Tucker bricks and the lossless fallback; both constant bricks.
+bool kind_allowed(store::PayloadKind kind, bool coded) {
+  using store::PayloadKind;
+  // Either mode stores a brick losslessly (raw_packed) when that is smaller.
+  if (kind == PayloadKind::constant || kind == PayloadKind::raw_packed) return true;
+  return coded ? kind == PayloadKind::tucker_coded || kind == PayloadKind::raw_zstd
+               : kind == PayloadKind::tucker || kind == PayloadKind::tucker_zstd;
 }
 
-Extent positive_extent(const std::vector<std::int64_t>& v, const std::string& file, const char* field) {
-  if (v.size() != 3 || v[0] < 1 || v[1] < 1 || v[2] < 1)
-    throw FormatError(file, field, "expected three positive extents [x, y, z]");
-  return {v[0], v[1], v[2]};
-}
+std::string extent_text(const Extent& e) { return fmt::format("[{}, {}, {}]", e.x, e.y, e.z); }
 
 }  // namespace
 
 TaVolume::TaVolume(const std::filesystem::path& path) : TaVolume(std::make_unique<store::ContainerReader>(path)) {}
 
+// Everything docs/format.md defines for a ta-bricked file is checked here, against itself and
+// against the index, before any brick is decoded: a forged or damaged file fails with the file,
+// the field and what was expected instead of decoding with the wrong geometry.
 TaVolume::TaVolume(std::unique_ptr<store::ContainerReader> container) : container_(std::move(container)) {
   const std::string file = container_->path().string();
   const nlohmann::json& m = container_->metadata();
-  if (!m.contains("codec") || !m["codec"].is_string() || m["codec"] != "ta-bricked")
+  const MetadataField meta{file, "metadata"};
+  const auto codec = m.find("codec");
+  if (codec == m.end() || !codec->is_string() || codec->get_ref<const std::string&>() != "ta-bricked")
     throw FormatError(file, "metadata.codec",
-                      "expected \"ta-bricked\", found " + (m.contains("codec") ? m["codec"].dump() : std::string("none")));
-  const nlohmann::json source = required<nlohmann::json>(m, "source", file);
-  const std::string src = "metadata.source";
-  source_.dims = positive_extent(required<std::vector<std::int64_t>>(source, "dims", file, src), file, "metadata.source.dims");
+                      "expected \"ta-bricked\", found " + (codec != m.end() ? store::json_excerpt(*codec) : std::string("none")));
+  store::json_integer(json_member(m, "codec_version", meta), meta / "codec_version", 1, 1);
+
+  const MetadataField src = meta / "source";
+  const nlohmann::json& source = json_object(json_member(m, "source", meta), src);
+  // Extents and brick coordinates are 32-bit in the index.
+  const auto dims = store::json_integers(json_member(source, "dims", src), 3, src / "dims", 1, INT32_MAX);
+  source_.dims = {dims[0], dims[1], dims[2]};
+  const std::string dtype = store::json_string(json_member(source, "dtype", src), src / "dtype");
   try {
-    source_.dtype = parse_dtype(required<std::string>(source, "dtype", file, src));
-  } catch (const FormatError&) {
-    throw;
-  } catch (const Error& e) {
-    throw FormatError(file, "metadata.source.dtype", e.what());
+    source_.dtype = parse_dtype(dtype, "metadata.source.dtype");
+  } catch (const Error&) {
+    (src / "dtype").fail("unknown sample type \"" + dtype + "\" (expected u8, i8, u16, i16, u32, i32, f32 or f64)");
   }
-  const auto spacing = required<std::vector<double>>(source, "spacing", file, src);
-  if (spacing.size() != 3) throw FormatError(file, "metadata.source.spacing", "expected 3 values");
+  const auto spacing = store::json_positive_numbers(json_member(source, "spacing", src), 3, src / "spacing");
   source_.spacing = {spacing[0], spacing[1], spacing[2]};
-  const auto range = required<std::vector<double>>(source, "value_range", file, src);
-  if (range.size() != 2) throw FormatError(file, "metadata.source.value_range", "expected [min, max]");
+  const auto range = store::json_numbers(json_member(source, "value_range", src), 2, src / "value_range");
+  if (range[0] > range[1]) (src / "value_range").fail("expected [min, max] with min <= max, got [" + std::to_string(range[0]) + ", " + std::to_string(range[1]) + "]");
   value_lo_ = range[0];
   value_hi_ = range[1];
-  BrickLayout layout{required<int>(m, "brick", file), required<int>(m, "overlap", file)};
-  try {
-    geometry_ = std::make_unique<OctreeGeometry>(source_.dims, layout);
-  } catch (const Error& e) {
-    throw FormatError(file, "metadata.brick", e.what());
-  }
-  rank_ = required<int>(m, "rank", file);
-  if (rank_ < 1 || rank_ > layout.brick) throw FormatError(file, "metadata.rank", "out of range 1..brick width");
-  quant_ = required<std::string>(m, "quant", file);
+
+  const BrickLayout layout{int(store::json_integer(json_member(m, "brick", meta), meta / "brick", 2, 256)),
+                           int(store::json_integer(json_member(m, "overlap", meta), meta / "overlap", 0, 127))};
+  if (layout.core() < 1)
+    (meta / "brick").fail("width " + std::to_string(layout.brick) + " leaves no core with metadata.overlap " +
+                          std::to_string(layout.overlap) + " (the width must exceed 2 * overlap)");
+  geometry_ = std::make_unique<OctreeGeometry>(source_.dims, layout);
+  rank_ = int(store::json_integer(json_member(m, "rank", meta), meta / "rank", 1, layout.brick));
+  quant_ = store::json_string(json_member(m, "quant", meta), meta / "quant");
+  const bool coded = quant_ == kCodedQuantName;
   try {
     // Error-target files code every brick with its own steps; the default scheme is never used.
-    if (quant_ != kCodedQuantName) scheme_ = quant::QuantScheme::parse(quant_);
+    if (!coded) scheme_ = quant::QuantScheme::parse(quant_);
   } catch (const Error& e) {
-    throw FormatError(file, "metadata.quant", e.what());
+    (meta / "quant").fail(e.what());
   }
-  const auto levels = required<nlohmann::json>(m, "levels", file);
+  if (coded) json_object(json_member(m, "target", meta), meta / "target");
+
+  // The octree the metadata promises, level by level, and the index that must hold it.
+  const MetadataField lv = meta / "levels";
+  const nlohmann::json& levels = json_member(m, "levels", meta);
   if (!levels.is_array() || int(levels.size()) != geometry_->level_count())
-    throw FormatError(file, "metadata.levels",
-                      "expected " + std::to_string(geometry_->level_count()) + " levels for these dims and brick size");
+    lv.fail("expected " + std::to_string(geometry_->level_count()) + " levels for dims " + extent_text(source_.dims) +
+            ", brick " + std::to_string(layout.brick) + " and overlap " + std::to_string(layout.overlap) + ", got " +
+            (levels.is_array() ? std::to_string(levels.size()) : store::json_excerpt(levels)));
+  std::vector<std::uint64_t> bricks_per_level(levels.size(), 0);
+  for (std::size_t l = 0; l < levels.size(); ++l) {
+    const LevelGeometry& g = geometry_->level(int(l));
+    for (const char* key : {"dims", "bricks"}) {
+      const Extent want = key[0] == 'd' ? g.dims : g.bricks;
+      const auto got = store::json_integers(json_member(levels[l], key, lv[l]), 3, lv[l] / key, 1, INT32_MAX);
+      if (Extent{got[0], got[1], got[2]} != want)
+        (lv[l] / key).fail("expected " + extent_text(want) + " for source.dims " + extent_text(source_.dims) + ", brick " +
+                           std::to_string(layout.brick) + " and overlap " + std::to_string(layout.overlap) + ", got " +
+                           extent_text({got[0], got[1], got[2]}));
+    }
+  }
+  for (const store::BrickEntry& e : container_->bricks()) {
+    const std::string name = store::brick_name(e.key);
+    if (e.key.level >= geometry_->level_count())
+      throw FormatError(file, "index", name + " lies past the last level " + std::to_string(geometry_->level_count() - 1));
+    const Extent& grid = geometry_->level(e.key.level).bricks;
+    if (e.key.x < 0 || e.key.y < 0 || e.key.z < 0 || e.key.x >= grid.x || e.key.y >= grid.y || e.key.z >= grid.z)
+      throw FormatError(file, "index", name + " lies outside the level's brick grid " + extent_text(grid));
+    if (!kind_allowed(e.kind, coded))
+      throw FormatError(file, name,
+                        std::string("payload kind ") + store::payload_kind_name(e.kind) + " does not belong in a file with quant \"" +
+                            quant_ + "\"" + (coded ? " (expected constant, tucker_coded, raw_zstd or raw_packed)" : " (expected constant, tucker, tucker_zstd or raw_packed)"));
+    if (e.kind != store::PayloadKind::constant && e.size == 0)
+      throw FormatError(file, name, std::string("a ") + store::payload_kind_name(e.kind) + " brick needs payload bytes, the index gives it none");
+    ++bricks_per_level[e.key.level];
+  }
+  // Keys are unique and inside the grid, so equal counts mean every brick is present.
+  for (std::size_t l = 0; l < levels.size(); ++l) {
+    const Extent& grid = geometry_->level(int(l)).bricks;
+    const auto want = grid.checked_voxel_count();
+    if (want && bricks_per_level[l] == std::uint64_t(*want)) continue;
+    // Keys are unique and inside the grid, so some brick is missing; the first one is found
+    // within bricks_per_level + 1 lookups.
+    std::string missing;
+    for (std::int64_t i = 0; missing.empty(); ++i) {
+      const store::BrickKey key{std::uint8_t(l), std::int32_t(i % grid.x), std::int32_t(i / grid.x % grid.y),
+                                std::int32_t(i / grid.x / grid.y)};
+      if (!container_->find(key)) missing = store::brick_name(key) + " is missing: ";
+    }
+    throw FormatError(file, "index",
+                      missing + "level " + std::to_string(l) + " has " + std::to_string(bricks_per_level[l]) + " bricks, its grid " +
+                          extent_text(grid) + " needs " + (want ? std::to_string(*want) : std::string("more than 2^63")));
+  }
 }
 
 const store::BrickEntry& TaVolume::entry(const store::BrickKey& key) const {
@@ -87,8 +144,19 @@ const store::BrickEntry& TaVolume::entry(const store::BrickKey& key) const {
 void TaVolume::decode_brick(const store::BrickKey& key, int k, std::span<float> out, tensor::BrickReconstructor& reconstructor,
                             DecodeScratch& scratch) const {
   const store::BrickEntry& e = entry(key);
-  ta::decode_brick(e.kind, container_->payload(e), e.min, scheme_, geometry_->layout().brick,
-                   std::clamp(k, 1, rank_), reconstructor, scratch, out, container_->path().string());
+  const std::span<const std::byte> payload = container_->payload(e);  // its errors name the file and the brick
+  const std::string file = container_->path().string();
+  try {
+    ta::decode_brick(e.kind, payload, e.min, scheme_, geometry_->layout().brick, std::clamp(k, 1, rank_), reconstructor,
+                     scratch, out, file);
+  } catch (const Error& error) {
+    // The codec prefixes its messages with the context it was given, sometimes at two depths;
+    // the user gets one "<file>: <brick>: <problem>".
+    std::string problem = error.what();
+    const std::string prefix = file + ": ";
+    while (problem.compare(0, prefix.size(), prefix) == 0) problem.erase(0, prefix.size());
+    throw FormatError(file, store::brick_name(key), problem);
+  }
 }
 
 void TaVolume::check_level(int level) const {

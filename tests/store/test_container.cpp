@@ -10,19 +10,16 @@
 #include "strata/store/crc32c.hpp"
 #include "strata/store/zstd_frame.hpp"
 #include "io/io_test_util.hpp"
+#include "store/forge.hpp"
 #include "support/test_support.hpp"
 
 using namespace strata;
 using namespace strata::store;
+namespace forge = strata::test::forge;
 
 namespace {
 
-std::vector<std::byte> random_bytes(std::size_t n, unsigned seed) {
-  std::mt19937 rng(seed);
-  std::vector<std::byte> v(n);
-  for (auto& b : v) b = std::byte(rng() & 0xff);
-  return v;
-}
+using forge::random_bytes;
 
 using strata::test::error_of;
 using strata::test::io::read_bytes;
@@ -41,39 +38,14 @@ std::string format_error_of(const std::function<void()>& f) {
 
 bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
 
-// Header fields by their offsets in docs/format.md.
-constexpr std::size_t kMinorField = 10, kFlagsField = 12, kIndexOffsetField = 16, kIndexCountField = 24,
-                      kIndexCrcField = 56, kHeaderCrcField = 60;
-
-// Rewrites header bytes of `path` with `edit`, then recomputes the header checksum, so the reader
-// gets past it to the field under test.
-void patch_header(const std::filesystem::path& path, const std::function<void(std::span<std::byte>)>& edit) {
-  std::vector<std::byte> bytes = read_bytes(path);
-  const std::span<std::byte> header(bytes.data(), kHeaderSize);
-  edit(header);
-  store_field(header, kHeaderCrcField, crc32c(header.data(), kHeaderCrcField));
-  write_bytes(path, bytes);
-}
-
-// Replaces the compressed index at the tail of `path` (written by ContainerWriter) by one whose
-// columns `edit` changed, with valid frame size, index checksum and header checksum: what a
-// reader sees when a writer (or a forger) got the column content wrong.
-void rewrite_index_columns(const std::filesystem::path& path, const std::function<void(std::vector<std::byte>&)>& edit) {
-  std::vector<std::byte> bytes = read_bytes(path);
-  const auto index_offset = load_field<std::uint64_t>(bytes, kIndexOffsetField);
-  const auto frame_size = load_field<std::uint64_t>(bytes, index_offset);
-  ASSERT_EQ(index_offset + 8 + frame_size, bytes.size()) << "the index is the file's tail";
-  std::vector<std::byte> columns;
-  zstd_decompress(std::span(bytes).subspan(index_offset + 8), 1 << 20, columns, path.string(), "test");
-  edit(columns);
-  const std::vector<std::byte> frame = zstd_compress(columns, 3);
-  bytes.resize(index_offset + 8);
-  store_field(std::span(bytes).subspan(index_offset), 0, std::uint64_t(frame.size()));
-  bytes.insert(bytes.end(), frame.begin(), frame.end());
-  store_field(bytes, kIndexCrcField, crc32c(bytes.data() + index_offset, 8 + frame.size()));
-  store_field(bytes, kHeaderCrcField, crc32c(bytes.data(), kHeaderCrcField));
-  write_bytes(path, bytes);
-}
+using forge::kFlagsField;
+using forge::kHeaderCrcField;
+using forge::kIndexCountField;
+using forge::kIndexCrcField;
+using forge::kIndexOffsetField;
+using forge::kMinorField;
+using forge::patch_header;
+using forge::rewrite_index_columns;
 
 struct PlainBrick {
   BrickEntry entry;  // offset, size and crc32c are filled in by write_plain_index_file
@@ -81,7 +53,7 @@ struct PlainBrick {
 };
 
 // Writes a file with the 64-byte-per-entry index of formats 1.0 and 1.1, byte by byte from the
-// tables of docs/format.md rather than through ContainerWriter (which writes only 1.2): every
+// tables of docs/format.md rather than through ContainerWriter (which writes only 1.3): every
 // payload 64-aligned, then metadata, then the index.
 void write_plain_index_file(const std::filesystem::path& path, std::vector<PlainBrick>& bricks, const nlohmann::json& metadata,
                             std::uint16_t minor, std::uint32_t flags = 0) {
@@ -239,7 +211,7 @@ TEST(StoreContainer, UnfinishedWriterLeavesNothing) {
   EXPECT_FALSE(std::filesystem::exists(dir / "u.strata.tmp"));
 }
 
-// Format 1.2: many bricks of every kind, constant ones among them, payloads packed and aligned,
+// Format 1.2 and later: many bricks of every kind, constant ones among them, payloads packed and aligned,
 // sections written between bricks (offsets the packing rule cannot predict): every field of
 // every entry comes back, in the order written, from an index far smaller than 64 bytes a brick.
 TEST(StoreContainer, CompressedIndexRoundTripsManyBricksOfAllKinds) {
@@ -270,7 +242,7 @@ TEST(StoreContainer, CompressedIndexRoundTripsManyBricksOfAllKinds) {
     w.finish({{"codec", "test"}});
   }
   const auto file = read_bytes(path);
-  EXPECT_EQ(load_field<std::uint16_t>(file, kMinorField), 2u);
+  EXPECT_EQ(load_field<std::uint16_t>(file, kMinorField), 3u);
   EXPECT_EQ(load_field<std::uint32_t>(file, kFlagsField), 1u);
   ContainerReader r(path);
   EXPECT_TRUE(r.index_compressed());
@@ -286,7 +258,9 @@ TEST(StoreContainer, CompressedIndexRoundTripsManyBricksOfAllKinds) {
     EXPECT_EQ(got.max, want.max) << brick_name(want.key);
     EXPECT_EQ(got.histogram, want.histogram) << brick_name(want.key);
     ASSERT_EQ(got.size, payloads[i].size()) << brick_name(want.key);
-    EXPECT_EQ(got.crc32c, crc32c(payloads[i].data(), payloads[i].size())) << brick_name(want.key);
+    EXPECT_EQ(got.crc32c, payload_check_value(crc32c(payloads[i].data(), payloads[i].size()), payloads[i].size(), want.key,
+                                              want.kind, load_field<std::uint32_t>(file, forge::kMetadataCrcField)))
+        << brick_name(want.key);
     EXPECT_EQ(r.find(want.key), &got);
     const auto bytes = r.payload(got);  // checks the checksum too
     EXPECT_TRUE(std::equal(bytes.begin(), bytes.end(), payloads[i].begin(), payloads[i].end())) << brick_name(want.key);
@@ -330,7 +304,8 @@ TEST(StoreContainer, EntropyCodedPayloadsArePackedTuckerPayloadsAligned) {
   test::TempDir dir;
   const auto path = dir / "packed.strata";
   const auto add = [](ContainerWriter& w, int x, PayloadKind kind, std::size_t size) {
-    w.add_brick({{0, x, 0, 0}, kind, 0, 0, 0, 0, 1, 1}, random_bytes(size, unsigned(x)));
+    // A constant brick's value is its min == max.
+    w.add_brick({{0, x, 0, 0}, kind, 0, 0, 0, 0, kind == PayloadKind::constant ? 0.0f : 1.0f, 1}, random_bytes(size, unsigned(x)));
   };
   {
     ContainerWriter w(path);
@@ -500,9 +475,9 @@ TEST(StoreContainer, UnknownHeaderFlagsAreRejected) {
   const auto old = with("old.strata", 1, 1);
   std::string msg = format_error_of([&] { ContainerReader r(old); });
   EXPECT_TRUE(contains(msg, "old.strata") && contains(msg, "flags") && contains(msg, "1.2")) << msg;
-  // Minor versions are not checked (additions that matter set a flag or a new kind): a 1.3
+  // Minor versions are not checked (additions that matter set a flag or a new kind): a 1.4
   // file without unknown flags reads.
-  EXPECT_EQ(ContainerReader(with("newer.strata", 3, 1)).bricks().size(), 1u);
+  EXPECT_EQ(ContainerReader(with("newer.strata", 4, 1)).bricks().size(), 1u);
   // Without the flag the tail is taken for 64-byte entries and the file does not read.
   msg = format_error_of([&] { ContainerReader r(with("cleared.strata", 2, 0)); });
   EXPECT_TRUE(contains(msg, "cleared.strata") && contains(msg, "index")) << msg;

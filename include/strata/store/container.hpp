@@ -4,7 +4,10 @@
 // otherwise), then the JSON metadata and the brick index at the tail (the header points to both,
 // so a writer can stream bricks without knowing their count in advance). Since format 1.2 the
 // index is stored column by column in one zstd frame; readers also take 1.0/1.1 files with the
-// fixed 64-byte-per-entry index.
+// fixed 64-byte-per-entry index. Since format 1.3 a payload's checksum also covers its index
+// key, its kind and the metadata's checksum, and a section's covers its name
+// (payload_check_value, section_check_value), so a swapped index entry or section, or metadata
+// edited under the payloads, fails the check.
 #include <cstdint>
 #include <filesystem>
 #include <memory>
@@ -20,7 +23,9 @@
 namespace strata::store {
 
 inline constexpr std::uint16_t kFormatVersionMajor = 1;
-inline constexpr std::uint16_t kFormatVersionMinor = 2;
+inline constexpr std::uint16_t kFormatVersionMinor = 3;
+/// The first minor version whose checksums are bound to keys, kinds and names.
+inline constexpr std::uint16_t kBoundChecksumsMinor = 3;
 inline constexpr std::size_t kHeaderSize = 64;
 /// Bytes of one entry of the 1.0/1.1 index, and the header's `index_entry_size` in every version
 /// (the logical entry; a compressed index stores far fewer).
@@ -34,6 +39,7 @@ enum class PayloadKind : std::uint8_t {
   tucker_zstd = 3,  // the same bytes, factor codes split into byte planes, then zstd-compressed
   tucker_coded = 4,  // Tucker brick coded to an error target (quant/coded_brick.hpp), format 1.1
   raw_zstd = 5,      // the float samples, byte planes, zstd: lossless (ta/raw_brick.hpp), format 1.1
+  raw_packed = 6,    // the samples' non-repeating box, integer codes where exact, zstd: lossless (ta/raw_brick.hpp), format 1.3
 };
 const char* payload_kind_name(PayloadKind k);
 
@@ -62,13 +68,22 @@ struct BrickKeyHash {
   }
 };
 
+/// @brief Format 1.3's check value of a brick payload: the CRC-32C of the payload bytes
+/// (`payload_crc`) continued over the 20-byte binding record of docs/format.md (level, kind, 0,
+/// x, y, z, `metadata_crc`). An empty payload's check value is 0 (it has nothing to check).
+std::uint32_t payload_check_value(std::uint32_t payload_crc, std::uint64_t size, const BrickKey& key, PayloadKind kind,
+                                  std::uint32_t metadata_crc);
+/// @brief Format 1.3's check value of a section: the CRC-32C of its bytes continued over its
+/// name (UTF-8) and the name's length (u32).
+std::uint32_t section_check_value(std::span<const std::byte> bytes, const std::string& name);
+
 // One index entry. `histogram` bit i is set when some voxel falls into bin i of 64 equal
 // bins over the volume's value range (metadata "source.value_range"), for transfer-function culling.
 struct BrickEntry {
   BrickKey key;
   PayloadKind kind = PayloadKind::constant;
   std::uint64_t offset = 0, size = 0;
-  std::uint32_t crc32c = 0;
+  std::uint32_t crc32c = 0;  // as stored: the bound check value in 1.3, the payload's CRC-32C before
   float min = 0, max = 0;
   std::uint64_t histogram = 0;
 };
@@ -91,7 +106,7 @@ class ContainerWriter {
 
   /// @brief Appends `payload` (aligned when needs_alignment(entry.kind), packed otherwise) and
   /// fills entry.offset/size/crc32c from it; the rest comes from the caller. An empty payload
-  /// gets offset 0.
+  /// gets offset 0. finish() binds the checksum to the key, the kind and the metadata.
   void add_brick(BrickEntry entry, std::span<const std::byte> payload);
   void add_section(const std::string& name, std::span<const std::byte> payload);
   std::uint64_t bytes_written() const;
@@ -107,8 +122,11 @@ class ContainerWriter {
   std::vector<std::pair<std::string, Section>> sections_;
 };
 
-// Memory-maps a container and validates header, metadata and index. Payload checksums are
-// verified on every payload() call; a mismatch raises an Error naming the brick.
+// Memory-maps a container and validates header, metadata and index: the metadata must be a JSON
+// object whose "sections" entries are well-formed and inside the file; index entries must have a
+// known kind, a unique key and a range inside the file, and constant bricks no payload bytes.
+// Payload checksums are verified on every payload() call; a mismatch raises a FormatError
+// naming the brick.
 class ContainerReader {
  public:
   explicit ContainerReader(const std::filesystem::path& path);
@@ -128,9 +146,13 @@ class ContainerReader {
   std::uint64_t index_bytes() const { return index_size_; }
   /// @brief True when the file stores its index compressed (header flag bit 0, format 1.2).
   bool index_compressed() const { return index_compressed_; }
+  /// @brief The header's minor version (3 for files written now).
+  std::uint16_t version_minor() const { return minor_; }
 
  private:
   std::span<const std::byte> checked_range(std::uint64_t offset, std::uint64_t size, const std::string& what) const;
+  void read_sections();
+  void check_entry(const BrickEntry& e) const;
   std::vector<BrickEntry> read_plain_index(std::uint64_t offset, std::uint64_t count, std::uint32_t crc);
   std::vector<BrickEntry> read_compressed_index(std::uint64_t offset, std::uint64_t count, std::uint32_t crc);
   std::filesystem::path path_;
@@ -139,6 +161,8 @@ class ContainerReader {
   std::uint64_t metadata_size_ = 0;
   std::uint64_t index_size_ = 0;
   bool index_compressed_ = false;
+  std::uint16_t minor_ = 0;
+  std::uint32_t metadata_crc_ = 0;
   std::vector<BrickEntry> entries_;
   std::unordered_map<BrickKey, std::size_t, BrickKeyHash> lookup_;
   std::unordered_map<std::string, Section> sections_;
