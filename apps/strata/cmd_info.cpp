@@ -8,7 +8,11 @@
 #include "strata/core/statistics.hpp"
 #include "strata/io/slab_stream.hpp"
 #include "strata/io/volume_io.hpp"
+#include "strata/core/error.hpp"
+#include "strata/mixture/encoded_labels.hpp"
 #include "strata/store/container.hpp"
+#include "strata/store/metadata_json.hpp"
+#include "strata/ta/ta_volume.hpp"
 
 namespace strata::cli {
 
@@ -60,9 +64,32 @@ void print_volume_report(const nlohmann::json& j) {
     std::printf("background:  %.4f of voxels are 0\n", j["background_fraction"].get<double>());
 }
 
+// Opens `file` with the reader of its codec, which checks every field docs/format.md defines
+// (against each other and against the index), so the report below only describes valid files.
+// Returns the container to report on.
+std::unique_ptr<store::ContainerReader> open_validated(const std::string& file, std::unique_ptr<ta::TaVolume>& volume) {
+  auto reader = std::make_unique<store::ContainerReader>(file);
+  const nlohmann::json& m = reader->metadata();
+  const auto codec = m.find("codec");
+  if (codec == m.end())
+    throw FormatError(file, "metadata.codec", "missing (expected \"ta-bricked\" or \"mixture-graph\")");
+  if (*codec == "ta-bricked") {
+    volume = std::make_unique<ta::TaVolume>(std::move(reader));
+    return nullptr;
+  }
+  if (*codec == mixture::kMixtureCodecName) {
+    mixture::EncodedLabels labels(std::make_unique<store::ContainerReader>(file));
+    return reader;
+  }
+  throw FormatError(file, "metadata.codec",
+                    "expected \"ta-bricked\" or \"mixture-graph\", got " + store::json_excerpt(*codec));
+}
+
 // A .strata file: container header, codec parameters, levels and brick counts, sizes.
 nlohmann::json container_report(const std::string& file) {
-  store::ContainerReader reader(file);
+  std::unique_ptr<ta::TaVolume> volume;
+  const std::unique_ptr<store::ContainerReader> labels = open_validated(file, volume);
+  const store::ContainerReader& reader = volume ? volume->container() : *labels;
   const nlohmann::json& m = reader.metadata();
   nlohmann::json j{{"file", file}, {"format", "strata"}, {"file_bytes", reader.file_size()},
                    {"metadata_bytes", reader.metadata_bytes()}, {"index_bytes", reader.index_bytes()}};
