@@ -53,7 +53,7 @@ StorageReport storage_report(const TaVolume& volume) {
       continue;
     }
     const auto stored = c.payload(e);
-    if (e.kind == store::PayloadKind::raw_zstd) {
+    if (e.kind == store::PayloadKind::raw_zstd || e.kind == store::PayloadKind::raw_packed) {
       r.lossless_bytes += stored.size();
       continue;
     }

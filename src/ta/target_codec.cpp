@@ -613,10 +613,10 @@ EncodedBrick constant_brick(float value, std::span<float> decoded) {
   return out;
 }
 
-EncodedBrick lossless_brick(std::span<const float> samples, int zstd_level, std::span<float> decoded) {
+EncodedBrick lossless_brick(std::span<const float> samples, int width, int zstd_level, std::span<float> decoded) {
   EncodedBrick out;
-  out.kind = store::PayloadKind::raw_zstd;
-  out.payload = encode_raw_brick(samples, zstd_level);
+  out.kind = store::PayloadKind::raw_packed;
+  out.payload = encode_packed_brick(samples, width, zstd_level);
   out.header_bytes = out.payload.size();
   std::copy(samples.begin(), samples.end(), decoded.begin());
   return out;
@@ -782,7 +782,8 @@ EncodedBrick encode_brick_to_target(const tensor::Tensor3& samples, const CoreRe
     best = &*tucker;
     std::copy(tucker_decoded.begin(), tucker_decoded.end(), decoded.begin());
   }
-  if (!best) return lossless_brick(v, target.zstd_level, decoded);
+  const int width = int(samples.dims()[0]);
+  if (!best) return lossless_brick(v, width, target.zstd_level, decoded);
   if (best->empty) return constant_brick(offset, decoded);
 
   EncodedBrick out;
@@ -792,12 +793,9 @@ EncodedBrick encode_brick_to_target(const tensor::Tensor3& samples, const CoreRe
     out.hosvd_bytes = tucker->bytes.size();
   }
   out.payload = std::move(best->bytes);
-  if (out.payload.size() >= v.size() * sizeof(float) / 2) {
-    // Possibly beaten by the lossless brick: try it.
-    std::vector<std::byte> raw = encode_raw_brick(v, target.zstd_level);
-    if (raw.size() <= out.payload.size()) return lossless_brick(v, target.zstd_level, decoded);
-  }
   out.header_bytes = out.payload.size();  // split in `strata eval` (ta/evaluate.cpp)
+  out = lossless_if_smaller(std::move(out), v, width, target.zstd_level);
+  if (out.kind == store::PayloadKind::raw_packed) std::copy(v.begin(), v.end(), decoded.begin());
   return out;
 }
 

@@ -5,14 +5,14 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "cli/cli_test_util.hpp"
 #include "support/test_support.hpp"
 
 using strata::test::run_command;
+using strata::test::strata_cmd;
 using strata::test::TempDir;
 
 namespace {
-
-std::string strata_cmd(const std::string& args) { return std::string(STRATA_BINARY) + " --progress none " + args; }
 
 nlohmann::json info_json(const std::string& file) {
   std::string out;

@@ -8,9 +8,11 @@
 #include <string>
 #include <thread>
 
+#include "cli/cli_test_util.hpp"
 #include "support/test_support.hpp"
 
 using strata::test::run_command;
+using strata::test::strata_cmd;
 using strata::test::shell_quoted;
 using strata::test::TempDir;
 
@@ -18,7 +20,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string strata_cmd(const std::string& args) { return std::string(STRATA_BINARY) + " --progress none " + args; }
 
 bool has(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
 

@@ -44,7 +44,8 @@ inline Volume prisms(Extent dims, std::uint64_t seed = 7) {
   return gen::generate(p);
 }
 
-// hooi and zstd default to the library's defaults (one HOOI sweep, zstd level 3).
+// hooi and zstd default to the library's defaults (one HOOI sweep, zstd level 3); every brick
+// stays Tucker (no lossless fallback).
 inline CompressParams params(int brick, int overlap, int rank, const std::string& quant, int hooi = 1, int zstd = 3) {
   CompressParams p;
   p.layout = {brick, overlap};
@@ -52,6 +53,7 @@ inline CompressParams params(int brick, int overlap, int rank, const std::string
   p.codec.quant = quant::QuantScheme::parse(quant);
   p.codec.hooi_iterations = hooi;
   p.codec.zstd_level = zstd;
+  p.codec.lossless_fallback = false;  // these tests study the Tucker bricks themselves
   return p;
 }
 

@@ -31,6 +31,7 @@ CodecParams codec(int rank, const std::string& quant, int zstd = 0) {
   p.quant = quant::QuantScheme::parse(quant);
   p.hooi_iterations = 3;
   p.zstd_level = zstd;
+  p.lossless_fallback = false;  // the Tucker bricks themselves (test_packed_raw_brick.cpp has the fallback)
   return p;
 }
 

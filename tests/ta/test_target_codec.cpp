@@ -305,7 +305,7 @@ TEST(TaTargetCodec, EmptyBricksAreFreeAndIncompressibleBricksAreStoredLosslessly
   const TaVolume t(dir / "white.strata");
   for (const auto& e : t.container().bricks())
     if (e.key.level == 0) {
-      EXPECT_EQ(e.kind, store::PayloadKind::raw_zstd);
+      EXPECT_EQ(e.kind, store::PayloadKind::raw_packed);
       EXPECT_LE(e.size, std::uint64_t(16 * 16 * 16 * sizeof(float)));
     }
   EXPECT_EQ(level0_error(white, dir / "white.strata").max_abs_error, 0.0);

@@ -11,7 +11,7 @@
 
 namespace strata {
 
-namespace detail {
+namespace checked_detail {
 // `overflows(a, b, &result)` is one of the __builtin_*_overflow functions.
 template <class T, class Overflows>
 constexpr std::optional<T> checked(T a, T b, Overflows overflows) {
@@ -20,18 +20,18 @@ constexpr std::optional<T> checked(T a, T b, Overflows overflows) {
   if (overflows(a, b, &result)) return std::nullopt;
   return result;
 }
-}  // namespace detail
+}  // namespace checked_detail
 
 /// a * b, or std::nullopt when the exact product does not fit in T.
 template <class T>
 constexpr std::optional<T> checked_mul(T a, T b) {
-  return detail::checked(a, b, [](T x, T y, T* r) { return __builtin_mul_overflow(x, y, r); });
+  return checked_detail::checked(a, b, [](T x, T y, T* r) { return __builtin_mul_overflow(x, y, r); });
 }
 
 /// a + b, or std::nullopt when the exact sum does not fit in T.
 template <class T>
 constexpr std::optional<T> checked_add(T a, T b) {
-  return detail::checked(a, b, [](T x, T y, T* r) { return __builtin_add_overflow(x, y, r); });
+  return checked_detail::checked(a, b, [](T x, T y, T* r) { return __builtin_add_overflow(x, y, r); });
 }
 
 /// The product of all factors, or std::nullopt when any partial product overflows T.

@@ -51,6 +51,12 @@ struct CodecParams {
   // payload smaller.
   int zstd_level = 3;
   ErrorTarget target;  // kind none: fixed-rank mode
+  // Fixed-rank mode: a brick whose Tucker payload is larger than its samples stored losslessly
+  // (raw_packed: thin volumes, whose bricks are mostly repeated edge, and noise) is stored so.
+  // Such a brick shows every detail at every rank; false keeps every brick Tucker, for studies
+  // of the Tucker codec itself, and so does zstd_level 0 (the plain fixed layout throughout).
+  // The error-target modes always fall back.
+  bool lossless_fallback = true;
 };
 
 /// @brief One encoded brick: payload kind and bytes, constant value, size breakdown.
@@ -67,9 +73,14 @@ struct EncodedBrick {
 /// @brief Encodes a brick of samples (B x B x B, first index fastest).
 /// A brick whose samples are all equal becomes a constant brick (no payload). Otherwise returns
 /// a tucker payload, or tucker_zstd when params.zstd_level > 0 and compression makes it
-/// smaller. Throws Error when params.rank is not in [1, B], params.quant is inconsistent, the
+/// smaller, or (params.lossless_fallback) the lossless raw_packed brick when that is smaller
+/// still. Throws Error when params.rank is not in [1, B], params.quant is inconsistent, the
 /// decomposition fails or the model holds non-finite values (quantization rejects them).
 EncodedBrick encode_brick(const tensor::Tensor3& samples, const CodecParams& params);
+
+/// @brief `coded`, or the lossless raw_packed brick of `samples` (`width`^3) when that is
+/// smaller: no brick costs more than storing its samples losslessly.
+EncodedBrick lossless_if_smaller(EncodedBrick coded, std::span<const float> samples, int width, int zstd_level);
 
 /// @brief Buffers reused across decodes, one per thread.
 struct DecodeScratch {
