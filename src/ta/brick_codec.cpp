@@ -114,20 +114,31 @@ EncodedBrick encode_brick(const tensor::Tensor3& samples, const CodecParams& par
   return lossless_if_smaller(std::move(out), samples.values(), int(samples.dims()[0]), params.zstd_level);
 }
 
+namespace {
+EncodedBrick raw_packed_brick(std::vector<std::byte> payload) {
+  EncodedBrick out;
+  out.kind = store::PayloadKind::raw_packed;
+  out.payload = std::move(payload);
+  out.header_bytes = out.payload.size();
+  return out;
+}
+}  // namespace
+
 EncodedBrick lossless_if_smaller(EncodedBrick coded, std::span<const float> samples, int width, int zstd_level) {
   // Zstd rarely shrinks the codes of a brick the lossy coder finds hard by more than 2x: below
   // that the lossless brick is not tried, and most bricks skip its cost (first against one
   // byte per sample of the box, then against the coding's own width; 3% of the encoder's time
   // on fibsem_medulla_250 at --psnr 40 when every brick measured its coding).
-  if (coded.payload.size() * 2 < packed_brick_box_voxels(samples, width)) return coded;
-  if (coded.payload.size() * 2 < packed_brick_plain_bytes(samples, width)) return coded;
-  std::vector<std::byte> raw = encode_packed_brick(samples, width, zstd_level);
+  PackedBrickEncoder lossless(samples, width);
+  if (coded.payload.size() * 2 < lossless.box_voxels()) return coded;
+  if (coded.payload.size() * 2 < lossless.plain_bytes()) return coded;
+  std::vector<std::byte> raw = lossless.encode(zstd_level);
   if (raw.size() >= coded.payload.size()) return coded;
-  EncodedBrick out;
-  out.kind = store::PayloadKind::raw_packed;
-  out.payload = std::move(raw);
-  out.header_bytes = out.payload.size();
-  return out;
+  return raw_packed_brick(std::move(raw));
+}
+
+EncodedBrick lossless_brick(std::span<const float> samples, int width, int zstd_level) {
+  return raw_packed_brick(encode_packed_brick(samples, width, zstd_level));
 }
 
 PayloadParts payload_parts(std::span<const std::byte> payload, const quant::QuantScheme& scheme,

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -32,17 +33,15 @@ void decode_raw_brick(std::span<const std::byte> payload, std::span<float> out, 
 
 namespace {
 
+using packed::Box;
+using packed::Coding;
+using packed::SampleCoding;
+
 constexpr std::size_t kPackedHeaderBytes = 18;
-enum class Coding : std::uint8_t { f32 = 0, u8 = 1, u16 = 2 };
 // Integer codes are exact while base + code stays an integer a float holds exactly.
 constexpr double kExactInteger = 16777216.0;  // 2^24
 
 std::size_t code_bytes(Coding c) { return c == Coding::f32 ? 4 : c == Coding::u16 ? 2 : 1; }
-
-struct Box {
-  std::array<int, 3> lo{}, extent{};
-  std::size_t voxels() const { return std::size_t(extent[0]) * std::size_t(extent[1]) * std::size_t(extent[2]); }
-};
 
 std::array<std::size_t, 3> strides(int width) {
   const auto w = std::size_t(width);
@@ -87,12 +86,6 @@ void for_each_in_box(const Box& box, int width, F&& f) {
       for (int i = 0; i < box.extent[0]; ++i, ++n) f(n, row + std::size_t(i));
     }
 }
-
-struct SampleCoding {
-  Coding coding = Coding::f32;
-  int fraction_bits = 0;  // codes count steps of 2^-fraction_bits
-  float base = 0;
-};
 
 constexpr int kMaxFractionBits = 8;  // the means of a few levels of 2 x 2 x 2 integer samples
 
@@ -140,10 +133,6 @@ SampleCoding choose_coding(std::span<const float> s, const Box& box, int width) 
   return {spread <= 255 ? Coding::u8 : Coding::u16, f, float(lo)};
 }
 
-float decode_sample(const SampleCoding& c, std::uint16_t code) {
-  return float(double(c.base) + std::ldexp(double(code), -c.fraction_bits));
-}
-
 std::vector<std::byte> box_codes(std::span<const float> s, const Box& box, int width, const SampleCoding& c) {
   const std::size_t bytes = code_bytes(c.coding);
   std::vector<std::byte> codes(box.voxels() * bytes);
@@ -176,30 +165,34 @@ Box read_box(ByteReader& in, int width, const std::string& context) {
 
 }  // namespace
 
-std::size_t packed_brick_box_voxels(std::span<const float> samples, int width) {
-  return replicated_box(samples, width).voxels();
+PackedBrickEncoder::PackedBrickEncoder(std::span<const float> samples, int width) : samples_(samples), width_(width) {
+  if (samples.size() != std::size_t(width) * std::size_t(width) * std::size_t(width))
+    throw Error("encode_packed_brick: the samples are not a brick of width " + std::to_string(width));
+  box_ = replicated_box(samples, width);
 }
 
-std::size_t packed_brick_plain_bytes(std::span<const float> samples, int width) {
-  const Box box = replicated_box(samples, width);
-  return box.voxels() * code_bytes(choose_coding(samples, box, width).coding);
+const SampleCoding& PackedBrickEncoder::coding() {
+  if (!coding_) coding_ = choose_coding(samples_, box_, width_);
+  return *coding_;
+}
+
+std::size_t PackedBrickEncoder::plain_bytes() { return box_.voxels() * code_bytes(coding().coding); }
+
+std::vector<std::byte> PackedBrickEncoder::encode(int zstd_level) {
+  const SampleCoding& c = coding();
+  const std::vector<std::byte> frame = store::zstd_compress(box_codes(samples_, box_, width_, c), zstd_level > 0 ? zstd_level : 3);
+  ByteWriter out(kPackedHeaderBytes + frame.size());
+  out.put(std::uint8_t(c.coding));
+  out.put(std::uint8_t(c.fraction_bits));
+  for (int lo : box_.lo) out.put(std::uint16_t(lo));
+  for (int e : box_.extent) out.put(std::uint16_t(e));
+  out.put(c.base);
+  out.put_bytes(frame);
+  return out.take();
 }
 
 std::vector<std::byte> encode_packed_brick(std::span<const float> samples, int width, int zstd_level) {
-  if (samples.size() != std::size_t(width) * std::size_t(width) * std::size_t(width))
-    throw Error("encode_packed_brick: the samples are not a brick of width " + std::to_string(width));
-  const Box box = replicated_box(samples, width);
-  const SampleCoding coding = choose_coding(samples, box, width);
-  const std::vector<std::byte> frame =
-      store::zstd_compress(box_codes(samples, box, width, coding), zstd_level > 0 ? zstd_level : 3);
-  ByteWriter out(kPackedHeaderBytes + frame.size());
-  out.put(std::uint8_t(coding.coding));
-  out.put(std::uint8_t(coding.fraction_bits));
-  for (int lo : box.lo) out.put(std::uint16_t(lo));
-  for (int e : box.extent) out.put(std::uint16_t(e));
-  out.put(coding.base);
-  out.put_bytes(frame);
-  return out.take();
+  return PackedBrickEncoder(samples, width).encode(zstd_level);
 }
 
 void decode_packed_brick(std::span<const std::byte> payload, int width, std::span<float> out,
@@ -225,22 +218,14 @@ void decode_packed_brick(std::span<const std::byte> payload, int width, std::spa
   if (scratch.size() != expected)
     throw FormatError(context, "packed raw brick planes",
                       "inflate to " + std::to_string(scratch.size()) + " bytes, the box needs " + std::to_string(expected));
-  std::vector<std::byte> merged;
-  if (bytes > 1) {
-    merged.resize(expected);
-    store::merge_byte_planes(scratch, merged, bytes);
-  }
-  const std::vector<std::byte>& codes = bytes > 1 ? merged : scratch;
-  std::vector<float> stored(box.voxels());
-  for (std::size_t n = 0; n < stored.size(); ++n) {
-    if (coding == Coding::f32) {
-      std::memcpy(&stored[n], &codes[n * 4], 4);
-    } else {
-      std::uint16_t code = 0;
-      std::memcpy(&code, &codes[n * bytes], bytes);
-      stored[n] = decode_sample(c, code);
-    }
-  }
+  // The codes are read straight from their byte planes (plane p holds byte p of every code).
+  const std::size_t count = box.voxels();
+  const double scale = std::ldexp(1.0, -c.fraction_bits);  // exact: code * scale == ldexp(code, -f)
+  const auto stored = [&](std::size_t n) -> float {
+    std::uint32_t code = 0;
+    for (std::size_t p = 0; p < bytes; ++p) code |= std::uint32_t(scratch[p * count + n]) << (8 * p);
+    return coding == Coding::f32 ? std::bit_cast<float>(code) : float(double(c.base) + double(code) * scale);
+  };
   // Clamping each coordinate into the box repeats its edge the way the encoder found it.
   const auto st = strides(width);
   auto clamp_into = [&](int i, std::size_t a) { return std::size_t(std::clamp(i - box.lo[a], 0, box.extent[a] - 1)); };
@@ -248,7 +233,7 @@ void decode_packed_brick(std::span<const std::byte> payload, int width, std::spa
     for (int j = 0; j < width; ++j) {
       const std::size_t src_row = (clamp_into(k, 2) * std::size_t(box.extent[1]) + clamp_into(j, 1)) * std::size_t(box.extent[0]);
       float* dst = out.data() + std::size_t(j) * st[1] + std::size_t(k) * st[2];
-      for (int i = 0; i < width; ++i) dst[i] = stored[src_row + clamp_into(i, 0)];
+      for (int i = 0; i < width; ++i) dst[i] = stored(src_row + clamp_into(i, 0));
     }
 }
 

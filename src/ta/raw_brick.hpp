@@ -22,7 +22,10 @@
 // | 18     | bytes  | planes   | one zstd frame: the box's codes, first index fastest, as planes |
 //
 // Decoding clamps each coordinate into the box, so the brick is bit-identical to the encoder's.
+#include <array>
 #include <cstddef>
+#include <cstdint>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -35,12 +38,43 @@ std::vector<std::byte> encode_raw_brick(std::span<const float> samples, int zstd
 void decode_raw_brick(std::span<const std::byte> payload, std::span<float> out, std::vector<std::byte>& scratch,
                       const std::string& context);
 
-// raw_packed (kind 6) of a brick of `width`^3 samples. Decoding returns exactly `samples`.
+namespace packed {
+enum class Coding : std::uint8_t { f32 = 0, u8 = 1, u16 = 2 };
+// The stored box: samples [lo, lo + extent) along each axis.
+struct Box {
+  std::array<int, 3> lo{}, extent{};
+  std::size_t voxels() const { return std::size_t(extent[0]) * std::size_t(extent[1]) * std::size_t(extent[2]); }
+};
+// sample = base + code * 2^-fraction_bits (codings u8, u16); f32 keeps the float bits.
+struct SampleCoding {
+  Coding coding = Coding::f32;
+  int fraction_bits = 0;
+  float base = 0;
+};
+}  // namespace packed
+
+// raw_packed (kind 6) of one brick of `width`^3 samples, in steps an encoder can stop between:
+// the stored box (cheap) and the coding (one pass over the box) are each found once, so
+// comparing a lossy payload against their sizes first and then encoding repeats no work.
+// Decoding returns exactly `samples`.
+class PackedBrickEncoder {
+ public:
+  PackedBrickEncoder(std::span<const float> samples, int width);
+  // Samples the payload stores (a bound on its size before any coding is chosen).
+  std::size_t box_voxels() const { return box_.voxels(); }
+  // Bytes of its planes before zstd: the box's samples at the chosen code width.
+  std::size_t plain_bytes();
+  std::vector<std::byte> encode(int zstd_level);
+
+ private:
+  const packed::SampleCoding& coding();
+  std::span<const float> samples_;
+  int width_;
+  packed::Box box_;
+  std::optional<packed::SampleCoding> coding_;
+};
+
 std::vector<std::byte> encode_packed_brick(std::span<const float> samples, int width, int zstd_level);
-// The samples encode_packed_brick stores, and the uncompressed size of its planes: cheap
-// bounds on the payload, for deciding whether a lossy payload is worth comparing against it.
-std::size_t packed_brick_box_voxels(std::span<const float> samples, int width);
-std::size_t packed_brick_plain_bytes(std::span<const float> samples, int width);
 // Throws FormatError(context, "packed raw brick", ...) for any header field outside the table
 // above, or planes that do not inflate to the box.
 void decode_packed_brick(std::span<const std::byte> payload, int width, std::span<float> out,

@@ -13,7 +13,6 @@
 #include "strata/tensor/reconstruct.hpp"
 #include "strata/tensor/ttm.hpp"
 #include "strata/tensor/tucker.hpp"
-#include "ta/raw_brick.hpp"
 
 namespace strata::ta {
 
@@ -613,13 +612,9 @@ EncodedBrick constant_brick(float value, std::span<float> decoded) {
   return out;
 }
 
-EncodedBrick lossless_brick(std::span<const float> samples, int width, int zstd_level, std::span<float> decoded) {
-  EncodedBrick out;
-  out.kind = store::PayloadKind::raw_packed;
-  out.payload = encode_packed_brick(samples, width, zstd_level);
-  out.header_bytes = out.payload.size();
+EncodedBrick lossless_decoded_brick(std::span<const float> samples, int width, int zstd_level, std::span<float> decoded) {
   std::copy(samples.begin(), samples.end(), decoded.begin());
-  return out;
+  return lossless_brick(samples, width, zstd_level);
 }
 
 struct CodedPayload {
@@ -783,7 +778,7 @@ EncodedBrick encode_brick_to_target(const tensor::Tensor3& samples, const CoreRe
     std::copy(tucker_decoded.begin(), tucker_decoded.end(), decoded.begin());
   }
   const int width = int(samples.dims()[0]);
-  if (!best) return lossless_brick(v, width, target.zstd_level, decoded);
+  if (!best) return lossless_decoded_brick(v, width, target.zstd_level, decoded);
   if (best->empty) return constant_brick(offset, decoded);
 
   EncodedBrick out;

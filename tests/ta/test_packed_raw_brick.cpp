@@ -118,6 +118,29 @@ TEST(TaPackedRawBrick, StoresOnlyTheBoxItsPaddingRepeats) {
   EXPECT_LT(payload.size() * 2, encode_raw_brick(brick, 3).size());
 }
 
+// The encoder's steps report the sizes it then stores: the box, its codes at the chosen width
+// (u16 for samples spanning 0..65535, u8 for 0..255, f32 for fractions no code holds), and the
+// same payload as the one-call encoder.
+TEST(TaPackedRawBrick, TheEncoderStepsReportWhatItStores) {
+  const std::array<int, 3> lo{2, 0, 7}, extent{5, 1, 9};
+  struct Case {
+    std::vector<float> inner;
+    std::size_t code_bytes;
+  };
+  std::vector<float> fractions = uniform_integers(0, 1000, 5);
+  for (float& x : fractions) x = x / 1000.0f + 0.0001f;
+  for (const Case& c : {Case{uniform_integers(0, 65535, 8), 2}, Case{uniform_integers(0, 255, 9), 1}, Case{fractions, 4}}) {
+    const std::vector<float> brick = edge_padded(c.inner, lo, extent);
+    PackedBrickEncoder encoder(brick, kWidth);
+    EXPECT_EQ(encoder.box_voxels(), 45u);
+    EXPECT_EQ(encoder.plain_bytes(), 45u * c.code_bytes);
+    const std::vector<std::byte> payload = encoder.encode(3);
+    EXPECT_EQ(payload, encode_packed_brick(brick, kWidth, 3));
+    EXPECT_EQ(std::to_integer<int>(payload[0]), c.code_bytes == 4 ? 0 : c.code_bytes == 1 ? 1 : 2);
+    EXPECT_TRUE(bit_equal(decoded(payload), brick));
+  }
+}
+
 TEST(TaPackedRawBrick, ForgedHeadersAreRefusedByField) {
   const std::vector<std::byte> good = encode_packed_brick(uniform_integers(0, 255, 9), kWidth, 3);
   auto forged = [&](std::size_t offset, std::vector<std::uint8_t> bytes) {

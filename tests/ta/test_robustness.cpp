@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include "strata/store/container.hpp"
+#include "store/forge.hpp"
 #include "ta/ta_test_util.hpp"
 #include "support/test_support.hpp"
 
@@ -43,21 +44,12 @@ class TaRobustness : public ::testing::Test {
     return out;
   }
 
-  // What opening and fully decoding level 0 throws: "" when nothing, the message of a
-  // strata::FormatError, "Error: <message>" for another strata::Error and "FOREIGN: <what>" for
-  // anything else.
+  // What opening and fully decoding level 0 throws (forge::failure_of).
   static std::string open_and_decode(const fs::path& p) {
-    try {
+    return test::forge::failure_of([&] {
       TaVolume t(p);
       t.decode_box(0, Box::whole(t.geometry().level(0).dims), t.rank());
-    } catch (const FormatError& e) {
-      return e.what();
-    } catch (const Error& e) {
-      return std::string("Error: ") + e.what();
-    } catch (const std::exception& e) {
-      return std::string("FOREIGN: ") + e.what();
-    }
-    return "";
+    });
   }
 
   static inline test::TempDir* dir_ = nullptr;

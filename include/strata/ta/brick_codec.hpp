@@ -81,6 +81,8 @@ EncodedBrick encode_brick(const tensor::Tensor3& samples, const CodecParams& par
 /// @brief `coded`, or the lossless raw_packed brick of `samples` (`width`^3) when that is
 /// smaller: no brick costs more than storing its samples losslessly.
 EncodedBrick lossless_if_smaller(EncodedBrick coded, std::span<const float> samples, int width, int zstd_level);
+/// @brief The lossless raw_packed brick of `samples` (`width`^3), whatever its size.
+EncodedBrick lossless_brick(std::span<const float> samples, int width, int zstd_level);
 
 /// @brief Buffers reused across decodes, one per thread.
 struct DecodeScratch {
