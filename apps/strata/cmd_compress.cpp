@@ -39,23 +39,23 @@ ta::ErrorTarget to_target(const CompressArgs& args) {
   try {
     ta::check_target(t);
   } catch (const ParameterError& e) {
-    if (e.parameter() == "ErrorTarget::value") throw Error(std::string(flag) + ": " + e.problem());
-    throw;
+    if (e.parameter() == "ErrorTarget::value") throw UsageError(flag, e.problem());
+    throw UsageError(e.parameter(), e.problem());
   }
   return t;
 }
 
 ta::CompressParams to_params(const CompressArgs& args) {
   if (!(std::isfinite(args.coarse_growth) && args.coarse_growth >= 1))
-    throw Error("--coarse-growth: must be a finite factor >= 1, got " + std::to_string(args.coarse_growth));
+    throw UsageError("--coarse-growth", "must be a finite factor >= 1, got " + std::to_string(args.coarse_growth));
   // The encoder works with squared errors: a smaller target underflows to 0.
   if (args.rmse && std::isfinite(*args.rmse) && *args.rmse > 0 && *args.rmse < kMinRmse)
-    throw Error(fmt::format("--rmse: must be at least {:g} (below, its square is no longer a positive number), got {:g}",
-                            kMinRmse, *args.rmse));
+    throw UsageError("--rmse", fmt::format("must be at least {:g} (below, its square is no longer a positive number), got {:g}",
+                                           kMinRmse, *args.rmse));
   ta::CompressParams p;
   p.layout = {args.brick, args.overlap};
   p.layout.validate();
-  if (args.rank < 0) throw Error("--rank: must be positive, got " + std::to_string(args.rank));
+  if (args.rank < 0) throw UsageError("--rank", "must be positive, got " + std::to_string(args.rank));
   p.codec.target = to_target(args);
   // With a target the rank is only a cap: each brick keeps the ranks its error needs.
   const int default_rank = p.codec.target.kind == ta::TargetKind::none ? args.brick / 2 : args.brick;

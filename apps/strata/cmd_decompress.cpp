@@ -28,7 +28,7 @@ void run_decompress(const DecompressArgs& args, const GlobalOptions&) {
   volume.check_level(args.level);
   const Extent dims = volume.geometry().level(args.level).dims;
   const Box box = args.box.empty() ? Box::whole(dims) : parse_box(args.box);
-  if (args.rank < 0) throw Error("--rank: must be positive, got " + std::to_string(args.rank));
+  if (args.rank < 0) throw UsageError("--rank", "must be positive, got " + std::to_string(args.rank));
   const int k = args.rank > 0 ? args.rank : volume.rank();
   if (k > volume.rank())
     throw Error("--rank: " + std::to_string(k) + " exceeds the stored rank " + std::to_string(volume.rank()));

@@ -2,6 +2,7 @@
 #include <cstdio>
 #include <nlohmann/json.hpp>
 
+#include "cli_checks.hpp"
 #include "commands.hpp"
 #include "report.hpp"
 #include "strata/core/error.hpp"
@@ -75,7 +76,7 @@ void print_report(const nlohmann::json& r) {
 void run_eval(const EvalArgs& args, const GlobalOptions&) {
   ta::TaVolume volume(args.compressed);
   auto original = io::open_volume(args.original);
-  if (args.rank < 0) throw Error("--rank: must be positive, got " + std::to_string(args.rank));
+  if (args.rank < 0) throw UsageError("--rank", "must be positive, got " + std::to_string(args.rank));
   const int k = args.rank > 0 ? std::min(args.rank, volume.rank()) : volume.rank();
   const nlohmann::json report = eval_json(volume, ta::storage_report(volume), ta::error_report(volume, *original, k));
   if (args.json) std::printf("%s\n", report.dump(2).c_str());

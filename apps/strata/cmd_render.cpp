@@ -43,7 +43,7 @@ std::pair<int, int> parse_size(const std::string& text) {
     if (whole && w > 0 && h > 0 && w <= render::kMaxImageEdge && h <= render::kMaxImageEdge) return {w, h};
   } catch (const std::exception&) {
   }
-  throw Error(fmt::format("--size: expected WIDTHxHEIGHT (1..{} each), got '{}'", render::kMaxImageEdge, text));
+  throw UsageError("--size", fmt::format("expected WIDTHxHEIGHT (1..{} each), got '{}'", render::kMaxImageEdge, text));
 }
 
 std::array<float, 4> parse_background(const std::string& text) {
@@ -52,14 +52,14 @@ std::array<float, 4> parse_background(const std::string& text) {
   for (int i = 0; i < 3; ++i) {
     const std::size_t comma = text.find(',', start);
     if ((i < 2) != (comma != std::string::npos))
-      throw Error("--background: expected r,g,b in [0,1], got '" + text + "'");
+      throw UsageError("--background", "expected r,g,b in [0,1], got '" + text + "'");
     try {
       c[std::size_t(i)] = std::stof(text.substr(start, comma - start));
     } catch (const std::exception&) {
-      throw Error("--background: expected r,g,b in [0,1], got '" + text + "'");
+      throw UsageError("--background", "expected r,g,b in [0,1], got '" + text + "'");
     }
     if (!(c[std::size_t(i)] >= 0 && c[std::size_t(i)] <= 1))
-      throw Error("--background: components must lie in [0,1], got '" + text + "'");
+      throw UsageError("--background", "components must lie in [0,1], got '" + text + "'");
     start = comma + 1;
   }
   return c;

@@ -20,6 +20,15 @@ struct GlobalOptions {
   std::unique_ptr<ProgressSink> make_progress() const { return make_progress_sink(parse_progress_mode(progress)); }
 };
 
+// Checks an integer flag's text before CLI11 converts it: digits only (CLI11 would wrap "-1"
+// into an unsigned value, and its own NonNegativeNumber prints the range as a 300-digit double).
+inline const CLI::Validator kNonNegativeInteger(
+    [](std::string& text) -> std::string {
+      if (!text.empty() && text.find_first_not_of("0123456789") == std::string::npos) return {};
+      return "must be a non-negative integer, got '" + text + "'";
+    },
+    "", "non-negative integer");
+
 void register_info(CLI::App& app, const GlobalOptions& global);
 void register_convert(CLI::App& app, const GlobalOptions& global);
 void register_generate(CLI::App& app, const GlobalOptions& global);

@@ -39,18 +39,13 @@ void keep_brick_buffers_mapped() {
 #endif
 }
 
-// --threads at most this many times the hardware threads: more only adds scheduling and
-// per-thread buffers, and the runtimes fail (crash or abort) long before 100000 threads.
-constexpr int kThreadsPerHardwareThread = 4;
-
-int max_threads() { return kThreadsPerHardwareThread * std::max(1, int(std::thread::hardware_concurrency())); }
-
 void apply_thread_option(int threads) {
-  if (threads > max_threads())
+  if (threads > strata::max_thread_count())
     throw strata::cli::UsageError(
-        "--threads", "at most " + std::to_string(max_threads()) + " (" + std::to_string(kThreadsPerHardwareThread) +
-                         " x the " + std::to_string(max_threads() / kThreadsPerHardwareThread) +
-                         " hardware threads of this machine), got " + std::to_string(threads));
+        "--threads", "at most " + std::to_string(strata::max_thread_count()) + " (" +
+                         std::to_string(strata::kMaxThreadsPerHardwareThread) + " x the " +
+                         std::to_string(strata::hardware_threads()) + " hardware threads of this machine), got " +
+                         std::to_string(threads));
   strata::set_thread_count(threads);
 }
 
@@ -74,9 +69,10 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "strata 0.1.0");
   cli::GlobalOptions global;
   app.add_option("--threads", global.threads,
-                 "Worker threads (default: all hardware threads; at most " + std::to_string(kThreadsPerHardwareThread) +
-                     " x the hardware threads, here " + std::to_string(max_threads()) + ")")
-      ->check(CLI::NonNegativeNumber);
+                 "Worker threads (default: all hardware threads; at most " +
+                     std::to_string(kMaxThreadsPerHardwareThread) + " x the hardware threads, here " +
+                     std::to_string(max_thread_count()) + ")")
+      ->check(cli::kNonNegativeInteger);
   app.add_option("--progress", global.progress, "Progress display: auto (bar on a terminal), bar, json, none")
       ->check(CLI::IsMember({"auto", "bar", "json", "none"}));
   app.add_option("--isa", global.isa,

@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <sstream>
 
+#include "cli_checks.hpp"
 #include "strata/core/error.hpp"
 #include "strata/io/files.hpp"
 
@@ -25,7 +26,7 @@ io::ReadOptions RawInputArgs::to_read_options() const {
     char c1 = 0, c2 = 0;
     std::istringstream in(spacing);
     if (!(in >> s.x >> c1 >> s.y >> c2 >> s.z) || c1 != ',' || c2 != ',')
-      throw Error("--spacing: expected SX,SY,SZ, got '" + spacing + "'");
+      throw UsageError("--spacing", "expected SX,SY,SZ, got '" + spacing + "'");
     o.raw_spacing = s;
   }
   o.raw_big_endian = big_endian;
@@ -55,18 +56,18 @@ std::uint64_t parse_byte_size(const std::string& text, const std::string& option
   try {
     value = std::stod(text, &used);
   } catch (const std::exception&) {
-    throw Error(option + ": expected a size such as 512M or 2G, got '" + text + "'");
+    throw UsageError(option, "expected a size such as 512M or 2G, got '" + text + "'");
   }
   std::string suffix = text.substr(used);
   double scale = 1;
   if (suffix == "k" || suffix == "K" || suffix == "KiB") scale = 1024.0;
   else if (suffix == "m" || suffix == "M" || suffix == "MiB") scale = 1024.0 * 1024;
   else if (suffix == "g" || suffix == "G" || suffix == "GiB") scale = 1024.0 * 1024 * 1024;
-  else if (!suffix.empty()) throw Error(option + ": unknown unit '" + suffix + "' (use k, M or G)");
+  else if (!suffix.empty()) throw UsageError(option, "unknown unit '" + suffix + "' (use k, M or G)");
   // Up to 1 PiB: a budget no machine reaches, and far inside the 64-bit range.
   constexpr double kMaxBytes = double(std::uint64_t(1) << 50);
-  if (!(value > 0)) throw Error(option + ": must be positive, got '" + text + "'");
-  if (!(value * scale <= kMaxBytes)) throw Error(option + ": must be at most 1 PiB (1048576G), got '" + text + "'");
+  if (!(value > 0)) throw UsageError(option, "must be positive, got '" + text + "'");
+  if (!(value * scale <= kMaxBytes)) throw UsageError(option, "must be at most 1 PiB (1048576G), got '" + text + "'");
   return std::max<std::uint64_t>(1, std::uint64_t(value * scale));
 }
 

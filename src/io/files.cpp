@@ -178,20 +178,22 @@ void UnnamedTempFile::write(const void* data, std::size_t bytes) {
 // ---------------------------------------------------------------------------------------------
 // read_json_file
 
+std::string json_error_reason(const std::exception& error) {
+  std::string_view why = error.what();
+  if (why.starts_with("[json.exception.")) {
+    const auto end = why.find("] ");
+    if (end != std::string_view::npos) why.remove_prefix(end + 2);
+  }
+  return std::string(why);
+}
+
 nlohmann::json read_json_file(const std::filesystem::path& path, std::string_view field) {
   std::ifstream in(path);
   if (!in) throw Error(fmt::format("{}: cannot open", path.string()));
   try {
     return nlohmann::json::parse(in);
   } catch (const nlohmann::json::exception& e) {
-    // The library prefixes its text with "[json.exception.<kind>.<id>] "; users get the rest
-    // ("parse error at line 1, column 9: ...", "number overflow parsing '1e999'").
-    std::string_view why = e.what();
-    if (why.starts_with("[json.exception.")) {
-      const auto end = why.find("] ");
-      if (end != std::string_view::npos) why.remove_prefix(end + 2);
-    }
-    throw FormatError(path.string(), std::string(field), fmt::format("invalid JSON: {}", why));
+    throw FormatError(path.string(), std::string(field), "invalid JSON: " + json_error_reason(e));
   }
 }
 

@@ -10,6 +10,7 @@
 
 #include "strata/core/bytes.hpp"
 #include "strata/core/error.hpp"
+#include "strata/core/memory.hpp"
 #include "strata/store/byte_planes.hpp"
 #include "strata/store/crc32c.hpp"
 #include "strata/store/metadata_json.hpp"
@@ -45,6 +46,14 @@ constexpr int kIndexZstdLevel = 15;
 // index_count whose columns would need more is refused before anything is allocated; the
 // bound never rejects a real file, however many constant bricks it has.
 constexpr std::uint64_t kZstdMaxExpansion = 128 * 1024 / 4;
+
+// Memory an index entry takes while the reader opens the file: the entry itself, its lookup
+// node and bucket, and its columns (at most the 64 bytes of a plain entry) while they decode.
+constexpr std::uint64_t kOpenBytesPerEntry = sizeof(BrickEntry) + 64 + kIndexEntrySize;
+// The share of physical memory an index may take to open: a header declaring more is corrupt or
+// hostile (a zstd frame may declare 32768 bytes of columns per stored byte), or the volume is
+// too large for this machine; either way it is refused before anything is allocated.
+constexpr std::uint64_t kIndexMemoryShareDivisor = 2;
 
 std::uint64_t saturating_mul(std::uint64_t a, std::uint64_t b) { return a != 0 && b > UINT64_MAX / a ? UINT64_MAX : a * b; }
 
@@ -340,10 +349,7 @@ ContainerReader::ContainerReader(const std::filesystem::path& path)
     metadata_ = nlohmann::json::parse(reinterpret_cast<const char*>(meta.data()),
                                       reinterpret_cast<const char*>(meta.data()) + meta.size());
   } catch (const nlohmann::json::exception& e) {
-    // e.what() starts with the library's "[json.exception.parse_error.101] "; keep what follows.
-    const std::string what = e.what();
-    const auto bracket = what.find("] ");
-    throw FormatError(file, "metadata", "invalid JSON (" + (bracket == std::string::npos ? what : what.substr(bracket + 2)) + ")");
+    throw FormatError(file, "metadata", "invalid JSON (" + io::json_error_reason(e) + ")");
   }
   if (!metadata_.is_object())
     throw FormatError(file, "metadata", "expected a JSON object, got " + std::string(metadata_.type_name()));
@@ -359,6 +365,17 @@ ContainerReader::ContainerReader(const std::filesystem::path& path)
   }
   entries_ = std::move(entries);
   read_sections();
+}
+
+void ContainerReader::check_index_fits_memory(std::uint64_t count) const {
+  const std::uint64_t memory = physical_memory_bytes();
+  if (memory == 0) return;  // the system does not say; the frame and file size bounds still hold
+  const std::uint64_t needed = saturating_mul(count, kOpenBytesPerEntry), allowed = memory / kIndexMemoryShareDivisor;
+  if (needed > allowed)
+    throw FormatError(path_.string(), "index_count",
+                      fmt::format("{} entries would take {:.1f} GiB to open, more than half of this machine's {:.1f} GiB "
+                                  "(a corrupt or hostile header, or a volume too large for this machine)",
+                                  count, double(needed) / double(1ull << 30), double(memory) / double(1ull << 30)));
 }
 
 // An index entry the payload kinds table allows: a known kind, a range inside the file, and for
@@ -397,6 +414,7 @@ ContainerReader::~ContainerReader() = default;
 // Format 1.0/1.1 (and 1.2 without flag bit 0): count entries of 64 bytes.
 std::vector<BrickEntry> ContainerReader::read_plain_index(std::uint64_t offset, std::uint64_t count, std::uint32_t crc) {
   if (count > file_->size() / kIndexEntrySize) throw FormatError(path_.string(), "index_count", "larger than the file");
+  check_index_fits_memory(count);
   index_size_ = count * kIndexEntrySize;
   const auto index = checked_range(offset, index_size_, "index");
   if (crc32c(index.data(), index.size()) != crc) throw FormatError(path_.string(), "index", "checksum mismatch");
@@ -419,6 +437,7 @@ std::vector<BrickEntry> ContainerReader::read_compressed_index(std::uint64_t off
                       fmt::format("{} entries need {} bytes of columns each, more than a {}-byte zstd frame can "
                                   "inflate to ({} per byte at most)",
                                   count, kColumnBytesPerEntry, frame_size, kZstdMaxExpansion));
+  check_index_fits_memory(count);
   std::vector<std::byte> columns;
   zstd_decompress(frame, saturating_mul(count, kColumnBytesPerEntry + kColumnBytesPerPayload), columns, file, "index");
   const auto wrong_size = [&](std::uint64_t expected) {

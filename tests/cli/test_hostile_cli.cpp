@@ -72,9 +72,9 @@ TEST_F(HostileCli, RenderRefusesNonFiniteAndOutOfRangeCameraValues) {
     refused("render " + q(input) + png + "--rank -3", 2, "--rank: ");
     refused("render " + q(input) + png + "--target-fps inf", 2, "--target-fps: ");
     refused("render " + q(input) + png + "--max-bricks 0", 2, "--max-bricks: ");
-    refused("render " + q(input) + " -o " + q("r.png") + " --size 0x5", 1, "--size: ");
-    refused("render " + q(input) + " -o " + q("r.png") + " --size 99999999999x5", 1, "--size: ");
-    refused("render " + q(input) + " -o " + q("r.png") + " --size 5x5junk", 1, "--size: ");
+    refused("render " + q(input) + " -o " + q("r.png") + " --size 0x5", 2, "--size: ");
+    refused("render " + q(input) + " -o " + q("r.png") + " --size 99999999999x5", 2, "--size: ");
+    refused("render " + q(input) + " -o " + q("r.png") + " --size 5x5junk", 2, "--size: ");
   }
   EXPECT_FALSE(fs::exists(file("r.png")));
 }
@@ -91,7 +91,7 @@ TEST_F(HostileCli, RenderBoundsSamplesPerRayAndFrames) {
   EXPECT_TRUE(has(out, "3600")) << out;
   refused("render " + q("p.strata") + " -o " + q("frames") + " --size 16x16 --orbit -1", 2, "--orbit: ");
   EXPECT_FALSE(fs::exists(file("frames")));
-  refused("render " + q("p.strata") + png + "--cache inf", 1, "--cache: ");
+  refused("render " + q("p.strata") + png + "--cache inf", 2, "--cache: ");
   refused("render " + q("p.strata") + png + "--cache 1", 1, "--cache: ");
 }
 
@@ -101,6 +101,9 @@ TEST_F(HostileCli, ThreadCountIsCapped) {
     refused("--threads " + n + " info " + q("p.nrrd"), 2, "--threads: ");
   refused("--threads 400000 compress " + q("p.nrrd") + " -o " + q("t.strata"), 2, "--threads: ");
   EXPECT_FALSE(fs::exists(file("t.strata")));
+  // A negative count is not wrapped into a huge one.
+  const std::string out_negative = refused("--threads -1 info " + q("p.nrrd"), 2, "--threads: ");
+  EXPECT_TRUE(has(out_negative, "non-negative integer")) << out_negative;
   // The cap itself is accepted.
   std::string out;
   EXPECT_EQ(run_command(strata_cmd("--threads " + std::to_string(cap) + " info " + q("f.nrrd")), &out), 0) << out;
@@ -167,6 +170,12 @@ TEST_F(HostileCli, GeneratorsRefuseWhatCannotStreamInBoundedMemory) {
   refused("generate sphere --size 100000,100000,1 -o " + q("g.nrrd"), 2, "--size: ");
   refused("generate fibres --size 16 --count 5000 -o " + q("g.nrrd"), 2, "--count: ");
   refused("generate superpixels --size 16 --count 1000 -o " + q("g.nrrd"), 2, "--count: ");
+  // Negative seeds and counts are refused, not wrapped into huge unsigned values.
+  out = refused("generate sphere --size 8 --seed -1 -o " + q("g.nrrd"), 2, "--seed: ");
+  EXPECT_TRUE(has(out, "non-negative integer, got '-1'")) << out;
+  refused("generate voronoi --size 8 --count -5 -o " + q("g.nrrd"), 2, "--count: ");
+  refused("labels calibrate " + q("v.strata") + " --seed -1", 2, "--seed: ");
+  refused("labels calibrate " + q("v.strata") + " --boxes 1000000", 2, "--boxes: ");
   EXPECT_FALSE(fs::exists(file("g.nrrd")));
   // A deep volume of small slices still streams (memory does not grow with the depth).
   EXPECT_EQ(run_command(strata_cmd("generate sphere --size 8,8,8192 -o " + q("deep.raw")), &out), 0) << out;
@@ -179,9 +188,9 @@ TEST_F(HostileCli, LibraryTextIsExplained) {
   EXPECT_TRUE(has(out, "f.nrrd")) << out;
   EXPECT_TRUE(has(out, "integer")) << out;
   EXPECT_FALSE(fs::exists(file("f.strata")));
-  refused("compress " + q("p.nrrd") + " -o " + q("t.strata") + " --rmse 1e-300", 1, "--rmse: ");
-  refused("compress " + q("p.nrrd") + " -o " + q("t.strata") + " --coarse-growth nan", 1, "--coarse-growth: ");
-  refused("compress " + q("p.nrrd") + " -o " + q("t.strata") + " --memory-limit 1e30G", 1, "--memory-limit: ");
+  refused("compress " + q("p.nrrd") + " -o " + q("t.strata") + " --rmse 1e-300", 2, "--rmse: ");
+  refused("compress " + q("p.nrrd") + " -o " + q("t.strata") + " --coarse-growth nan", 2, "--coarse-growth: ");
+  refused("compress " + q("p.nrrd") + " -o " + q("t.strata") + " --memory-limit 1e30G", 2, "--memory-limit: ");
   refused("compress " + q("p.nrrd") + " -o " + q("t.strata") + " --hooi 100000", 2, "");
   EXPECT_FALSE(fs::exists(file("t.strata")));
 }

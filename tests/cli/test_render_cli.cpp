@@ -167,7 +167,7 @@ TEST_F(CliRender, BadArgumentsAreReported) {
   EXPECT_NE(out.find("rgba"), std::string::npos) << out;
   EXPECT_EQ(run_command(strata_cmd("render " + file.string() + " -o " + (dir / "x.png").string() + " --size 10by10"),
                         &out),
-            1);
+            2);
   EXPECT_NE(out.find("--size"), std::string::npos) << out;
   EXPECT_EQ(run_command(strata_cmd("render " + file.string() + " -o " + (dir / "x.png").string() + " --tf nosuch"), &out),
             1);

@@ -351,12 +351,12 @@ TEST_F(CliTa, ErrorTargetsCompressToTheirBoundAndRejectBadValues) {
   ASSERT_EQ(run_command(strata_cmd("eval " + in + " " + t + " --json"), &out), 0) << out;
   EXPECT_GE(nlohmann::json::parse(out)["error"]["psnr_db"].get<double>(), 45.0);
 
-  EXPECT_EQ(run_command(strata_cmd("compress " + in + " -o " + q(file("bad.strata")) + " --psnr -3"), &out), 1) << out;
+  EXPECT_EQ(run_command(strata_cmd("compress " + in + " -o " + q(file("bad.strata")) + " --psnr -3"), &out), 2) << out;
   EXPECT_TRUE(has(out, "error: --psnr: ")) << out;
-  EXPECT_EQ(run_command(strata_cmd("compress " + in + " -o " + q(file("bad.strata")) + " --max-error 0"), &out), 1) << out;
+  EXPECT_EQ(run_command(strata_cmd("compress " + in + " -o " + q(file("bad.strata")) + " --max-error 0"), &out), 2) << out;
   EXPECT_TRUE(has(out, "error: --max-error: ")) << out;
   EXPECT_EQ(run_command(strata_cmd("compress " + in + " -o " + q(file("bad.strata")) + " --rmse 1 --coarse-growth 0.5"), &out),
-            1)
+            2)
       << out;
   EXPECT_TRUE(has(out, "error: --coarse-growth: ")) << out;
   EXPECT_EQ(run_command(strata_cmd("compress " + in + " -o " + q(file("bad.strata")) + " --psnr 40 --quant u8,b8lin"), &out),

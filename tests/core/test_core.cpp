@@ -3,7 +3,9 @@
 #include <cmath>
 
 #include "strata/core/dtype.hpp"
+#include "strata/core/error.hpp"
 #include "strata/core/extent.hpp"
+#include "strata/core/memory.hpp"
 #include "strata/core/metrics.hpp"
 #include "strata/core/progress.hpp"
 #include "strata/core/statistics.hpp"
@@ -119,6 +121,25 @@ TEST(CoreThreads, CountIsConfigurable) {
   EXPECT_EQ(thread_count(), 1);
   set_thread_count(0);
   EXPECT_GE(thread_count(), 1);
+}
+
+// The library refuses counts the runtimes cannot start (one past the cap), whoever asks, and
+// keeps the count it had.
+TEST(CoreThreads, CountAboveTheCapIsRefusedAndChangesNothing) {
+  EXPECT_EQ(max_thread_count(), kMaxThreadsPerHardwareThread * hardware_threads());
+  set_thread_count(1);
+  EXPECT_THROW(set_thread_count(max_thread_count() + 1), Error);
+  EXPECT_EQ(thread_count(), 1);
+  set_thread_count(max_thread_count());
+  EXPECT_EQ(thread_count(), max_thread_count());
+  set_thread_count(0);
+  EXPECT_EQ(thread_count(), hardware_threads());
+}
+
+TEST(CoreMemory, PhysicalMemoryIsReported) {
+  // Every Linux machine this runs on has at least 64 MiB and fewer than 2^50 bytes.
+  EXPECT_GT(physical_memory_bytes(), std::uint64_t(64) << 20);
+  EXPECT_LT(physical_memory_bytes(), std::uint64_t(1) << 50);
 }
 
 // More distinct 32-bit values than the tracking cap: the counts seen before the overflow stay

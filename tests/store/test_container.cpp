@@ -409,6 +409,22 @@ TEST(StoreContainer, CorruptCompressedIndexIsAFormatErrorNamingTheIndex) {
   msg = format_error_of([&] { ContainerReader r(p); });
   EXPECT_TRUE(contains(msg, "huge_count.strata: index_count: ") && contains(msg, "inflate")) << msg;
 
+  // A count a frame of this size could describe (8 MiB of incompressible columns may inflate
+  // to 32768 x 8 MiB), but whose index would take more than half of any machine this runs on
+  // (7.2e9 entries, about 1.3 TiB to open): refused before anything is allocated.
+  p = copy("memory_count.strata");
+  rewrite_index_columns(p, [](std::vector<std::byte>& c) {
+    const auto noise = random_bytes(std::size_t(8) << 20, 7);
+    c.insert(c.end(), noise.begin(), noise.end());
+  });
+  {
+    const auto bytes = read_bytes(p);
+    const auto frame_size = load_field<std::uint64_t>(bytes, index_offset);
+    patch_header(p, [&](std::span<std::byte> h) { store_field(h, kIndexCountField, frame_size * 32768 / 38); });
+  }
+  msg = format_error_of([&] { ContainerReader r(p); });
+  EXPECT_TRUE(contains(msg, "memory_count.strata: index_count: ") && contains(msg, "GiB to open")) << msg;
+
   // A frame size beyond the file.
   p = copy("frame_size.strata");
   {

@@ -78,5 +78,12 @@ class ScopedIsaLimit {
 // code reached after checking active_isa() >= that level.
 #define STRATA_TARGET_SSE42 __attribute__((target("sse4.2")))
 #define STRATA_TARGET_AVX2 __attribute__((target("avx2,fma")))
+// GCC vectorizes loops of AVX-512 variants with 256-bit registers unless told to prefer 512;
+// clang (14) rejects that option inside target() and then drops the whole attribute, so its
+// variants keep clang's default width (its explicit intrinsics are unaffected).
+#if defined(__clang__)
+#define STRATA_TARGET_AVX512 __attribute__((target("avx512f,avx512vl,avx512bw,avx512dq,avx2,fma")))
+#else
 #define STRATA_TARGET_AVX512 \
   __attribute__((target("avx512f,avx512vl,avx512bw,avx512dq,avx2,fma,prefer-vector-width=512")))
+#endif

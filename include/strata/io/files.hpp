@@ -5,6 +5,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
+#include <exception>
 #include <filesystem>
 #include <string>
 #include <string_view>
@@ -85,5 +86,9 @@ class UnnamedTempFile {
 // opened and FormatError(path, field, "invalid JSON: ...") if it does not parse; `field` is what
 // the caller's messages call the document.
 nlohmann::json read_json_file(const std::filesystem::path& path, std::string_view field);
+
+/// @brief What a JSON parse or type error says, without the library's
+/// "[json.exception.<kind>.<id>] " prefix ("parse error at line 1, column 9: ...").
+std::string json_error_reason(const std::exception& error);
 
 }  // namespace strata::io

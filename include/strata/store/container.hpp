@@ -153,6 +153,7 @@ class ContainerReader {
   std::span<const std::byte> checked_range(std::uint64_t offset, std::uint64_t size, const std::string& what) const;
   void read_sections();
   void check_entry(const BrickEntry& e) const;
+  void check_index_fits_memory(std::uint64_t count) const;
   std::vector<BrickEntry> read_plain_index(std::uint64_t offset, std::uint64_t count, std::uint32_t crc);
   std::vector<BrickEntry> read_compressed_index(std::uint64_t offset, std::uint64_t count, std::uint32_t crc);
   std::filesystem::path path_;
