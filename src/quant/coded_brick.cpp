@@ -77,26 +77,52 @@ CoreContext core_context(const std::int32_t* codes, const tensor::Ranks3& r, int
 
 // Block-DCT cores hold, along each mode, index = frequency · blocks + block. A coefficient
 // looks like the same frequency in the neighbouring blocks coded before it and like the next
-// lower frequency of its own block, and shrinks as the frequencies add up.
-// `frequency_of[i]` = i / blocks, tabulated once per brick: a division per coefficient and mode
-// was a third of the context's cost.
-CoreContext dct_context(const std::int32_t* codes, const tensor::Ranks3& r, int blocks, const std::uint16_t* frequency_of,
-                        int i, int j, int k) {
+// lower frequency of its own block, and shrinks as the frequencies add up:
+//   neighbours = Σ min(size, 2) over the previous block along each mode (a, b, c),
+//   lower      = min(Σ size, 3) over the next lower frequency along each mode (d, e, f),
+//   frequency  = the class of fi + fj + fk (0, 1, 2, then 3..4, 5..7, 8+),
+//   magnitude  = min(bit_width(a + b + c + d + e + f), 11),
+// with size = |code| and an absent neighbour 0.
+//
+// Sizes are kept capped at kSizeCap in a plane of their own, which no context notices (the
+// neighbour and lower terms cap at 2 and 3, and a sum reaching 2048 is magnitude class 11
+// either way), so a context costs six loads of 16-bit values: rows of the absent neighbours
+// point at a row of zeros, and the block and frequency counters advance with the loops instead
+// of dividing.
+constexpr std::uint32_t kSizeCap = 4096;
+static_assert(kSizeCap >= (1u << (CoreModels::kMagnitudeClasses - 1)));
+
+int frequency_class(int sum) { return sum < 3 ? sum : sum < 5 ? 3 : sum < 8 ? 4 : 5; }
+
+// visit(index, context) codes one coefficient and returns its code.
+template <class Visit>
+void for_each_dct_core_code(const tensor::Ranks3& r, int blocks, Visit&& visit) {
   const std::size_t sj = std::size_t(r[0]), sk = std::size_t(r[0]) * std::size_t(r[1]);
-  const std::size_t at = std::size_t(i) + sj * std::size_t(j) + sk * std::size_t(k);
-  auto size_at = [&](bool exists, std::size_t back) { return exists ? std::uint32_t(std::abs(codes[at - back])) : 0u; };
-  const int fi = frequency_of[i], fj = frequency_of[j], fk = frequency_of[k];
-  const std::uint32_t a = size_at(i - fi * blocks > 0, 1), b = size_at(j - fj * blocks > 0, sj),
-                      c = size_at(k - fk * blocks > 0, sk);
-  const std::uint32_t d = size_at(fi > 0, std::size_t(blocks)), e = size_at(fj > 0, std::size_t(blocks) * sj),
-                      f = size_at(fk > 0, std::size_t(blocks) * sk);
-  const int neighbours = int(std::min(a, 2u) + std::min(b, 2u) + std::min(c, 2u));
-  const int lower = int(std::min(d + e + f, 3u));
-  const int sum = fi + fj + fk;
-  const int frequency = sum < 3 ? sum : sum < 5 ? 3 : sum < 8 ? 4 : 5;
-  const int sum_bits = std::bit_width(std::min<std::uint64_t>(std::uint64_t(a) + b + c + d + e + f, 1u << 30));
-  return {(frequency * CoreModels::kLowerClasses + lower) * CoreModels::kNeighbourClasses + neighbours,
-          std::min(sum_bits, CoreModels::kMagnitudeClasses - 1)};
+  std::vector<std::uint16_t> size(core_count(r), 0), zeros(sj, 0);
+  const int max_frequency = (max_rank(r) - 1) / blocks;
+  std::vector<std::uint16_t> frequency_classes(std::size_t(3 * max_frequency + 1));
+  for (std::size_t n = 0; n < frequency_classes.size(); ++n) frequency_classes[n] = std::uint16_t(frequency_class(int(n)));
+  std::size_t at = 0;
+  for (int k = 0, fk = 0, bk = 0; k < r[2]; ++k, bk = bk + 1 == blocks ? (++fk, 0) : bk + 1)
+    for (int j = 0, fj = 0, bj = 0; j < r[1]; ++j, bj = bj + 1 == blocks ? (++fj, 0) : bj + 1) {
+      std::uint16_t* row = size.data() + at;
+      const std::uint16_t* b = bj > 0 ? row - sj : zeros.data();
+      const std::uint16_t* c = bk > 0 ? row - sk : zeros.data();
+      const std::uint16_t* e = fj > 0 ? row - std::size_t(blocks) * sj : zeros.data();
+      const std::uint16_t* f = fk > 0 ? row - std::size_t(blocks) * sk : zeros.data();
+      const std::uint16_t* frequency_of_row = frequency_classes.data() + fj + fk;
+      for (int i = 0, fi = 0, bi = 0; i < r[0]; ++i, ++at, bi = bi + 1 == blocks ? (++fi, 0) : bi + 1) {
+        const std::uint32_t a = bi > 0 ? row[i - 1] : 0u, d = fi > 0 ? row[i - blocks] : 0u;
+        const std::uint32_t neighbours = std::min(a, 2u) + std::min<std::uint32_t>(b[i], 2u) + std::min<std::uint32_t>(c[i], 2u);
+        const std::uint32_t lower = std::min<std::uint32_t>(d + e[i] + f[i], 3u);
+        const std::uint32_t frequency = frequency_of_row[fi];
+        const int sum_bits = std::bit_width(a + b[i] + c[i] + d + e[i] + f[i]);
+        const CoreContext ctx{int((frequency * CoreModels::kLowerClasses + lower) * CoreModels::kNeighbourClasses + neighbours),
+                              std::min(sum_bits, CoreModels::kMagnitudeClasses - 1)};
+        const std::int32_t code = visit(at, ctx);
+        row[i] = std::uint16_t(std::min(code < 0 ? 0u - std::uint32_t(code) : std::uint32_t(code), kSizeCap));
+      }
+    }
 }
 
 int factor_scale_class(std::uint8_t step_code) { return std::min<int>(step_code / 8, FactorModels::kScaleClasses - 1); }
@@ -112,22 +138,20 @@ void for_each_factor_code(const CodedBrick& b, Visit&& visit) {
     }
 }
 
-// The core codes in stream order (first index fastest): visit(index, context). The context
-// reads only codes visited before, so a decoder can call it on the codes it has so far.
-// Layout 1 (format 1.1) coded block-DCT cores with the Tucker contexts.
+// The core codes in stream order (first index fastest): visit(index, context) codes one and
+// returns it (the decoder stores it in b.core_codes first). The context reads only codes
+// visited before, so a decoder can call it on the codes it has so far. Layout 1 (format 1.1)
+// coded block-DCT cores with the Tucker contexts.
 template <class Visit>
 void for_each_core_code(const CodedBrick& b, std::uint8_t layout, Visit&& visit) {
   const tensor::Ranks3& r = b.ranks;
   const int blocks =
       b.dct_block > 0 && layout >= 2 ? int((b.dims[0] - 2 * std::int64_t(b.margin)) / b.dct_block) : 0;
-  std::vector<std::uint16_t> frequency_of(blocks > 0 ? std::size_t(std::max({r[0], r[1], r[2]})) : 0);
-  for (std::size_t i = 0; i < frequency_of.size(); ++i) frequency_of[i] = std::uint16_t(int(i) / blocks);
+  if (blocks > 0) return for_each_dct_core_code(r, blocks, visit);
   std::size_t at = 0;
   for (int k = 0; k < r[2]; ++k)
     for (int j = 0; j < r[1]; ++j)
-      for (int i = 0; i < r[0]; ++i, ++at)
-        visit(at, blocks > 0 ? dct_context(b.core_codes.data(), r, blocks, frequency_of.data(), i, j, k)
-                             : core_context(b.core_codes.data(), r, i, j, k));
+      for (int i = 0; i < r[0]; ++i, ++at) visit(at, core_context(b.core_codes.data(), r, i, j, k));
 }
 
 void encode_signed(RangeEncoder& enc, BitModel& zero, UIntModel& magnitude, std::int32_t v) {
@@ -147,6 +171,7 @@ void encode_stream(const CodedBrick& b, std::uint8_t layout, RangeEncoder& enc) 
   CoreModels cm;
   for_each_core_code(b, layout, [&](std::size_t at, const CoreContext& ctx) {
     encode_signed(enc, cm.zero[std::size_t(ctx.zero)], cm.magnitude[std::size_t(ctx.magnitude)], b.core_codes[at]);
+    return b.core_codes[at];
   });
   if (b.correction_step == 0) return;
   CorrectionModels xm;
@@ -170,7 +195,7 @@ void decode_stream(RangeDecoder& dec, std::uint8_t layout, CodedBrick& b) {
   b.core_codes.resize(core_count(b.ranks));
   CoreModels cm;
   for_each_core_code(b, layout, [&](std::size_t at, const CoreContext& ctx) {
-    b.core_codes[at] = decode_signed(dec, cm.zero[std::size_t(ctx.zero)], cm.magnitude[std::size_t(ctx.magnitude)]);
+    return b.core_codes[at] = decode_signed(dec, cm.zero[std::size_t(ctx.zero)], cm.magnitude[std::size_t(ctx.magnitude)]);
   });
   b.correction_index.clear();
   b.correction_codes.clear();
