@@ -18,6 +18,7 @@ PACKAGES=(
   libcli11-dev nlohmann-json3-dev libfmt-dev  # CLI, JSON, formatting
   libgtest-dev libbenchmark-dev               # tests and benchmarks
   mricron-data                                # sample MRI and brain atlases
+  python3-nibabel                             # reference NIfTI reader and its test files (tests/io)
   chromium                                    # browser tests of the viewer (tests/web)
 )
 BENCH_PACKAGES=(zfp python3-numpy python3-matplotlib)  # bench/rd only (--bench); never the library

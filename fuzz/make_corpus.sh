@@ -15,6 +15,8 @@ $strata generate prisms --size 10,9,8 -o "$w/prisms.nrrd"
 $strata generate voronoi --size 10,9,8 --count 6 -o "$w/cells.nrrd"
 $strata generate sphere --size 6 --dtype f32 -o "$w/sphere.nrrd"
 $strata convert "$w/prisms.nrrd" "$w/prisms_raw.nrrd" --uncompressed
+# A dimension beyond NIfTI-1's 16-bit dim: the writer makes it NIfTI-2.
+$strata generate sphere --size 32768,1,1 --dtype u8 -o "$w/wide_nifti2.nii.gz"
 for f in prisms.nii prisms.nii.gz cells.nii prisms.tif cells.tif sphere.tif prisms.raw sphere.raw; do
   src=${f%%.*}.nrrd
   $strata convert "$w/$src" "$w/$f"
@@ -33,7 +35,7 @@ cp "$w/prisms_raw.nrrd" $c/nrrd/prisms_raw.nrrd
 cp "$w/cells.nrrd" $c/nrrd/cells.nrrd
 cp "$w/sphere.nrrd" $c/nrrd/sphere_f32.nrrd
 cp tests/data/fibsem_medulla_sp_crop20.nrrd $c/nrrd/
-cp "$w/prisms.nii" "$w/prisms.nii.gz" "$w/cells.nii" $c/nifti/
+cp "$w/prisms.nii" "$w/prisms.nii.gz" "$w/cells.nii" "$w/wide_nifti2.nii.gz" $c/nifti/
 cp "$w/prisms.tif" "$w/cells.tif" "$w/sphere.tif" $c/tiff/
 for f in prisms sphere; do (cat "$w/$f.raw.json"; printf '\n--\n'; cat "$w/$f.raw") >$c/raw_sidecar/$f; done
 cp "$w"/{scalar,scalar_nozstd,coded,coded_max,labels,labels_fixed}.strata $c/container/

@@ -50,6 +50,9 @@ void print_volume_report(const nlohmann::json& j) {
   std::printf("dims:        %lld x %lld x %lld  (%llu voxels, %s)\n", j["dims"][0].get<long long>(),
               j["dims"][1].get<long long>(), j["dims"][2].get<long long>(), j["voxels"].get<unsigned long long>(),
               human_bytes(j["bytes"].get<std::uint64_t>()).c_str());
+  if (j.contains("volumes"))
+    std::printf("volumes:     %lld of these dims; the statistics below are of volume %lld (--volume T picks another)\n",
+                j["volumes"]["count"].get<long long>(), j["volumes"]["described"].get<long long>());
   std::printf("dtype:       %s\n", j["dtype"].get<std::string>().c_str());
   std::printf("spacing:     %g %g %g\n", j["spacing"][0].get<double>(), j["spacing"][1].get<double>(),
               j["spacing"][2].get<double>());
@@ -177,10 +180,13 @@ void run_info(const InfoArgs& args, const GlobalOptions& global) {
   auto progress = global.make_progress();
   io::ReadOptions options = args.raw.to_read_options();
   options.progress = progress.get();
+  // A file of several volumes is described by its first unless --volume names another.
+  if (!options.volume) options.volume = 0;
   auto source = io::open_volume(args.file, options);
   StatisticsAccumulator stats;
   io::for_each_slab(*source, [&](const Volume& slab, std::int64_t) { stats.add(slab); }, *progress, "info");
   nlohmann::json report = volume_report(*source, stats.result());
+  if (source->info().volumes > 1) report["volumes"] = {{"count", source->info().volumes}, {"described", *options.volume}};
   if (args.json) std::printf("%s\n", report.dump(2).c_str());
   else print_volume_report(report);
 }

@@ -36,6 +36,7 @@ constexpr ParameterFlag kParameterFlags[] = {
     {"Params::dims", "--size"},
     {"ReadOptions::raw_dims", "--dims"},
     {"ReadOptions::raw_dtype", "--dtype"},
+    {"ReadOptions::volume", "--volume"},
     {"RenderOptions::step", "--step"},
     {"RenderOptions::background", "--background"},
     {"SessionOptions::background", "--background"},

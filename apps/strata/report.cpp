@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "cli_checks.hpp"
+#include "commands.hpp"
 #include "strata/core/error.hpp"
 #include "strata/io/files.hpp"
 
@@ -15,6 +16,9 @@ void RawInputArgs::add_to(CLI::App& cmd) {
   cmd.add_option("--dtype", dtype, "Raw input: sample type u8|i8|u16|i16|u32|i32|f32|f64");
   cmd.add_option("--spacing", spacing, "Raw input: voxel spacing SX,SY,SZ");
   cmd.add_flag("--big-endian", big_endian, "Raw input: samples are big endian");
+  cmd.add_option("--volume", volume,
+                 "Which 3D volume of a file that holds several (NIfTI with dim[0] > 3: time points, components), from 0")
+      ->check(kNonNegativeInteger);
 }
 
 io::ReadOptions RawInputArgs::to_read_options() const {
@@ -30,6 +34,7 @@ io::ReadOptions RawInputArgs::to_read_options() const {
     o.raw_spacing = s;
   }
   o.raw_big_endian = big_endian;
+  o.volume = volume;
   return o;
 }
 

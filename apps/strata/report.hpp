@@ -7,14 +7,18 @@
 
 #include <nlohmann/json.hpp>
 
+#include <optional>
+
 #include "strata/io/volume_io.hpp"
 
 namespace strata::cli {
 
-// --dims/--dtype/--spacing/--big-endian for raw inputs without a JSON sidecar.
+// --dims/--dtype/--spacing/--big-endian for raw inputs without a JSON sidecar, and --volume
+// for files of several volumes.
 struct RawInputArgs {
   std::string dims, dtype, spacing;
   bool big_endian = false;
+  std::optional<std::int64_t> volume;
   void add_to(CLI::App& cmd);
   io::ReadOptions to_read_options() const;
 };

@@ -1,6 +1,8 @@
-// NIfTI-1 single-file volumes (.nii, .nii.gz): a 348-byte header, 4 extension bytes, then the
-// samples at vox_offset. Plain files are memory-mapped; gzip files are decoded once to a
-// temporary file and mapped from there, so both give random access without loading the volume.
+// NIfTI-1 and NIfTI-2 single-file volumes (.nii, .nii.gz): a 348- or 540-byte header, 4
+// extension bytes, then the samples at vox_offset. Plain files are memory-mapped; gzip files are
+// decoded once to a temporary file and mapped from there, so both give random access without
+// loading the volume. A file of several 3D volumes (dim[0] > 3: time points, components) is
+// read one volume at a time (ReadOptions::volume).
 #include <algorithm>
 #include <array>
 #include <bit>
@@ -8,11 +10,13 @@
 #include <cmath>
 #include <cstring>
 #include <optional>
+#include <string_view>
 
 #include <fmt/format.h>
 
 #include "io/io_detail.hpp"
 #include "strata/core/bytes.hpp"
+#include "strata/core/checked.hpp"
 
 namespace strata::io::detail {
 
@@ -23,23 +27,34 @@ namespace fs = std::filesystem;
 // Samples are kept native little endian in memory (dtype.hpp); the writer relies on that.
 static_assert(std::endian::native == std::endian::little, "the NIfTI writer assumes a little-endian host");
 
-constexpr std::uint64_t kHeaderBytes = 348;
-// The header plus the 4-byte extension flag: where single-file data starts when there are no
-// extensions, and what we write.
-constexpr std::uint64_t kDataOffset = 352;
-
-// Byte offsets of the header fields we use (nifti1.h, struct nifti_1_header).
-namespace field_at {
-constexpr std::size_t sizeof_hdr = 0;
-constexpr std::size_t dim = 40;  // int16[8]
-constexpr std::size_t datatype = 70;
-constexpr std::size_t bitpix = 72;
-constexpr std::size_t pixdim = 76;  // float[8]
-constexpr std::size_t vox_offset = 108;
-constexpr std::size_t scl_slope = 112;
-constexpr std::size_t scl_inter = 116;
-constexpr std::size_t magic = 344;
-}  // namespace field_at
+// The two header layouts (nifti1.h struct nifti_1_header, nifti2.h struct nifti_2_header): the
+// byte offsets of the fields we use. NIfTI-2 widens dim and vox_offset to i64 and pixdim and
+// the scaling to f64, and reorders the fields.
+//
+// | field      | NIfTI-1 offset, type | NIfTI-2 offset, type |
+// | ---------- | -------------------- | -------------------- |
+// | sizeof_hdr | 0, i32 (348)         | 0, i32 (540)         |
+// | magic      | 344, "n+1\0"         | 4, "n+2\0\r\n\032\n"  |
+// | datatype   | 70, i16              | 12, i16              |
+// | bitpix     | 72, i16              | 14, i16              |
+// | dim[8]     | 40, i16              | 16, i64              |
+// | pixdim[8]  | 76, f32              | 104, f64             |
+// | vox_offset | 108, f32             | 168, i64             |
+// | scl_slope  | 112, f32             | 176, f64             |
+// | scl_inter  | 116, f32             | 184, f64             |
+struct HeaderLayout {
+  int version;
+  std::uint64_t header_bytes;
+  std::size_t magic, datatype, bitpix, dim, pixdim, vox_offset, scl_slope, scl_inter;
+  std::string_view magic_single, magic_pair;  // "n+<v>" one file; "ni<v>" a .hdr/.img pair
+  bool wide;                                  // 64-bit dim, vox_offset, pixdim and scaling
+  // The header plus the 4-byte extension flag: where single-file data starts when there are
+  // no extensions, and what we write.
+  std::uint64_t data_offset() const { return header_bytes + 4; }
+};
+constexpr HeaderLayout kNifti1{1, 348, 344, 70, 72, 40, 76, 108, 112, 116, {"n+1\0", 4}, {"ni1\0", 4}, false};
+constexpr HeaderLayout kNifti2{2, 540, 4, 12, 14, 16, 104, 168, 176, 184, {"n+2\0\r\n\032\n", 8}, {"ni2\0\r\n\032\n", 8}, true};
+constexpr std::uint64_t kLargestHeader = kNifti2.header_bytes;
 
 // NIfTI-1 datatype codes (nifti1.h DT_*) of the sample types we read.
 struct DatatypeCode {
@@ -58,7 +73,7 @@ constexpr std::array<DatatypeCode, 8> kDatatypeCodes{{{2, DType::u8},
 std::int16_t datatype_code(DType t) {
   for (const auto& entry : kDatatypeCodes)
     if (entry.dtype == t) return entry.code;
-  throw Error(fmt::format("NIfTI-1: no datatype code for {}", dtype_name(t)));
+  throw Error(fmt::format("NIfTI: no datatype code for {}", dtype_name(t)));
 }
 
 // value = stored * slope + inter, from scl_slope/scl_inter.
@@ -67,72 +82,99 @@ struct Scaling {
 };
 
 struct NiftiHeader {
-  VolumeInfo stored;  // dims, the stored sample type and spacing
+  const HeaderLayout* layout = &kNifti1;
+  VolumeInfo stored;  // dims of one 3D volume, the stored sample type and spacing
   bool big_endian = false;
-  std::uint64_t vox_offset = kDataOffset;
+  std::uint64_t vox_offset = kNifti1.data_offset();
+  std::int64_t volumes = 1;  // 3D volumes in the file: the product of dim[4..dim[0]]
+  std::uint64_t data_bytes = 0;  // all volumes
   std::optional<Scaling> scaling;
 };
 
-// The 348 header bytes, in the file's byte order.
+// The header bytes, in the file's byte order and layout.
 struct HeaderBytes {
   std::span<const std::byte> bytes;
   std::endian order;
+  const HeaderLayout& layout;
   template <class T>
   T get(std::size_t offset) const {
     return load_field<T>(bytes, offset, order);
   }
+  std::int64_t dim(std::size_t i) const { return layout.wide ? get<std::int64_t>(layout.dim + 8 * i) : get<std::int16_t>(layout.dim + 2 * i); }
+  // pixdim, scl_slope, scl_inter: f32 in NIfTI-1, f64 in NIfTI-2.
+  double real(std::size_t offset) const { return layout.wide ? get<double>(offset) : double(get<float>(offset)); }
 };
 
-// NIfTI has no byte-order flag: sizeof_hdr is 348 when read in the file's order, so reading
-// it both ways tells the order (the method nifti1.h recommends).
-bool detect_big_endian(const std::byte* data, std::uint64_t size, const std::string& file) {
-  if (size < kHeaderBytes)
-    throw FormatError(file, "sizeof_hdr",
-                      fmt::format("file has {} bytes, shorter than the 348-byte NIfTI-1 header", size));
-  const std::span<const std::byte> header(data, kHeaderBytes);
-  const auto as_little = load_field<std::int32_t>(header, field_at::sizeof_hdr, std::endian::little);
-  const auto as_big = load_field<std::int32_t>(header, field_at::sizeof_hdr, std::endian::big);
-  if (as_little == std::int32_t(kHeaderBytes)) return false;
-  if (as_big == std::int32_t(kHeaderBytes)) return true;
+// NIfTI has no byte-order flag: sizeof_hdr is 348 (NIfTI-1) or 540 (NIfTI-2) when read in
+// the file's order, so reading it both ways tells the version and the order (the method
+// nifti1.h and nifti2.h recommend).
+std::pair<const HeaderLayout*, bool> detect_layout(const std::byte* data, std::uint64_t size, const std::string& file) {
+  if (size < 4) throw FormatError(file, "sizeof_hdr", fmt::format("file has {} bytes, no NIfTI header", size));
+  const std::span<const std::byte> field(data, 4);
+  for (const std::endian order : {std::endian::little, std::endian::big})
+    for (const HeaderLayout* layout : {&kNifti1, &kNifti2})
+      if (load_field<std::int32_t>(field, 0, order) == std::int32_t(layout->header_bytes)) {
+        if (size < layout->header_bytes)
+          throw FormatError(file, "sizeof_hdr",
+                            fmt::format("file has {} bytes, shorter than the {}-byte NIfTI-{} header", size,
+                                        layout->header_bytes, layout->version));
+        return {layout, order == std::endian::big};
+      }
   throw FormatError(file, "sizeof_hdr",
-                    fmt::format("is {} (read little endian); expected 348 (NIfTI-1; NIfTI-2 is not supported)", as_little));
+                    fmt::format("is {} (read little endian); expected 348 (NIfTI-1) or 540 (NIfTI-2)",
+                                load_field<std::int32_t>(field, 0, std::endian::little)));
 }
 
-void check_magic(const std::byte* data, const std::string& file) {
-  char magic[4];
-  std::memcpy(magic, data + field_at::magic, 4);
-  if (std::memcmp(magic, "n+1\0", 4) == 0) return;
-  if (std::memcmp(magic, "ni1\0", 4) == 0)
-    throw FormatError(file, "magic", "is \"ni1\" (separate .hdr/.img pair); only single-file \"n+1\" is supported");
+std::string shown_magic(std::span<const std::byte> magic) {
   std::string shown;
-  for (char c : magic) shown += std::isprint(static_cast<unsigned char>(c)) ? std::string(1, c) : fmt::format("\\x{:02x}", static_cast<unsigned char>(c));
-  throw FormatError(file, "magic", fmt::format("is \"{}\"; expected \"n+1\"", shown));
+  for (std::byte b : magic) {
+    const auto c = std::to_integer<unsigned char>(b);
+    shown += std::isprint(c) ? std::string(1, char(c)) : fmt::format("\\x{:02x}", c);
+  }
+  return shown;
 }
 
-Extent read_dims(const HeaderBytes& h, const std::string& file) {
-  std::array<std::int16_t, 8> dim{};
-  for (std::size_t i = 0; i < dim.size(); ++i) dim[i] = h.get<std::int16_t>(field_at::dim + 2 * i);
-  // A 4D file with a single time point is still one 3D volume; anything else is not.
-  const bool single_volume = dim[0] == 3 || (dim[0] == 4 && dim[4] == 1);
-  if (!single_volume)
-    throw FormatError(file, "dim[0]",
-                      fmt::format("is {} (dim[4] = {}); expected 3, or 4 with dim[4] == 1: only single 3D volumes "
-                                  "are supported",
-                                  dim[0], dim[4]));
-  for (int i = 1; i <= 3; ++i)
+void check_magic(const std::byte* data, const HeaderLayout& layout, const std::string& file) {
+  const std::span<const std::byte> magic(data + layout.magic, layout.magic_single.size());
+  const auto is = [&](std::string_view expected) { return std::memcmp(magic.data(), expected.data(), expected.size()) == 0; };
+  if (is(layout.magic_single)) return;
+  if (is(layout.magic_pair))
+    throw FormatError(file, "magic",
+                      fmt::format("is \"ni{}\" (separate .hdr/.img pair); only single-file \"n+{}\" is supported",
+                                  layout.version, layout.version));
+  throw FormatError(file, "magic", fmt::format("is \"{}\"; expected \"n+{}\" (NIfTI-{})", shown_magic(magic),
+                                               layout.version, layout.version));
+}
+
+// dim[1..3] are the 3D volume; dim[4..dim[0]] (time points, components, ...) multiply into the
+// number of such volumes, stored one after the other.
+std::pair<Extent, std::int64_t> read_dims(const HeaderBytes& h, const std::string& file) {
+  const std::int64_t rank = h.dim(0);
+  if (rank < 3 || rank > 7)
+    throw FormatError(file, "dim[0]", fmt::format("is {}; expected 3 to 7 (a 3D volume, or several)", rank));
+  std::array<std::int64_t, 8> dim{};
+  for (std::size_t i = 1; i <= std::size_t(rank); ++i) {
+    dim[i] = h.dim(i);
     if (dim[i] < 1) throw FormatError(file, fmt::format("dim[{}]", i), fmt::format("is {}; expected >= 1", dim[i]));
-  return {dim[1], dim[2], dim[3]};
+  }
+  std::int64_t volumes = 1;
+  for (std::size_t i = 4; i <= std::size_t(rank); ++i) {
+    const auto next = checked_mul(volumes, dim[i]);
+    if (!next) throw FormatError(file, "dim", "the volumes of dim[4..7] overflow a 64-bit count (corrupt or hostile header)");
+    volumes = *next;
+  }
+  return {{dim[1], dim[2], dim[3]}, volumes};
 }
 
 DType read_dtype(const HeaderBytes& h, const std::string& file) {
-  const auto code = h.get<std::int16_t>(field_at::datatype);
+  const auto code = h.get<std::int16_t>(h.layout.datatype);
   const auto it = std::find_if(kDatatypeCodes.begin(), kDatatypeCodes.end(), [&](const auto& e) { return e.code == code; });
   if (it == kDatatypeCodes.end())
     throw FormatError(file, "datatype",
                       fmt::format("code {} is not supported; expected one of 2 (u8), 256 (i8), 4 (i16), 512 (u16), "
                                   "8 (i32), 768 (u32), 16 (f32), 64 (f64)",
                                   code));
-  const auto bitpix = h.get<std::int16_t>(field_at::bitpix);
+  const auto bitpix = h.get<std::int16_t>(h.layout.bitpix);
   const auto expected_bits = std::int16_t(8 * dtype_size(it->dtype));
   if (bitpix != expected_bits)
     throw FormatError(file, "bitpix",
@@ -145,7 +187,7 @@ DType read_dtype(const HeaderBytes& h, const std::string& file) {
 // qform/sform, and the magnitude of a negative size would be a guess).
 Spacing read_spacing(const HeaderBytes& h, const std::string& file) {
   auto size_at = [&](int axis) {
-    const double v = double(h.get<float>(field_at::pixdim + 4 * std::size_t(axis)));
+    const double v = h.real(h.layout.pixdim + (h.layout.wide ? 8 : 4) * std::size_t(axis));
     if (v == 0) return 1.0;
     if (!(v > 0) || !std::isfinite(v))
       throw FormatError(file, fmt::format("pixdim[{}]", axis),
@@ -156,19 +198,20 @@ Spacing read_spacing(const HeaderBytes& h, const std::string& file) {
 }
 
 std::uint64_t read_vox_offset(const HeaderBytes& h, const std::string& file) {
-  const double offset = h.get<float>(field_at::vox_offset);
   // The upper bound keeps the conversion below defined; no real file is anywhere near it.
   constexpr double kLargest = 0x1p62;
-  if (!std::isfinite(offset) || offset < double(kHeaderBytes) || offset != std::floor(offset) || offset > kLargest)
-    throw FormatError(file, "vox_offset", fmt::format("is {}; expected a whole number from 348 to 2^62", offset));
+  const double offset = h.layout.wide ? double(h.get<std::int64_t>(h.layout.vox_offset)) : h.get<float>(h.layout.vox_offset);
+  if (!std::isfinite(offset) || offset < double(h.layout.header_bytes) || offset != std::floor(offset) || offset > kLargest)
+    throw FormatError(file, "vox_offset",
+                      fmt::format("is {}; expected a whole number from {} to 2^62", offset, h.layout.header_bytes));
   return std::uint64_t(offset);
 }
 
 // Scaling is "set" only when it changes values: slope 0 means unused (nifti1.h), and 1/0 is
 // the identity many writers store by default. Non-finite values count as unset, like 0.
 std::optional<Scaling> read_scaling(const HeaderBytes& h) {
-  const double slope = h.get<float>(field_at::scl_slope);
-  double inter = h.get<float>(field_at::scl_inter);
+  const double slope = h.real(h.layout.scl_slope);
+  double inter = h.real(h.layout.scl_inter);
   if (!std::isfinite(slope) || slope == 0.0) return std::nullopt;
   if (!std::isfinite(inter)) inter = 0.0;
   if (slope == 1.0 && inter == 0.0) return std::nullopt;
@@ -177,16 +220,36 @@ std::optional<Scaling> read_scaling(const HeaderBytes& h) {
 
 NiftiHeader parse_header(const std::byte* data, std::uint64_t size, const std::string& file) {
   NiftiHeader header;
-  header.big_endian = detect_big_endian(data, size, file);
-  const HeaderBytes h{{data, kHeaderBytes}, header.big_endian ? std::endian::big : std::endian::little};
-  check_magic(data, file);
-  header.stored.dims = read_dims(h, file);
+  std::tie(header.layout, header.big_endian) = detect_layout(data, size, file);
+  const HeaderBytes h{{data, header.layout->header_bytes}, header.big_endian ? std::endian::big : std::endian::little,
+                      *header.layout};
+  check_magic(data, *header.layout, file);
+  std::tie(header.stored.dims, header.volumes) = read_dims(h, file);
   header.stored.dtype = read_dtype(h, file);
   header.stored.spacing = read_spacing(h, file);
   header.vox_offset = read_vox_offset(h, file);
   header.scaling = read_scaling(h);
-  checked_volume_bytes(header.stored, file, "dim");
+  const auto total = checked_mul(checked_volume_bytes(header.stored, file, "dim"), std::uint64_t(header.volumes));
+  if (!total || *total > (std::uint64_t(1) << 62))
+    throw FormatError(file, "dim", fmt::format("{} volumes of {} do not fit in a 64-bit byte count (corrupt or hostile header)",
+                                               header.volumes, header.stored.dims.to_string()));
+  header.data_bytes = *total;
   return header;
+}
+
+// Where the chosen volume starts: a file of one volume needs no choice; of several, the
+// caller's (ReadOptions::volume), which must exist.
+std::uint64_t volume_offset(const NiftiHeader& header, const ReadOptions& options, const std::string& file) {
+  if (header.volumes == 1 && options.volume.value_or(0) == 0) return header.vox_offset;
+  if (!options.volume)
+    throw FormatError(file, "dim",
+                      fmt::format("holds {} volumes of {} (dim[4..7]); choose one with --volume T (0..{})", header.volumes,
+                                  header.stored.dims.to_string(), header.volumes - 1));
+  const std::int64_t t = *options.volume;
+  if (t < 0 || t >= header.volumes)
+    throw ParameterError("ReadOptions::volume", fmt::format("{}: volume {} does not exist; the file holds {} (0..{})", file,
+                                                            t, header.volumes, header.volumes - 1));
+  return header.vox_offset + std::uint64_t(t) * header.stored.byte_size();
 }
 
 // The type scaled values are returned in: f32, or f64 when the stored samples are f64 so no
@@ -231,11 +294,14 @@ class ScaledSource final : public VolumeSource {
 
 bool has_gz_name(const fs::path& path) { return ascii_lower(path.filename().string()).ends_with(".gz"); }
 
-// `file` holds a whole uncompressed NIfTI-1 file; `shown_path` is what the user named.
-std::unique_ptr<VolumeSource> source_over(std::shared_ptr<MappedFile> file, const fs::path& shown_path) {
+// `file` holds a whole uncompressed NIfTI file; `shown_path` is what the user named.
+std::unique_ptr<VolumeSource> source_over(std::shared_ptr<MappedFile> file, const fs::path& shown_path,
+                                          const ReadOptions& options) {
   const NiftiHeader header = parse_header(file->data(), file->size(), shown_path.string());
-  auto stored = make_mapped_source(std::move(file), header.vox_offset, header.stored, header.big_endian, shown_path,
-                                   "dim");
+  VolumeInfo info = header.stored;
+  info.volumes = header.volumes;
+  auto stored = make_mapped_source(std::move(file), volume_offset(header, options, shown_path.string()), info,
+                                   header.big_endian, shown_path, "dim");
   if (!header.scaling) return stored;
   return std::make_unique<ScaledSource>(std::move(stored), *header.scaling);
 }
@@ -245,46 +311,58 @@ std::unique_ptr<VolumeSource> source_over(std::shared_ptr<MappedFile> file, cons
 std::unique_ptr<VolumeSource> open_gzipped(const fs::path& path, const MappedFile& compressed,
                                            const ReadOptions& options) {
   const std::string file = path.string();
-  const auto head = gunzip_to_memory(compressed.data(), compressed.size(), file, "gzip", kHeaderBytes);
+  const auto head = gunzip_to_memory(compressed.data(), compressed.size(), file, "gzip", kLargestHeader);
   const NiftiHeader header = parse_header(head.data(), head.size(), file);
-  const std::uint64_t declared = header.vox_offset + header.stored.byte_size();  // both far below 2^63
+  volume_offset(header, options, file);  // a missing or wrong volume fails before the decode
+  const std::uint64_t declared = header.vox_offset + header.data_bytes;  // both below 2^62
   auto decoded = gunzip_to_temp_file(
       compressed.data(), compressed.size(), options, "strata-" + path.filename().string(), file, "gzip",
-      {declared, fmt::format("the header (vox_offset {} + dim {} of {})", header.vox_offset,
+      {declared, fmt::format("the header (vox_offset {} + {} x dim {} of {})", header.vox_offset, header.volumes,
                              header.stored.dims.to_string(), dtype_name(header.stored.dtype))});
-  return source_over(std::move(decoded), path);
+  return source_over(std::move(decoded), path, options);
 }
 
-// Writes the 352-byte prefix (header + empty extension flag) for `info`, little endian.
-std::array<std::byte, kDataOffset> make_header(const VolumeInfo& info) {
-  std::array<std::byte, kDataOffset> bytes{};
-  auto put = [&](std::size_t offset, auto value) { store_field(bytes, offset, value); };
-  put(field_at::sizeof_hdr, std::int32_t(kHeaderBytes));
-  const std::array<std::int16_t, 8> dim{3, std::int16_t(info.dims.x), std::int16_t(info.dims.y),
-                                        std::int16_t(info.dims.z), 1, 1, 1, 1};
-  for (std::size_t i = 0; i < dim.size(); ++i) put(field_at::dim + 2 * i, dim[i]);
-  put(field_at::datatype, datatype_code(info.dtype));
-  put(field_at::bitpix, std::int16_t(8 * dtype_size(info.dtype)));
+// NIfTI-1 when every dimension fits its 16-bit dim (what every reader takes), else NIfTI-2.
+const HeaderLayout& layout_for(const VolumeInfo& info) {
+  const auto fits = [](std::int64_t n) { return n <= 32767; };
+  return fits(info.dims.x) && fits(info.dims.y) && fits(info.dims.z) ? kNifti1 : kNifti2;
+}
+
+// The header and the empty extension flag for one 3D volume of `info`, little endian.
+std::vector<std::byte> make_header(const VolumeInfo& info) {
+  const HeaderLayout& layout = layout_for(info);
+  std::vector<std::byte> bytes(layout.data_offset());
+  const auto put = [&](std::size_t offset, auto value) { store_field(std::span(bytes), offset, value); };
+  // Wide fields (NIfTI-2) are i64 and f64, NIfTI-1's i16 and f32.
+  const auto put_dim = [&](std::size_t i, std::int64_t v) {
+    if (layout.wide) put(layout.dim + 8 * i, v);
+    else put(layout.dim + 2 * i, std::int16_t(v));
+  };
+  const auto put_real = [&](std::size_t offset, double v) {
+    if (layout.wide) put(offset, v);
+    else put(offset, float(v));
+  };
+  put(0, std::int32_t(layout.header_bytes));
+  std::memcpy(bytes.data() + layout.magic, layout.magic_single.data(), layout.magic_single.size());
+  const std::array<std::int64_t, 8> dim{3, info.dims.x, info.dims.y, info.dims.z, 1, 1, 1, 1};
+  for (std::size_t i = 0; i < dim.size(); ++i) put_dim(i, dim[i]);
+  put(layout.datatype, datatype_code(info.dtype));
+  put(layout.bitpix, std::int16_t(8 * dtype_size(info.dtype)));
   // pixdim[0] is qfac (orientation handedness); 1 is the neutral value, unused axes get 1.
-  const std::array<float, 8> pixdim{1.0f, float(info.spacing.x), float(info.spacing.y), float(info.spacing.z),
-                                    1.0f, 1.0f, 1.0f, 1.0f};
-  for (std::size_t i = 0; i < pixdim.size(); ++i) put(field_at::pixdim + 4 * i, pixdim[i]);
-  put(field_at::vox_offset, float(kDataOffset));
-  put(field_at::scl_slope, 0.0f);  // 0: samples are the values (no scaling)
-  put(field_at::scl_inter, 0.0f);
+  const std::array<double, 8> pixdim{1.0, info.spacing.x, info.spacing.y, info.spacing.z, 1.0, 1.0, 1.0, 1.0};
+  for (std::size_t i = 0; i < pixdim.size(); ++i) put_real(layout.pixdim + (layout.wide ? 8 : 4) * i, pixdim[i]);
+  if (layout.wide) put(layout.vox_offset, std::int64_t(layout.data_offset()));
+  else put(layout.vox_offset, float(layout.data_offset()));
+  put_real(layout.scl_slope, 0.0);  // 0: samples are the values (no scaling)
+  put_real(layout.scl_inter, 0.0);
   // qform_code and sform_code stay 0: no orientation is claimed.
-  std::memcpy(bytes.data() + field_at::magic, "n+1\0", 4);
   return bytes;
 }
 
 void check_writable(const fs::path& path, const VolumeInfo& info) {
   if (info.dtype == DType::i8)
-    throw Error(fmt::format("{}: NIfTI-1 writing does not support i8 (many readers reject it); convert to i16",
+    throw Error(fmt::format("{}: NIfTI writing does not support i8 (many readers reject it); convert to i16",
                             path.string()));
-  const auto fits = [](std::int64_t n) { return n >= 1 && n <= 32767; };
-  if (!fits(info.dims.x) || !fits(info.dims.y) || !fits(info.dims.z))
-    throw Error(fmt::format("{}: dims {}: NIfTI-1 stores each dimension as a 16-bit count (1..32767)", path.string(),
-                            info.dims.to_string()));
 }
 
 // Streams slabs after the header into `<path>.tmp`, gzip-compressed for *.gz names, and
@@ -310,7 +388,7 @@ std::unique_ptr<VolumeSource> open_nifti(const std::filesystem::path& path, cons
   // Content decides, so a compressed file named .nii still opens; a .gz name that is not gzip
   // is reported by the decoder as a bad gzip stream rather than as a bad NIfTI header.
   if (has_gz_name(path) || looks_gzipped(file->data(), file->size())) return open_gzipped(path, *file, options);
-  return source_over(std::move(file), path);
+  return source_over(std::move(file), path, options);
 }
 
 std::unique_ptr<VolumeWriter> create_nifti_writer(const std::filesystem::path& path, const VolumeInfo& info,

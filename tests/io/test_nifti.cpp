@@ -1,5 +1,6 @@
-// NIfTI-1 reading and writing: round trips for every writable dtype (.nii and .nii.gz), the
-// header we write, scl_slope/scl_inter, big-endian files, corrupt inputs and real atlases.
+// NIfTI-1 and NIfTI-2 reading and writing: round trips for every writable dtype (.nii and
+// .nii.gz), the headers we write, scl_slope/scl_inter, big-endian files, files of several
+// volumes, corrupt inputs, real atlases and nibabel's NIfTI-2 example.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -257,7 +258,7 @@ TEST(IoNifti, ReadsBigEndianFiles) {
   for (std::size_t i = 0; i < floats.size(); ++i) EXPECT_EQ(f.samples<float>()[i], floats[i] * 3.0f);
 }
 
-TEST(IoNifti, DimZeroMayBeFourWithOneVolume) {
+TEST(IoNifti, DimZeroMayBeFourWithOneVolumeOrChooseOne) {
   TempDir dir;
   HandHeader h;
   h.dim = {4, 4, 3, 2, 1, 1, 1, 1};
@@ -266,11 +267,129 @@ TEST(IoNifti, DimZeroMayBeFourWithOneVolume) {
 
   h.dim = {4, 4, 3, 2, 2, 1, 1, 1};
   write_bytes(dir / "4d2.nii", with_samples(h, ramp_i16(48)));
-  expect_error([&] { io::open_volume(dir / "4d2.nii"); }, {"4d2.nii", "dim[0]"});
+  expect_error([&] { io::open_volume(dir / "4d2.nii"); }, {"4d2.nii", "dim", "2 volumes", "--volume"});
 
   h.dim = {2, 4, 3, 1, 1, 1, 1, 1};
   write_bytes(dir / "2d.nii", with_samples(h, ramp_i16(12)));
   expect_error([&] { io::open_volume(dir / "2d.nii"); }, {"2d.nii", "dim[0]"});
+}
+
+// Several volumes (dim[4..7]) follow each other; ReadOptions::volume picks one, and every
+// command's --volume maps to it.
+TEST(IoNifti, ReadsTheChosenVolumeOfSeveral) {
+  TempDir dir;
+  HandHeader h;
+  h.dim = {5, 4, 3, 2, 2, 3, 1, 1};  // 2 x 3 = 6 volumes of 24 samples
+  const auto stored = ramp_i16(144);
+  write_bytes(dir / "5d.nii", with_samples(h, stored));
+  for (std::int64_t t : {0, 1, 5}) {
+    io::ReadOptions options;
+    options.volume = t;
+    auto source = io::open_volume(dir / "5d.nii", options);
+    EXPECT_EQ(source->info().volumes, 6);
+    expect_samples(source->read_all(), std::vector<std::int16_t>(stored.begin() + 24 * t, stored.begin() + 24 * (t + 1)));
+  }
+  io::ReadOptions past;
+  past.volume = 6;
+  expect_error([&] { io::open_volume(dir / "5d.nii", past); }, {"5d.nii", "volume 6 does not exist", "holds 6"});
+  // Truncated inside the last volume: that volume is refused, the ones before still read.
+  auto cut = with_samples(h, stored);
+  cut.resize(cut.size() - 2);
+  write_bytes(dir / "cut.nii", cut);
+  past.volume = 5;
+  expect_error([&] { io::read_volume(dir / "cut.nii", past); }, {"cut.nii", "dim"});
+  past.volume = 4;
+  EXPECT_EQ(io::read_volume(dir / "cut.nii", past).dims(), (Extent{4, 3, 2}));
+  // Formats of one volume take only volume 0.
+  io::write_volume(dir / "one.nrrd", Volume(Extent{2, 2, 2}, DType::u8));
+  past.volume = 1;
+  expect_error([&] { io::open_volume(dir / "one.nrrd", past); }, {"one.nrrd", "volume 1 does not exist"});
+  past.volume = 0;
+  EXPECT_EQ(io::open_volume(dir / "one.nrrd", past)->info().volumes, 1);
+}
+
+// A NIfTI-2 header (nifti2.h, 540 bytes) written field by field: 64-bit dims and vox_offset,
+// f64 pixdim and scaling, the 8-byte magic at offset 4.
+std::vector<std::byte> nifti2_file(const std::array<std::int64_t, 8>& dim, const std::vector<std::int16_t>& samples,
+                                   bool big_endian, double slope = 0, std::int64_t vox_offset = 544) {
+  HandHeader put_in_order;
+  put_in_order.big_endian = big_endian;
+  std::vector<std::byte> b(static_cast<std::size_t>(vox_offset), std::byte{0});
+  put_in_order.put(b, 0, std::int32_t(540));
+  std::memcpy(b.data() + 4, "n+2\0\r\n\032\n", 8);
+  put_in_order.put(b, 12, std::int16_t(4));   // datatype i16
+  put_in_order.put(b, 14, std::int16_t(16));  // bitpix
+  for (std::size_t i = 0; i < 8; ++i) put_in_order.put(b, 16 + 8 * i, dim[i]);
+  const std::array<double, 8> pixdim{1, 0.5, 2.0, 3.25, 1, 1, 1, 1};
+  for (std::size_t i = 0; i < 8; ++i) put_in_order.put(b, 104 + 8 * i, pixdim[i]);
+  put_in_order.put(b, 168, vox_offset);
+  put_in_order.put(b, 176, slope);
+  put_in_order.put(b, 184, 0.5);  // scl_inter, used only with a slope
+  for (std::int16_t v : samples) {
+    std::byte raw[2];
+    std::memcpy(raw, &v, 2);
+    if (big_endian) std::swap(raw[0], raw[1]);
+    b.insert(b.end(), raw, raw + 2);
+  }
+  return b;
+}
+
+TEST(IoNifti2, ReadsEitherByteOrderWithItsSpacingAndScaling) {
+  TempDir dir;
+  const auto stored = ramp_i16(24);
+  for (const bool big : {false, true}) {
+    const fs::path p = dir / (big ? "be.nii" : "le.nii");
+    write_bytes(p, nifti2_file({3, 4, 3, 2, 1, 1, 1, 1}, stored, big));
+    auto source = io::open_volume(p);
+    EXPECT_EQ(source->info().dims, (Extent{4, 3, 2}));
+    EXPECT_EQ(source->info().dtype, DType::i16);
+    EXPECT_EQ(source->info().spacing, (Spacing{0.5, 2.0, 3.25}));
+    expect_samples(source->read_all(), stored);
+  }
+  // Scaling in f64: value = stored * 2 + 0.5.
+  write_bytes(dir / "scaled.nii", nifti2_file({3, 4, 3, 2, 1, 1, 1, 1}, stored, false, 2.0));
+  const Volume scaled = io::read_volume(dir / "scaled.nii");
+  ASSERT_EQ(scaled.dtype(), DType::f32);
+  for (std::size_t i = 0; i < stored.size(); ++i) EXPECT_EQ(scaled.samples<float>()[i], float(stored[i]) * 2.0f + 0.5f);
+  // vox_offset beyond the header (extensions), and a second volume.
+  write_bytes(dir / "ext.nii", nifti2_file({4, 4, 3, 1, 2, 1, 1, 1}, stored, false, 0, 608));
+  io::ReadOptions second;
+  second.volume = 1;
+  expect_samples(io::read_volume(dir / "ext.nii", second), std::vector<std::int16_t>(stored.begin() + 12, stored.end()));
+  // The pair magic and a vox_offset inside the header are refused by name.
+  auto pair = nifti2_file({3, 4, 3, 2, 1, 1, 1, 1}, stored, false);
+  pair[5] = std::byte{'i'};
+  pair[6] = std::byte{'2'};
+  write_bytes(dir / "pair.nii", pair);
+  expect_error([&] { io::open_volume(dir / "pair.nii"); }, {"pair.nii", "magic", "ni2"});
+  write_bytes(dir / "inside.nii", nifti2_file({3, 4, 3, 2, 1, 1, 1, 1}, stored, false, 0, 544));
+  auto inside = read_bytes(dir / "inside.nii");
+  HandHeader{}.put(inside, 168, std::int64_t(100));
+  write_bytes(dir / "inside.nii", inside);
+  expect_error([&] { io::open_volume(dir / "inside.nii"); }, {"inside.nii", "vox_offset", "540"});
+}
+
+// A dimension beyond NIfTI-1's 16-bit dim is written as NIfTI-2 and reads back exactly; smaller
+// volumes stay NIfTI-1, which every reader takes.
+TEST(IoNifti2, WriterUsesNifti2OnlyForDimensionsNifti1CannotHold) {
+  TempDir dir;
+  Volume wide(Extent{40000, 2, 1}, DType::u16, Spacing{0.25, 1, 2});
+  auto s = wide.samples<std::uint16_t>();
+  for (std::size_t i = 0; i < s.size(); ++i) s[i] = std::uint16_t(i * 7919u);
+  for (const char* name : {"wide.nii", "wide.nii.gz"}) {
+    io::write_volume(dir / name, wide);
+    const Volume back = io::read_volume(dir / name);
+    EXPECT_EQ(back, wide) << name;
+    EXPECT_EQ(back.spacing(), wide.spacing()) << name;
+  }
+  const auto bytes = read_bytes(dir / "wide.nii");
+  std::int32_t sizeof_hdr = 0;
+  std::memcpy(&sizeof_hdr, bytes.data(), 4);
+  EXPECT_EQ(sizeof_hdr, 540);
+  EXPECT_EQ(bytes.size(), 544u + 40000u * 2u * 2u);
+  io::write_volume(dir / "small.nii", Volume(Extent{3, 2, 1}, DType::u8));
+  std::memcpy(&sizeof_hdr, read_bytes(dir / "small.nii").data(), 4);
+  EXPECT_EQ(sizeof_hdr, 348);
 }
 
 TEST(IoNifti, HonoursVoxOffsetBeyondTheHeader) {
@@ -319,9 +438,13 @@ TEST(IoNiftiErrors, BadMagic) {
 TEST(IoNiftiErrors, BadSizeofHdr) {
   TempDir dir;
   HandHeader h;
-  h.sizeof_hdr = 540;  // NIfTI-2
+  h.sizeof_hdr = 123;
   write_bytes(dir / "hdr.nii", with_samples(h, ramp_i16(24)));
-  expect_error([&] { io::read_volume(dir / "hdr.nii"); }, {"hdr.nii", "sizeof_hdr"});
+  expect_error([&] { io::read_volume(dir / "hdr.nii"); }, {"hdr.nii", "sizeof_hdr", "348 (NIfTI-1) or 540 (NIfTI-2)"});
+  // 540 announces a NIfTI-2 header, which a 400-byte file cannot hold.
+  h.sizeof_hdr = 540;
+  write_bytes(dir / "short2.nii", with_samples(h, ramp_i16(24)));
+  expect_error([&] { io::read_volume(dir / "short2.nii"); }, {"short2.nii", "sizeof_hdr", "540-byte NIfTI-2"});
 }
 
 TEST(IoNiftiErrors, UnsupportedDatatypeAndWrongBitpix) {
@@ -422,6 +545,43 @@ TEST(IoNiftiRealData, AalAtlasLabels) {
   const std::set<std::uint8_t> labels(s.begin(), s.end());
   EXPECT_EQ(labels.size(), 117u);
   EXPECT_TRUE(labels.count(0));
+}
+
+// The NIfTI-2 example of python3-nibabel (the reference reader of the field; skipped when it is
+// not installed): int16, 32 x 20 x 12, two volumes. Each volume equals nibabel's decode, and
+// nibabel reads back the NIfTI-2 files we write.
+TEST(IoNiftiRealData, NibabelNifti2ExampleEqualsNibabel) {
+  const fs::path path = "/usr/lib/python3/dist-packages/nibabel/tests/data/example_nifti2.nii.gz";
+  if (!fs::exists(path)) GTEST_SKIP() << "python3-nibabel not installed";
+  TempDir dir;
+  const std::string script = "import nibabel, numpy; a = numpy.asarray(nibabel.load('" + path.string() +
+                             "').dataobj); [open('" + (dir / "v").string() +
+                             "%d' % t, 'wb').write(a[..., t].astype('<i2').tobytes(order='F')) for t in range(a.shape[3])]";
+  std::string out;
+  ASSERT_EQ(test::run_command("/usr/bin/python3 -c \"" + script + "\"", &out), 0) << out;
+  for (std::int64_t t = 0; t < 2; ++t) {
+    io::ReadOptions options;
+    options.volume = t;
+    const Volume v = io::read_volume(path, options);
+    ASSERT_EQ(v.dims(), (Extent{32, 20, 12}));
+    ASSERT_EQ(v.dtype(), DType::i16);
+    const auto expected = read_bytes(dir / ("v" + std::to_string(t)));
+    ASSERT_EQ(expected.size(), v.byte_size());
+    EXPECT_EQ(std::memcmp(expected.data(), v.bytes(), v.byte_size()), 0) << "volume " << t;
+  }
+  // And nibabel reads the NIfTI-2 files we write: same samples, same spacing.
+  Volume wide(Extent{40000, 2, 1}, DType::u16, Spacing{0.25, 1, 2});
+  auto s = wide.samples<std::uint16_t>();
+  for (std::size_t i = 0; i < s.size(); ++i) s[i] = std::uint16_t(i * 7919u);
+  io::write_volume(dir / "wide.nii", wide);
+  const std::string check = "import nibabel, numpy; i = nibabel.load('" + (dir / "wide.nii").string() +
+                            "'); assert type(i).__name__ == 'Nifti2Image', type(i); "
+                            "assert tuple(i.header.get_zooms()) == (0.25, 1.0, 2.0), i.header.get_zooms(); open('" +
+                            (dir / "wide.raw").string() + "', 'wb').write(numpy.asarray(i.dataobj).astype('<u2').tobytes(order='F'))";
+  ASSERT_EQ(test::run_command("/usr/bin/python3 -c \"" + check + "\"", &out), 0) << out;
+  const auto decoded = read_bytes(dir / "wide.raw");
+  ASSERT_EQ(decoded.size(), wide.byte_size());
+  EXPECT_EQ(std::memcmp(decoded.data(), wide.bytes(), wide.byte_size()), 0);
 }
 
 }  // namespace

@@ -21,6 +21,9 @@ struct VolumeInfo {
   Extent dims;
   DType dtype = DType::u8;
   Spacing spacing;
+  /// 3D volumes of `dims` the file holds (NIfTI dim[4..7]: time points, components); a source
+  /// reads one of them (io::ReadOptions::volume).
+  std::int64_t volumes = 1;
 
   /// dims.x * dims.y * sample size and dims.x * dims.y * dims.z * sample size, or std::nullopt
   /// when a dimension is negative or the product does not fit in a signed 64-bit count (the

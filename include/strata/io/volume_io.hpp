@@ -25,6 +25,9 @@ struct ReadOptions {
   std::optional<Spacing> raw_spacing;
   bool raw_big_endian = false;
   std::uint64_t raw_header_bytes = 0;
+  // Which 3D volume of a file that holds several (NIfTI dim[0] > 3: time points, components),
+  // from 0. Required for such files; a file of one volume takes only 0.
+  std::optional<std::int64_t> volume;
   // Where compressed inputs (gzip) are decoded for random access; default: the system temp dir.
   std::optional<std::filesystem::path> temp_dir;
   ProgressSink* progress = nullptr;  // for decoding compressed inputs
