@@ -1,4 +1,5 @@
 // `strata info FILE`: what a volume file holds, computed by streaming it slab by slab.
+#include <cmath>
 #include <cstdio>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -39,6 +40,9 @@ nlohmann::json volume_report(const io::VolumeSource& source, const VolumeStatist
   j["mean"] = st.mean;
   j["stddev"] = st.stddev;
   j["histogram"] = st.histogram;
+  if (st.finite_count() != st.voxel_count)
+    j["non_finite"] = {{"nan", st.nan_count}, {"positive_infinity", st.positive_infinity_count},
+                       {"negative_infinity", st.negative_infinity_count}};
   if (st.distinct_values) j["distinct_values"] = *st.distinct_values;
   if (dtype_is_integer(info.dtype)) j["background_fraction"] = st.zero_fraction;
   return j;
@@ -56,8 +60,15 @@ void print_volume_report(const nlohmann::json& j) {
   std::printf("dtype:       %s\n", j["dtype"].get<std::string>().c_str());
   std::printf("spacing:     %g %g %g\n", j["spacing"][0].get<double>(), j["spacing"][1].get<double>(),
               j["spacing"][2].get<double>());
-  std::printf("range:       [%g, %g]\n", j["min"].get<double>(), j["max"].get<double>());
-  std::printf("mean:        %g (stddev %g)\n", j["mean"].get<double>(), j["stddev"].get<double>());
+  // JSON has no NaN: a volume without finite values has null statistics.
+  const auto number = [](const nlohmann::json& v) { return v.is_number() ? v.get<double>() : std::nan(""); };
+  const bool non_finite = j.contains("non_finite");
+  if (non_finite)
+    std::printf("non-finite:  %llu NaN, %llu +inf, %llu -inf (the statistics below are of the other voxels)\n",
+                j["non_finite"]["nan"].get<unsigned long long>(), j["non_finite"]["positive_infinity"].get<unsigned long long>(),
+                j["non_finite"]["negative_infinity"].get<unsigned long long>());
+  std::printf("range:       [%g, %g]\n", number(j["min"]), number(j["max"]));
+  std::printf("mean:        %g (stddev %g)\n", number(j["mean"]), number(j["stddev"]));
   std::printf("histogram:   16 bins over the range:");
   for (auto& c : j["histogram"]) std::printf(" %llu", c.get<unsigned long long>());
   std::printf("\n");

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace strata {
 
@@ -22,28 +23,45 @@ void StatisticsAccumulator::add_sample(double v) {
 
 template <class T>
 void StatisticsAccumulator::add_typed(const T* v, std::int64_t n) {
-  double sum = 0, sum_sq = 0, lo = n ? double(v[0]) : 0, hi = lo;
-  std::uint64_t zeros = 0;
-#pragma omp parallel for reduction(+ : sum, sum_sq, zeros) reduction(min : lo) reduction(max : hi) schedule(static)
+  double sum = 0, sum_sq = 0, lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  std::uint64_t zeros = 0, nan = 0, positive_infinite = 0, negative_infinite = 0;
+#pragma omp parallel for reduction(+ : sum, sum_sq, zeros, nan, positive_infinite, negative_infinite) \
+    reduction(min : lo) reduction(max : hi) schedule(static)
   for (std::int64_t i = 0; i < n; ++i) {
     const double x = double(v[i]);
+    zeros += (v[i] == T(0));
+    if constexpr (std::is_floating_point_v<T>) {
+      if (!std::isfinite(x)) {
+        nan += std::isnan(x);
+        positive_infinite += x > 0;
+        negative_infinite += x < 0;
+        continue;
+      }
+    }
     sum += x;
     sum_sq += x * x;
-    zeros += (v[i] == T(0));
     lo = std::min(lo, x);
     hi = std::max(hi, x);
   }
   if (n == 0) return;
-  min_ = n_ ? std::min(min_, lo) : lo;
-  max_ = n_ ? std::max(max_, hi) : hi;
+  const std::uint64_t finite = std::uint64_t(n) - nan - positive_infinite - negative_infinite;
+  if (finite > 0) {
+    min_ = finite_ ? std::min(min_, lo) : lo;
+    max_ = finite_ ? std::max(max_, hi) : hi;
+  }
   n_ += std::uint64_t(n);
+  finite_ += finite;
   sum_ += sum;
   sum_sq_ += sum_sq;
   zeros_ += zeros;
+  nan_ += nan;
+  positive_infinite_ += positive_infinite;
+  negative_infinite_ += negative_infinite;
 
   if constexpr (std::is_floating_point_v<T>) {
     seen_float_ = true;
-    for (std::int64_t i = 0; i < n; ++i) add_sample(double(v[i]));
+    for (std::int64_t i = 0; i < n; ++i)
+      if (std::isfinite(v[i])) add_sample(double(v[i]));
   } else if constexpr (sizeof(T) <= 2) {
     // Signed types are shifted by 32768 so every 8/16-bit value has its own table entry.
     small_offset_ = std::is_signed_v<T> ? 32768 : 0;
@@ -75,15 +93,21 @@ void StatisticsAccumulator::add(const Volume& slab) {
 VolumeStatistics StatisticsAccumulator::result() const {
   VolumeStatistics s;
   s.voxel_count = n_;
+  s.nan_count = nan_;
+  s.positive_infinity_count = positive_infinite_;
+  s.negative_infinity_count = negative_infinite_;
   if (n_ == 0) return s;
+  s.zero_fraction = double(zeros_) / double(n_);
+  if (finite_ == 0) {
+    s.min = s.max = s.mean = s.stddev = std::numeric_limits<double>::quiet_NaN();
+    return s;
+  }
   s.min = min_;
   s.max = max_;
-  s.mean = sum_ / double(n_);
-  s.stddev = std::sqrt(std::max(0.0, sum_sq_ / double(n_) - s.mean * s.mean));
-  s.zero_fraction = double(zeros_) / double(n_);
+  s.mean = sum_ / double(finite_);
+  s.stddev = std::sqrt(std::max(0.0, sum_sq_ / double(finite_) - s.mean * s.mean));
   const double range = max_ - min_;
-  // Non-finite samples (a float volume may hold NaN or infinities, and then so may min_, max_
-  // and range) land in the first bin (NaN) or the end bins, never in a cast from NaN or infinity.
+  // Finite values only, so no bin index comes from a cast of NaN or infinity.
   auto bin_of = [&](double v) {
     const double bins = double(s.histogram.size());
     const double t = range > 0 ? (v - min_) / range * bins : 0.0;
@@ -111,7 +135,7 @@ VolumeStatistics StatisticsAccumulator::result() const {
     } else {
       std::array<std::uint64_t, 16> sampled{};
       for (double v : samples_) ++sampled[bin_of(v)];
-      const std::uint64_t sampled_voxels = n_ - counted;
+      const std::uint64_t sampled_voxels = finite_ - counted;
       const double scale = samples_.empty() ? 0 : double(sampled_voxels) / double(samples_.size());
       for (std::size_t b = 0; b < sampled.size(); ++b) s.histogram[b] += std::uint64_t(std::llround(sampled[b] * scale));
     }
