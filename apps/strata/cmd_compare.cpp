@@ -1,4 +1,5 @@
-// `strata compare A B`: SNR, PSNR, NRMSE and max error of B against the original A.
+// `strata compare A B`: SNR, PSNR, NRMSE and max error of B against the original A, over the
+// voxels finite in both, and how many NaN or infinite voxels match or do not.
 #include <cstdio>
 #include <nlohmann/json.hpp>
 
@@ -22,9 +23,12 @@ nlohmann::json metrics_json(const ErrorMetrics& m) {
     if (std::isfinite(v)) return v;
     return v > 0 ? "inf" : "-inf";
   };
-  return {{"voxels", m.voxel_count}, {"snr_db", finite_or_string(m.snr_db)}, {"psnr_db", finite_or_string(m.psnr_db)},
-          {"nrmse", m.nrmse},         {"rmse", m.rmse},                        {"max_abs_error", m.max_abs_error},
-          {"signal_rms", m.signal_rms}, {"value_min", m.value_min},            {"value_max", m.value_max}};
+  return {{"voxels", m.voxel_count},         {"snr_db", finite_or_string(m.snr_db)},
+          {"psnr_db", finite_or_string(m.psnr_db)}, {"nrmse", m.nrmse},
+          {"rmse", m.rmse},                        {"max_abs_error", m.max_abs_error},
+          {"signal_rms", m.signal_rms},            {"value_min", m.value_min},
+          {"value_max", m.value_max},              {"masked_matched", m.masked_matched},
+          {"masked_mismatched", m.masked_mismatched}};
 }
 
 void run_compare(const CompareArgs& args, const GlobalOptions& global) {
@@ -45,6 +49,9 @@ void run_compare(const CompareArgs& args, const GlobalOptions& global) {
     return;
   }
   std::printf("voxels:     %llu\n", (unsigned long long)m.voxel_count);
+  if (m.masked_matched + m.masked_mismatched > 0)
+    std::printf("non-finite: %llu voxels NaN or infinite in both alike, %llu in one only or unlike (left out below)\n",
+                (unsigned long long)m.masked_matched, (unsigned long long)m.masked_mismatched);
   std::printf("SNR:        %.3f dB\n", m.snr_db);
   std::printf("PSNR:       %.3f dB (range %g..%g)\n", m.psnr_db, m.value_min, m.value_max);
   std::printf("NRMSE:      %.6g\n", m.nrmse);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <type_traits>
 
 #include "strata/core/error.hpp"
 
@@ -13,24 +14,35 @@ namespace {
 struct Partial {
   double sum_sq = 0, sum_err_sq = 0, max_err = 0;
   double lo = std::numeric_limits<double>::infinity(), hi = -std::numeric_limits<double>::infinity();
+  std::uint64_t compared = 0, masked_matched = 0, masked_mismatched = 0;
 };
 
 template <class T, class U>
 Partial accumulate(const T* a, const U* b, std::int64_t n) {
   Partial p;
   double sum_sq = 0, sum_err_sq = 0, max_err = 0, lo = p.lo, hi = p.hi;
-#pragma omp parallel for reduction(+ : sum_sq, sum_err_sq) reduction(max : max_err, hi) reduction(min : lo) \
-    schedule(static)
+  std::uint64_t matched = 0, mismatched = 0;
+  constexpr bool may_be_non_finite = std::is_floating_point_v<T> || std::is_floating_point_v<U>;
+#pragma omp parallel for reduction(+ : sum_sq, sum_err_sq, matched, mismatched) reduction(max : max_err, hi) \
+    reduction(min : lo) schedule(static)
   for (std::int64_t i = 0; i < n; ++i) {
-    const double x = double(a[i]);
-    const double e = x - double(b[i]);
+    const double x = double(a[i]), y = double(b[i]);
+    if constexpr (may_be_non_finite) {
+      if (!std::isfinite(x) || !std::isfinite(y)) {
+        const bool same = !std::isfinite(x) && !std::isfinite(y) && (x == y || (std::isnan(x) && std::isnan(y)));
+        matched += same;
+        mismatched += !same;
+        continue;
+      }
+    }
+    const double e = x - y;
     sum_sq += x * x;
     sum_err_sq += e * e;
     max_err = std::max(max_err, std::abs(e));
     lo = std::min(lo, x);
     hi = std::max(hi, x);
   }
-  return {sum_sq, sum_err_sq, max_err, lo, hi};
+  return {sum_sq, sum_err_sq, max_err, lo, hi, std::uint64_t(n) - matched - mismatched, matched, mismatched};
 }
 
 }  // namespace
@@ -46,7 +58,9 @@ void ErrorAccumulator::add(const Volume& original, const Volume& approximation) 
       return accumulate(original.samples<T>().data(), approximation.samples<U>().data(), original.voxel_count());
     });
   });
-  add_partial(std::uint64_t(original.voxel_count()), p.sum_sq, p.sum_err_sq, p.max_err, p.lo, p.hi);
+  add_partial(p.compared, p.sum_sq, p.sum_err_sq, p.max_err, p.lo, p.hi);
+  masked_matched_ += p.masked_matched;
+  masked_mismatched_ += p.masked_mismatched;
 }
 
 void ErrorAccumulator::add_partial(std::uint64_t n, double sum_sq, double sum_err_sq, double max_err, double lo,
@@ -62,11 +76,15 @@ void ErrorAccumulator::add_partial(std::uint64_t n, double sum_sq, double sum_er
 
 void ErrorAccumulator::merge(const ErrorAccumulator& o) {
   add_partial(o.n_, o.sum_sq_, o.sum_err_sq_, o.max_err_, o.lo_, o.hi_);
+  masked_matched_ += o.masked_matched_;
+  masked_mismatched_ += o.masked_mismatched_;
 }
 
 ErrorMetrics ErrorAccumulator::result() const {
   ErrorMetrics m;
   m.voxel_count = n_;
+  m.masked_matched = masked_matched_;
+  m.masked_mismatched = masked_mismatched_;
   if (n_ == 0) return m;
   const double inf = std::numeric_limits<double>::infinity();
   m.signal_rms = std::sqrt(sum_sq_ / double(n_));

@@ -1,5 +1,5 @@
-// `strata info` on a float volume with NaN (masked voxels) and infinities: they are counted
-// apart and the range, mean and histogram describe the finite voxels.
+// `strata info` and `strata compare` on float volumes with NaN (masked voxels) and infinities:
+// they are counted apart and the figures describe the finite voxels.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -15,7 +15,7 @@
 namespace strata {
 namespace {
 
-TEST(CliInfoNonFinite, CountsNanAndInfinitiesApart) {
+TEST(CliNonFinite, InfoAndCompareCountNanAndInfinitiesApart) {
   test::TempDir dir;
   Volume v(Extent{4, 3, 2}, DType::f32);
   auto s = v.samples<float>();
@@ -41,6 +41,24 @@ TEST(CliInfoNonFinite, CountsNanAndInfinitiesApart) {
   ASSERT_EQ(test::run_command(test::strata_cmd("info " + test::shell_quoted(dir / "masked.nrrd")), &out), 0) << out;
   EXPECT_NE(out.find("non-finite:  2 NaN, 1 +inf, 0 -inf"), std::string::npos) << out;
   EXPECT_NE(out.find("range:       [1, 22]"), std::string::npos) << out;
+
+  // A copy that lost one NaN (decoded as 7) and is 0.5 off elsewhere: the NaN it kept and the
+  // infinity match, the lost one does not, and the error is that of the finite voxels.
+  Volume lost = v;
+  auto l = lost.samples<float>();
+  l[5] = 7;
+  l[10] += 0.5f;
+  io::write_volume(dir / "lost.nrrd", lost);
+  ASSERT_EQ(test::run_command(test::strata_cmd("compare " + test::shell_quoted(dir / "masked.nrrd") + " " +
+                                               test::shell_quoted(dir / "lost.nrrd") + " --json"),
+                              &out),
+            0)
+      << out;
+  const auto c = nlohmann::json::parse(out);
+  EXPECT_EQ(c["voxels"], 21);
+  EXPECT_EQ(c["masked_matched"], 2);
+  EXPECT_EQ(c["masked_mismatched"], 1);
+  EXPECT_EQ(c["max_abs_error"].get<double>(), 0.5);
 }
 
 }  // namespace

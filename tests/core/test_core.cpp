@@ -1,6 +1,8 @@
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
+#include <limits>
 
 #include "strata/core/dtype.hpp"
 #include "strata/core/error.hpp"
@@ -74,6 +76,36 @@ TEST(CoreMetrics, MatchPaperDefinitions) {
   EXPECT_EQ(m.max_abs_error, 1.0);
   EXPECT_TRUE(std::isinf(compare_volumes(a, a).snr_db));
   EXPECT_DOUBLE_EQ(bits_per_voxel(1000, 4000), 2.0);
+}
+
+// NaN and infinities are left out of the figures and counted: alike in both volumes (NaN and
+// NaN, +inf and +inf) or not (NaN against a value, +inf against -inf). The figures are those of
+// the finite pairs, A = [3, 4] and Ã = [3, 5] as above.
+TEST(CoreMetrics, NonFiniteVoxelsAreCountedApart) {
+  const double nan = std::numeric_limits<double>::quiet_NaN(), inf = std::numeric_limits<double>::infinity();
+  const std::array<double, 7> av{3, nan, 4, inf, nan, 1, inf}, bv{3, nan, 5, inf, 2, nan, -inf};
+  Volume a({7, 1, 1}, DType::f64), b({7, 1, 1}, DType::f32);
+  for (std::size_t i = 0; i < av.size(); ++i) {
+    a.samples<double>()[i] = av[i];
+    b.samples<float>()[i] = float(bv[i]);
+  }
+  const ErrorMetrics m = compare_volumes(a, b);
+  EXPECT_EQ(m.voxel_count, 2u);
+  EXPECT_EQ(m.masked_matched, 2u);     // NaN-NaN, +inf-+inf
+  EXPECT_EQ(m.masked_mismatched, 3u);  // NaN-2, 1-NaN, +inf--inf
+  EXPECT_NEAR(m.rmse, std::sqrt(0.5), 1e-12);
+  EXPECT_NEAR(m.snr_db, 20 * std::log10(5.0), 1e-9);
+  EXPECT_EQ(m.max_abs_error, 1.0);
+  EXPECT_EQ(m.value_min, 3.0);
+  EXPECT_EQ(m.value_max, 4.0);
+  // Merged accumulators add their counts.
+  ErrorAccumulator first, second;
+  first.add(a.crop(Box{{0, 0, 0}, {3, 1, 1}}), b.crop(Box{{0, 0, 0}, {3, 1, 1}}));
+  second.add(a.crop(Box{{3, 0, 0}, {7, 1, 1}}), b.crop(Box{{3, 0, 0}, {7, 1, 1}}));
+  first.merge(second);
+  EXPECT_EQ(first.result().masked_matched, 2u);
+  EXPECT_EQ(first.result().masked_mismatched, 3u);
+  EXPECT_EQ(first.result().voxel_count, 2u);
 }
 
 TEST(CoreMetrics, SlabAccumulationEqualsWhole) {

@@ -10,8 +10,15 @@ namespace strata {
 //   signal = averaged Frobenius norm sqrt(1/N sum a^2), rmse = sqrt(1/N sum (a - ã)^2),
 //   SNR = 20 log10(signal / rmse). We also report PSNR over the original's value range,
 //   normalized RMSE (rmse / range) and the maximum absolute error.
+//
+// Voxels that are not finite (NaN: masked or out of the field of view; infinities) are left out
+// of every figure: `voxel_count` counts the voxels finite in both volumes. A voxel non-finite in
+// both with the same value (NaN and NaN, or the same infinity) is `masked_matched`; one that is
+// non-finite in only one volume, or non-finite in both with different values, is
+// `masked_mismatched`: a decoder that loses or invents NaN shows there.
 struct ErrorMetrics {
   std::uint64_t voxel_count = 0;
+  std::uint64_t masked_matched = 0, masked_mismatched = 0;
   double signal_rms = 0;   // ‖A‖F̄
   double rmse = 0;
   double snr_db = 0;       // +inf when rmse == 0
@@ -32,7 +39,7 @@ class ErrorAccumulator {
 
  private:
   void add_partial(std::uint64_t n, double sum_sq, double sum_err_sq, double max_err, double lo, double hi);
-  std::uint64_t n_ = 0;
+  std::uint64_t n_ = 0, masked_matched_ = 0, masked_mismatched_ = 0;
   double sum_sq_ = 0, sum_err_sq_ = 0, max_err_ = 0;
   double lo_ = 0, hi_ = 0;
 };
