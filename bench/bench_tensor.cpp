@@ -277,6 +277,29 @@ void BM_EigenSelfAdjointSolver(benchmark::State& state) {
 }
 BENCHMARK(BM_EigenSelfAdjointSolver)->ArgName("n")->Arg(32)->Arg(16)->Unit(benchmark::kMicrosecond);
 
+// ---- Gram matrices of a brick core's unfoldings -------------------------------------------------
+// The encoder's overlap-row fit takes C_(n) C_(n)^T of a 28^3 block-DCT core in every mode, once
+// per coded brick: from the float core (gram) or exactly from its integer codes (integer_gram).
+// Args: mode (1-3), kernel (0 = gram of floats, 1 = integer_gram of the codes).
+void BM_CoreGram(benchmark::State& state) {
+  const int mode = int(state.range(0));
+  const bool integer = state.range(1) != 0;
+  Tensor3 core(28, 28, 28);
+  std::vector<std::int32_t> codes(std::size_t(core.size()));
+  std::mt19937 rng(7);
+  std::geometric_distribution<int> magnitude(0.3);
+  for (std::size_t i = 0; i < codes.size(); ++i) {
+    codes[i] = (rng() & 1 ? 1 : -1) * magnitude(rng);
+    core.values()[i] = float(codes[i]) * 0.5f;
+  }
+  for (auto _ : state) {
+    if (integer) benchmark::DoNotOptimize(integer_gram(codes, core.dims(), mode)->data());
+    else benchmark::DoNotOptimize(gram(core, mode).data());
+  }
+  state.SetLabel(integer ? "integer codes" : "float core");
+}
+BENCHMARK(BM_CoreGram)->ArgNames({"mode", "integer"})->ArgsProduct({{1, 2, 3}, {0, 1}})->Unit(benchmark::kMicrosecond);
+
 // ---- Decoding quantized bricks --------------------------------------------------------------
 const char* const kSchemes[] = {"u16,b8log+", "u16,b8log", "u16,b12log+", "u16,b16log", "u16,b8mu+",
                                 "u8,b8lin",   "u16,b16lin", "f32"};

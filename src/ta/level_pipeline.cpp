@@ -40,12 +40,22 @@ void downsample_xy(const float* slice, const Extent& dims, float* out) {
 
 }  // namespace
 
+// The HOSVD basis costs a brick about as much again as everything else (an eigen-decomposition
+// per mode, a second coding and reconstruction), and on most data the block DCT wins. So bricks
+// probe it, spread by a hash: about 16 of a level's first row (every 2nd brick at most), every
+// 8th of the later rows. Once the probes of the rows before show a saving of 3% or more, every
+// brick tries it; once 16 of them show less than 1%, only every 32nd keeps probing (data that
+// changes its character later in the volume is still noticed).
 bool LevelPipeline::brick_tries_hosvd(std::int64_t row, std::int64_t index) const {
-  constexpr double kHosvdMinSaving = 0.03;
-  constexpr std::uint64_t kFirstRowProbeEvery = 2, kProbeEvery = 8;
-  if (hosvd_trial_bytes_ > 0 && double(hosvd_saved_bytes_) >= kHosvdMinSaving * double(hosvd_trial_bytes_)) return true;
-  const std::uint64_t brick = std::uint64_t(row * dims_.bricks.x * dims_.bricks.y + index);
-  return splitmix64(brick) % (row == 0 ? kFirstRowProbeEvery : kProbeEvery) == 0;
+  constexpr double kAllTryAbove = 0.03, kRareBelow = 0.01;
+  constexpr std::uint64_t kFirstRowProbes = 16, kProbeEvery = 8, kRareProbeEvery = 32, kEnoughTrials = 16;
+  const double saving = hosvd_trial_bytes_ > 0 ? double(hosvd_saved_bytes_) / double(hosvd_trial_bytes_) : 0.0;
+  if (hosvd_trial_bytes_ > 0 && saving >= kAllTryAbove) return true;
+  const auto bricks_in_row = std::uint64_t(dims_.bricks.x * dims_.bricks.y);
+  const std::uint64_t every = row == 0 ? std::max<std::uint64_t>(2, bricks_in_row / kFirstRowProbes)
+                              : hosvd_trials_ >= kEnoughTrials && saving < kRareBelow ? kRareProbeEvery
+                                                                                     : kProbeEvery;
+  return splitmix64(std::uint64_t(row) * bricks_in_row + std::uint64_t(index)) % every == 0;
 }
 
 LevelPipeline::LevelPipeline(const OctreeGeometry& geometry, int level, const CodecParams& codec,
@@ -271,6 +281,7 @@ void LevelPipeline::encode_row(std::int64_t row) {
     measured_.voxels += r.error.voxels;
     if (r.encoded.block_dct_bytes > 0) {
       const std::size_t kept = std::min(r.encoded.block_dct_bytes, r.encoded.hosvd_bytes);
+      ++hosvd_trials_;
       hosvd_trial_bytes_ += r.encoded.block_dct_bytes;
       hosvd_saved_bytes_ += r.encoded.block_dct_bytes - kept;
     }

@@ -47,13 +47,12 @@ class LevelPipeline {
   bool encode_and_decode(std::int64_t bx, std::int64_t by, std::int64_t bz, const tensor::Tensor3& samples,
                          std::vector<float>& decoded, EncodedBrick& encoded, tensor::BrickReconstructor& reconstructor,
                          DecodeScratch& scratch, bool try_hosvd) const;
-  // Error-target mode: whether brick `index` of `row` (x fastest) also tries the HOSVD basis.
-  // Every brick does while the basis has saved at least kHosvdMinSaving of the bytes of the
-  // bricks that tried it in finished rows (smooth fields: 30-50 %); otherwise only probe bricks
-  // do, a hashed sample of half the first row and an eighth of later ones. The HOSVD costs
-  // about as much CPU as the rest of the encoder: on MRI and EM it saves under 2 %, so trying
-  // it everywhere halved the speed for nothing. Decided from finished rows and the brick's
-  // index only: the same on any thread count.
+  // Error-target mode: whether brick `index` of `row` (x fastest) also tries the HOSVD basis:
+  // every brick while the basis has saved at least 3% of the bytes of the bricks that tried it
+  // in finished rows (smooth fields: 30-50 %), otherwise hashed probes (rules beside the code).
+  // The HOSVD costs about as much CPU as the rest of the encoder: on MRI and EM it saves under
+  // 1 %, so trying it everywhere halved the speed for nothing. Decided from finished rows and
+  // the brick's index only: the same on any thread count.
   bool brick_tries_hosvd(std::int64_t row, std::int64_t index) const;
   void gather_samples(std::int64_t bx, std::int64_t by, std::int64_t bz, tensor::Tensor3& out) const;
   // Feeds decoded slices [z0, z1) (in decoded_row_) to `next` as 2x2x2 averages.
@@ -81,7 +80,7 @@ class LevelPipeline {
   std::vector<float> pending_decoded_;     // one decoded slice (2x2 averaged) awaiting its partner
   std::int64_t decoded_slices_ = 0;
   CoreError measured_;
-  std::uint64_t hosvd_trial_bytes_ = 0, hosvd_saved_bytes_ = 0;  // over bricks that coded both bases
+  std::uint64_t hosvd_trials_ = 0, hosvd_trial_bytes_ = 0, hosvd_saved_bytes_ = 0;  // over bricks that coded both bases
 };
 
 }  // namespace strata::ta

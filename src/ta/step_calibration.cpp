@@ -127,18 +127,27 @@ void StepCalibrator::add_block(const float* samples, Tally& tally) const {
   thread_local std::vector<float> a, b;
   a.assign(samples, samples + w * plane);
   b.resize(w * plane);
-  // Along x, then y, then z: coefficient (f_x, f_y, f_z) = Σ basis(t, f) · sample, per axis.
-  // Lines along the axis start at `base` = outer + inner (outer steps over whole lines' spans).
+  // Along x, then y, then z: coefficient (f_x, f_y, f_z) = Σ_t basis(t, f) · sample, t ascending.
+  // The innermost loops run over contiguous outputs (the other lines of a y or z pass, the
+  // frequencies of an x line), so they vectorise; each sum keeps its order.
   auto along = [&](const std::vector<float>& in, std::vector<float>& out, std::size_t stride) {
-    for (std::size_t outer = 0; outer < w * plane; outer += stride * w)
-      for (std::size_t inner = 0; inner < stride; ++inner) {
-        const std::size_t base = outer + inner;
-        for (std::size_t f = 0; f < w; ++f) {
-          float sum = 0;
-          for (std::size_t t = 0; t < w; ++t) sum += basis_[t + w * f] * in[base + t * stride];
-          out[base + f * stride] = sum;
+    std::fill(out.begin(), out.end(), 0.0f);
+    for (std::size_t outer = 0; outer < w * plane; outer += stride * w) {
+      if (stride == 1) {
+        for (std::size_t t = 0; t < w; ++t) {
+          const float x = in[outer + t];
+          for (std::size_t f = 0; f < w; ++f) out[outer + f] += basis_[t + w * f] * x;
         }
+        continue;
       }
+      for (std::size_t f = 0; f < w; ++f)
+        for (std::size_t t = 0; t < w; ++t) {
+          const float c = basis_[t + w * f];
+          const float* src = in.data() + outer + t * stride;
+          float* dst = out.data() + outer + f * stride;
+          for (std::size_t inner = 0; inner < stride; ++inner) dst[inner] += c * src[inner];
+        }
+    }
   };
   along(a, b, 1);
   along(b, a, w);

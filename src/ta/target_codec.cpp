@@ -358,23 +358,39 @@ const tensor::Tensor3& overlap_slabs(const tensor::Tensor3& x0, int n, int margi
 // C_(n) · vec(P_q) for every overlap position q: P = r_a x r_b x 2·margin (the slabs in the
 // bases of the other two modes), C the core; r_n x 2·margin.
 Eigen::MatrixXd core_times_slabs(const tensor::Tensor3& core, int n, const tensor::Tensor3& p) {
+  // In float (a fit; its error is measured afterwards): no double copies of the core.
   const tensor::Dims3& r = core.dims();
   const std::int64_t q = p.dims()[2];
-  const Eigen::MatrixXd c = Eigen::Map<const Eigen::MatrixXf>(core.data(), r[0], r[1] * r[2]).cast<double>();
-  if (n == 0) return c * Eigen::Map<const Eigen::MatrixXf>(p.data(), r[1] * r[2], q).cast<double>();
+  const Eigen::Map<const Eigen::MatrixXf> c(core.data(), r[0], r[1] * r[2]);
+  if (n == 0) return (c * Eigen::Map<const Eigen::MatrixXf>(p.data(), r[1] * r[2], q)).cast<double>();
   if (n == 2) {
-    const Eigen::Map<const Eigen::MatrixXd> by_slice(c.data(), r[0] * r[1], r[2]);
-    return by_slice.transpose() * Eigen::Map<const Eigen::MatrixXf>(p.data(), r[0] * r[1], q).cast<double>();
+    const Eigen::Map<const Eigen::MatrixXf> by_slice(core.data(), r[0] * r[1], r[2]);
+    return (by_slice.transpose() * Eigen::Map<const Eigen::MatrixXf>(p.data(), r[0] * r[1], q)).cast<double>();
   }
   // Mode 2: Σ_k C(:, :, k)^T P(:, k, :).
-  Eigen::MatrixXd out = Eigen::MatrixXd::Zero(r[1], q);
+  Eigen::MatrixXf out = Eigen::MatrixXf::Zero(r[1], q);
   for (std::int64_t k = 0; k < r[2]; ++k) {
-    const Eigen::Map<const Eigen::MatrixXd> slice(c.data() + r[0] * r[1] * k, r[0], r[1]);
+    const Eigen::Map<const Eigen::MatrixXf> slice(core.data() + r[0] * r[1] * k, r[0], r[1]);
     const Eigen::Map<const Eigen::MatrixXf, 0, Eigen::OuterStride<>> pk(p.data() + r[0] * k, r[0], q,
                                                                       Eigen::OuterStride<>(r[0] * r[2]));
-    out.noalias() += slice.transpose() * pk.cast<double>();
+    out.noalias() += slice.transpose() * pk;
   }
-  return out;
+  return out.cast<double>();
+}
+
+// G_(n) G_(n)^T of the model with mode n in coefficient space (G = C ×a U_a ×b U_b). For the
+// block DCT, G = C = codes · Δ, and the Gram of the integer codes is exact and quick.
+Eigen::MatrixXd model_gram(const CodedModel& cm, const tensor::Tensor3& core, const tensor::Factors<float>& u, int n) {
+  const quant::CodedBrick& b = cm.coded;
+  if (b.dct_block > 0) {
+    if (const auto exact = tensor::integer_gram(b.core_codes, core.dims(), n + 1))
+      return *exact * (double(b.core_step) * double(b.core_step));
+    return tensor::gram(core, n + 1);
+  }
+  tensor::Tensor3 g = core;
+  for (int other = 0; other < 3; ++other)
+    if (other != n) g = tensor::ttm(g, other + 1, u[std::size_t(other)]);
+  return tensor::gram(g, n + 1);
 }
 
 // The overlap voxels (shared with the neighbours for interpolation) are not fitted: each
@@ -398,20 +414,15 @@ void extend_factors(CodedModel& cm, const tensor::Tensor3& x0, int margin) {
   tensor::Factors<float> u;
   for (std::size_t n = 0; n < 3; ++n)
     u[n] = Eigen::Map<const tensor::Matrix<float>>(cm.model.factors[n].data(), region[n], r[n]);
-  const bool orthonormal = b.dct_block > 0;
   EncoderScratch& scratch = ::strata::ta::scratch();
   std::vector<std::int32_t> codes;
   std::size_t column = 0, old_at = 0;
   for (int n = 0; n < 3; ++n) {
     const std::size_t sn = std::size_t(n), a = n == 0 ? 1 : 0, bm = n == 2 ? 1 : 2;
-    tensor::Tensor3 g = core;
-    if (!orthonormal)
-      for (int other = 0; other < 3; ++other)
-        if (other != n) g = tensor::ttm(g, other + 1, u[std::size_t(other)]);
     // Ridge: weak columns would otherwise fit the overlap's noise with huge entries. The weight
     // is the quantization noise per sample over the spread of an orthonormal basis entry.
     const double ridge = double(b.core_step) * double(b.core_step) * double(region[sn]) / 12.0;
-    const Eigen::MatrixXd gram = tensor::gram(g, n + 1);
+    const Eigen::MatrixXd gram = model_gram(cm, core, u, n);
     const auto solver = (gram + ridge * Eigen::MatrixXd::Identity(r[sn], r[sn])).ldlt();
     tensor::TuckerView bases;
     const tensor::Tensor3& slabs = overlap_slabs(x0, n, margin, region);

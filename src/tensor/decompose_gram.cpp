@@ -63,6 +63,37 @@ template <int VW, int B>
   else gram_dot_typed<VW, B>(a, a.x);
 }
 
+// ---- Gram matrices of small integers -------------------------------------------------------
+
+// Rows of 16-bit integers whose products sum exactly in 32 bits: the loop is the widening dot
+// product GCC turns into pmaddwd (8 multiply-adds per SSE2 instruction, 16 with AVX2, 32 with
+// AVX-512BW). Four rows q share each load of row p.
+[[gnu::always_inline]] inline void gram_i16_impl(const std::int16_t* x, std::int64_t n, std::int64_t len, double* g) {
+  for (std::int64_t p = 0; p < n; ++p) {
+    const std::int16_t* xp = x + p * len;
+    std::int64_t q = p;
+    for (; q + 4 <= n; q += 4) {
+      const std::int16_t *x0 = x + q * len, *x1 = x0 + len, *x2 = x1 + len, *x3 = x2 + len;
+      std::int32_t s0 = 0, s1 = 0, s2 = 0, s3 = 0;
+      for (std::int64_t i = 0; i < len; ++i) {
+        const std::int32_t a = xp[i];
+        s0 += a * x0[i];
+        s1 += a * x1[i];
+        s2 += a * x2[i];
+        s3 += a * x3[i];
+      }
+      const std::int32_t sums[4] = {s0, s1, s2, s3};
+      for (int j = 0; j < 4; ++j) g[p + (q + j) * n] = g[(q + j) + p * n] = double(sums[j]);
+    }
+    for (; q < n; ++q) {
+      const std::int16_t* xq = x + q * len;
+      std::int32_t sum = 0;
+      for (std::int64_t i = 0; i < len; ++i) sum += std::int32_t(xp[i]) * xq[i];
+      g[p + q * n] = g[q + p * n] = double(sum);
+    }
+  }
+}
+
 // ---- Conversions and norms ------------------------------------------------------------------
 
 template <int VW, class T>
@@ -86,6 +117,13 @@ template <int VW, class T>
 void gram_generic(const DGramArgs& a) { gram_dot<2, 3>(a); }
 STRATA_TARGET_AVX2 void gram_avx2(const DGramArgs& a) { gram_dot<4, 3>(a); }
 STRATA_TARGET_AVX512 void gram_avx512(const DGramArgs& a) { gram_dot<8, 4>(a); }
+void gram_i16_generic(const std::int16_t* x, std::int64_t n, std::int64_t len, double* g) { gram_i16_impl(x, n, len, g); }
+STRATA_TARGET_AVX2 void gram_i16_avx2(const std::int16_t* x, std::int64_t n, std::int64_t len, double* g) {
+  gram_i16_impl(x, n, len, g);
+}
+STRATA_TARGET_AVX512 void gram_i16_avx512(const std::int16_t* x, std::int64_t n, std::int64_t len, double* g) {
+  gram_i16_impl(x, n, len, g);
+}
 double sum_squares_generic(const double* x, std::int64_t n) { return sum_squares_impl<2>(x, n); }
 double sum_squares_f_generic(const float* x, std::int64_t n) { return sum_squares_impl<2>(x, n); }
 STRATA_TARGET_AVX2 double sum_squares_avx2(const double* x, std::int64_t n) { return sum_squares_impl<4>(x, n); }

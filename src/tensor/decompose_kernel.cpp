@@ -11,12 +11,13 @@
 namespace strata::tensor::detail {
 namespace {
 
-const DecomposeKernels kGeneric{Isa::generic, gemm_generic, gram_generic, leading_eigen_generic,
-                                sum_squares_generic, sum_squares_f_generic};
-const DecomposeKernels kAvx2{Isa::avx2, gemm_avx2, gram_avx2, leading_eigen_avx2, sum_squares_avx2,
-                             sum_squares_f_avx2};
-const DecomposeKernels kAvx512{Isa::avx512, gemm_avx512, gram_avx512, leading_eigen_avx512, sum_squares_avx512,
-                               sum_squares_f_avx512};
+const DecomposeKernels kGeneric{Isa::generic,          gemm_generic,        gram_generic,
+                                gram_i16_generic,      leading_eigen_generic, sum_squares_generic,
+                                sum_squares_f_generic};
+const DecomposeKernels kAvx2{Isa::avx2,         gemm_avx2,          gram_avx2,        gram_i16_avx2,
+                             leading_eigen_avx2, sum_squares_avx2, sum_squares_f_avx2};
+const DecomposeKernels kAvx512{Isa::avx512,         gemm_avx512,          gram_avx512,        gram_i16_avx512,
+                               leading_eigen_avx512, sum_squares_avx512, sum_squares_f_avx512};
 
 }  // namespace
 

@@ -53,6 +53,9 @@ struct DecomposeKernels {
   Isa isa = Isa::generic;  // the level this variant is compiled for
   void (*gemm)(const DGemmArgs&) = nullptr;
   void (*gram)(const DGramArgs&) = nullptr;
+  // G (n x n, both triangles) of n contiguous rows of `len` 16-bit integers, exactly; the caller
+  // guarantees max|x|^2 · len < 2^31, so every sum fits its 32-bit accumulator.
+  void (*gram_i16)(const std::int16_t* x, std::int64_t n, std::int64_t len, double* g) = nullptr;
   // The r eigenvectors of the r largest eigenvalues of the symmetric n x n matrix `a` (both
   // triangles read, destroyed), in order of decreasing eigenvalue, as the columns of u (n x r,
   // column-major), orthonormal to working precision. Eigenvectors of (numerically) equal

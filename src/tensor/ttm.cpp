@@ -1,8 +1,12 @@
 #include "strata/tensor/ttm.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <string>
 #include <type_traits>
+#include <vector>
+
+#include "strata/core/error.hpp"
 
 #include "tensor/decompose_kernel.hpp"
 
@@ -115,6 +119,45 @@ Matrix<double> gram(const BasicTensor3<T>& x, int mode) {
   } else {
     detail::mode_gram(detail::decompose_kernels(), x.dims(), x.data(), nullptr, mode, g.data());
   }
+  return g;
+}
+
+std::optional<Matrix<double>> integer_gram(std::span<const std::int32_t> values, const Dims3& dims, int mode) {
+  check_mode(mode, "integer_gram");
+  const std::int64_t count = dims[0] * dims[1] * dims[2];
+  if (std::int64_t(values.size()) != count) throw Error("integer_gram: values do not match the extents");
+  const std::int64_t rows = dims[std::size_t(mode - 1)], len = rows > 0 ? count / rows : 0;
+  // v ^ (v >> 31) is |v| for v >= 0 and |v| - 1 below, so every |v| <= 2^bit_width(OR of them):
+  // a bound from one vectorised pass.
+  std::uint32_t bits = 0;
+  for (std::int32_t v : values) bits |= std::uint32_t(v) ^ std::uint32_t(v >> 31);
+  const std::int64_t bound = std::int64_t(1) << std::bit_width(bits);
+  if (bound > 32768 || bound * bound * len >= (std::int64_t(1) << 31)) return std::nullopt;
+  // The unfolding's rows made contiguous (the order inside a row is any, the same for all):
+  // mode 3 is the tensor itself, mode 2 moves runs of I1, mode 1 transposes.
+  thread_local std::vector<std::int16_t> unfolded;
+  unfolded.resize(std::size_t(count));
+  const std::int32_t* x = values.data();
+  std::int16_t* out = unfolded.data();
+  if (mode == 3) {
+    for (std::int64_t at = 0; at < count; ++at) out[at] = std::int16_t(x[at]);
+  } else if (mode == 2) {
+    for (std::int64_t k = 0; k < dims[2]; ++k)
+      for (std::int64_t j = 0; j < dims[1]; ++j) {
+        const std::int32_t* run = x + dims[0] * (j + dims[1] * k);
+        std::int16_t* to = out + j * len + k * dims[0];
+        for (std::int64_t i = 0; i < dims[0]; ++i) to[i] = std::int16_t(run[i]);
+      }
+  } else {
+    constexpr std::int64_t kTile = 16;  // columns per pass: contiguous writes, few open read lines
+    for (std::int64_t c0 = 0; c0 < len; c0 += kTile) {
+      const std::int64_t c1 = std::min(len, c0 + kTile);
+      for (std::int64_t i = 0; i < dims[0]; ++i)
+        for (std::int64_t c = c0; c < c1; ++c) out[i * len + c] = std::int16_t(x[c * dims[0] + i]);
+    }
+  }
+  Matrix<double> g(rows, rows);
+  if (count > 0) detail::decompose_kernels().gram_i16(unfolded.data(), rows, len, g.data());
   return g;
 }
 

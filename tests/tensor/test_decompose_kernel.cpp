@@ -128,6 +128,26 @@ TEST_P(TensorDecomposeKernelsPerIsa, GramMatchesTheExactInnerProducts) {
     }
 }
 
+TEST_P(TensorDecomposeKernelsPerIsa, IntegerGramIsExactAtTheLargestAllowedValues) {
+  // 13 rows of 37 (the vector tails and the four-row groups both have remainders), values up
+  // to the contract's limit max|x|^2 · len < 2^31, and a pair of rows that reaches it.
+  const std::int64_t n = 13, len = 37;
+  const auto limit = std::int16_t(std::sqrt(double(1u << 31) / double(len)) - 1);
+  std::mt19937 rng(11);
+  std::uniform_int_distribution<int> value(-limit, limit);
+  std::vector<std::int16_t> x(std::size_t(n * len));
+  for (std::int16_t& v : x) v = std::int16_t(value(rng));
+  for (std::int64_t i = 0; i < len; ++i) x[std::size_t(2 * len + i)] = x[std::size_t(5 * len + i)] = limit;
+  std::vector<double> g(std::size_t(n * n), -1.0);
+  kernels().gram_i16(x.data(), n, len, g.data());
+  for (std::int64_t p = 0; p < n; ++p)
+    for (std::int64_t q = 0; q < n; ++q) {
+      std::int64_t exact = 0;
+      for (std::int64_t i = 0; i < len; ++i) exact += std::int64_t(x[std::size_t(p * len + i)]) * x[std::size_t(q * len + i)];
+      ASSERT_EQ(g[std::size_t(p + q * n)], double(exact)) << p << "," << q;
+    }
+}
+
 TEST_P(TensorDecomposeKernelsPerIsa, LeadingEigenvectorsSpanTheKnownSubspace) {
   // A = Q diag(lambda) Q^T with well separated eigenvalues n, n-1, ..., 1: each computed
   // eigenvector must be +-Q's column. Perturbation theory bounds the angle by

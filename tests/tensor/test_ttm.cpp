@@ -4,6 +4,7 @@
 
 #include <Eigen/QR>
 
+#include "strata/core/error.hpp"
 #include "strata/tensor/ttm.hpp"
 
 namespace strata::tensor {
@@ -88,6 +89,36 @@ TEST(TensorTtm, GramEqualsUnfoldingTimesItsTranspose) {
     const Matrix<double> unf = unfold(x, mode).cast<double>();
     EXPECT_LT((gram(x, mode) - unf * unf.transpose()).cwiseAbs().maxCoeff(), kDoubleTolerance) << "mode " << mode;
   }
+}
+
+TEST(TensorTtm, IntegerGramEqualsTheGramOfTheValues) {
+  // Small integers are exact in float and their products' sums exact in double: both Grams
+  // must agree bit for bit, in every mode.
+  const Dims3 dims{5, 6, 7};
+  std::mt19937 rng(21);
+  std::uniform_int_distribution<int> value(-300, 300);
+  std::vector<std::int32_t> codes(std::size_t(dims[0] * dims[1] * dims[2]));
+  Tensor3 x(dims);
+  for (std::size_t i = 0; i < codes.size(); ++i) x.values()[i] = float(codes[i] = value(rng));
+  for (int mode = 1; mode <= 3; ++mode) {
+    const std::optional<Matrix<double>> g = integer_gram(codes, dims, mode);
+    ASSERT_TRUE(g.has_value()) << "mode " << mode;
+    EXPECT_EQ(*g, gram(x, mode)) << "mode " << mode;
+  }
+}
+
+TEST(TensorTtm, IntegerGramDeclinesValuesWhoseSumsCouldOverflow) {
+  // Rows of 36: values below 2^12 pass (2^24 · 36 < 2^31); 2^13 (bound 2^14) and anything
+  // beyond 16 bits do not.
+  const Dims3 dims{6, 6, 6};
+  std::vector<std::int32_t> codes(216, 1);
+  codes[100] = -4095;
+  EXPECT_TRUE(integer_gram(codes, dims, 2).has_value());
+  codes[100] = 8192;
+  EXPECT_FALSE(integer_gram(codes, dims, 2).has_value());
+  codes[100] = -70000;
+  EXPECT_FALSE(integer_gram(codes, dims, 1).has_value());
+  EXPECT_THROW(integer_gram(std::span(codes).first(215), dims, 1), Error);
 }
 
 TEST(TensorTtm, ProjectThenReconstructWithOrthogonalFactorsIsIdentity) {

@@ -1,4 +1,6 @@
 #pragma once
+#include <optional>
+#include <span>
 // n-mode products (tensor times matrix, TTM) on the general path: each product is one Eigen GEMM
 // (modes 1 and 3) or one GEMM per frontal slice (mode 2) on reshaped views of the contiguous
 // storage, so nothing is permuted in memory. Used by the decompositions and as the reference for
@@ -33,6 +35,12 @@ Matrix<T> unfold(const BasicTensor3<T>& x, int mode);
 // decompositions' dispatched Gram kernels).
 template <class T>
 Matrix<double> gram(const BasicTensor3<T>& x, int mode);
+
+/// @brief gram() of an integer tensor (`values` of extents `dims`, first index fastest), exact,
+/// on 16-bit multiply-add kernels (several times the double kernel's speed): the encoder's
+/// quantized cores. Nothing when the values are too large for that (max|v|^2 times the row
+/// length must stay below 2^31); gram() of the values then serves.
+std::optional<Matrix<double>> integer_gram(std::span<const std::int32_t> values, const Dims3& dims, int mode);
 
 // Throws Error unless mode is 1, 2 or 3.
 void check_mode(int mode, const char* context);
