@@ -94,11 +94,16 @@ static_assert(kSizeCap >= (1u << (CoreModels::kMagnitudeClasses - 1)));
 
 int frequency_class(int sum) { return sum < 3 ? sum : sum < 5 ? 3 : sum < 8 ? 4 : 5; }
 
-// visit(index, context) codes one coefficient and returns its code.
+// visit(index, context) codes one coefficient and returns its code. `known` (the encoder's)
+// holds every code up front: the size plane is then filled first, and the context loop no
+// longer waits on the store of the code before it.
 template <class Visit>
-void for_each_dct_core_code(const tensor::Ranks3& r, int blocks, Visit&& visit) {
+void for_each_dct_core_code(const tensor::Ranks3& r, int blocks, const std::int32_t* known, Visit&& visit) {
   const std::size_t sj = std::size_t(r[0]), sk = std::size_t(r[0]) * std::size_t(r[1]);
   std::vector<std::uint16_t> size(core_count(r), 0), zeros(sj, 0);
+  if (known)
+    for (std::size_t n = 0; n < size.size(); ++n)
+      size[n] = std::uint16_t(std::min(known[n] < 0 ? 0u - std::uint32_t(known[n]) : std::uint32_t(known[n]), kSizeCap));
   const int max_frequency = (max_rank(r) - 1) / blocks;
   std::vector<std::uint16_t> frequency_classes(std::size_t(3 * max_frequency + 1));
   for (std::size_t n = 0; n < frequency_classes.size(); ++n) frequency_classes[n] = std::uint16_t(frequency_class(int(n)));
@@ -120,7 +125,7 @@ void for_each_dct_core_code(const tensor::Ranks3& r, int blocks, Visit&& visit) 
         const CoreContext ctx{int((frequency * CoreModels::kLowerClasses + lower) * CoreModels::kNeighbourClasses + neighbours),
                               std::min(sum_bits, CoreModels::kMagnitudeClasses - 1)};
         const std::int32_t code = visit(at, ctx);
-        row[i] = std::uint16_t(std::min(code < 0 ? 0u - std::uint32_t(code) : std::uint32_t(code), kSizeCap));
+        if (!known) row[i] = std::uint16_t(std::min(code < 0 ? 0u - std::uint32_t(code) : std::uint32_t(code), kSizeCap));
       }
     }
 }
@@ -143,11 +148,11 @@ void for_each_factor_code(const CodedBrick& b, Visit&& visit) {
 // visited before, so a decoder can call it on the codes it has so far. Layout 1 (format 1.1)
 // coded block-DCT cores with the Tucker contexts.
 template <class Visit>
-void for_each_core_code(const CodedBrick& b, std::uint8_t layout, Visit&& visit) {
+void for_each_core_code(const CodedBrick& b, std::uint8_t layout, const std::int32_t* known, Visit&& visit) {
   const tensor::Ranks3& r = b.ranks;
   const int blocks =
       b.dct_block > 0 && layout >= 2 ? int((b.dims[0] - 2 * std::int64_t(b.margin)) / b.dct_block) : 0;
-  if (blocks > 0) return for_each_dct_core_code(r, blocks, visit);
+  if (blocks > 0) return for_each_dct_core_code(r, blocks, known, visit);
   std::size_t at = 0;
   for (int k = 0; k < r[2]; ++k)
     for (int j = 0; j < r[1]; ++j)
@@ -168,11 +173,19 @@ void encode_stream(const CodedBrick& b, std::uint8_t layout, RangeEncoder& enc) 
   for_each_factor_code(b, [&](std::size_t at, int cls) {
     encode_signed(enc, fm.zero[std::size_t(cls)], fm.magnitude[std::size_t(cls)], b.factor_codes[at]);
   });
-  CoreModels cm;
-  for_each_core_code(b, layout, [&](std::size_t at, const CoreContext& ctx) {
-    encode_signed(enc, cm.zero[std::size_t(ctx.zero)], cm.magnitude[std::size_t(ctx.magnitude)], b.core_codes[at]);
+  // The codes are all known here, so their contexts are found in a pass of their own, from a
+  // size plane filled up front, and the coding loop holds only the coder's state
+  // (BM_SerializeCodedBrick: 457 -> 398 us, min of 5, against one loop; streams unchanged).
+  thread_local std::vector<CoreContext> contexts;
+  contexts.resize(b.core_codes.size());
+  for_each_core_code(b, layout, b.core_codes.data(), [&](std::size_t at, const CoreContext& ctx) {
+    contexts[at] = ctx;
     return b.core_codes[at];
   });
+  CoreModels cm;
+  for (std::size_t at = 0; at < b.core_codes.size(); ++at)
+    encode_signed(enc, cm.zero[std::size_t(contexts[at].zero)], cm.magnitude[std::size_t(contexts[at].magnitude)],
+                  b.core_codes[at]);
   if (b.correction_step == 0) return;
   CorrectionModels xm;
   const std::size_t voxels = std::size_t(b.dims[0] * b.dims[1] * b.dims[2]);
@@ -194,7 +207,7 @@ void decode_stream(RangeDecoder& dec, std::uint8_t layout, CodedBrick& b) {
   });
   b.core_codes.resize(core_count(b.ranks));
   CoreModels cm;
-  for_each_core_code(b, layout, [&](std::size_t at, const CoreContext& ctx) {
+  for_each_core_code(b, layout, nullptr, [&](std::size_t at, const CoreContext& ctx) {
     return b.core_codes[at] = decode_signed(dec, cm.zero[std::size_t(ctx.zero)], cm.magnitude[std::size_t(ctx.magnitude)]);
   });
   b.correction_index.clear();
