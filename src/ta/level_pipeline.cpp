@@ -43,25 +43,29 @@ void downsample_xy(const float* slice, const Extent& dims, float* out) {
 // The HOSVD basis costs a brick about as much again as everything else (an eigen-decomposition
 // per mode, a second coding and reconstruction), and on most data the block DCT wins. So bricks
 // probe it, spread by a hash: about 16 of a level's first row (every 2nd brick at most), every
-// 8th of the later rows. Once the probes of the rows before show a saving of 3% or more, every
-// brick tries it; once 16 of them show less than 1%, only every 32nd keeps probing (data that
-// changes its character later in the volume is still noticed).
+// 8th of the later rows. Once the probes of this level's finished rows, or of all levels', show
+// a saving of 3% or more, every brick tries it. Once 16 probes over all levels show less than 1%
+// (and this level's no more), only every 32nd brick keeps probing: data that changes character
+// later in the volume, or at a coarser level, is still noticed.
 bool LevelPipeline::brick_tries_hosvd(std::int64_t row, std::int64_t index) const {
   constexpr double kAllTryAbove = 0.03, kRareBelow = 0.01;
   constexpr std::uint64_t kFirstRowProbes = 16, kProbeEvery = 8, kRareProbeEvery = 32, kEnoughTrials = 16;
-  const double saving = hosvd_trial_bytes_ > 0 ? double(hosvd_saved_bytes_) / double(hosvd_trial_bytes_) : 0.0;
-  if (hosvd_trial_bytes_ > 0 && saving >= kAllTryAbove) return true;
+  const HosvdEvidence& all = *hosvd_all_;
+  if ((hosvd_level_.trials > 0 && hosvd_level_.saving() >= kAllTryAbove) || (all.trials > 0 && all.saving() >= kAllTryAbove))
+    return true;
   const auto bricks_in_row = std::uint64_t(dims_.bricks.x * dims_.bricks.y);
-  const std::uint64_t every = row == 0 ? std::max<std::uint64_t>(2, bricks_in_row / kFirstRowProbes)
-                              : hosvd_trials_ >= kEnoughTrials && saving < kRareBelow ? kRareProbeEvery
-                                                                                     : kProbeEvery;
+  const bool rare = all.trials >= kEnoughTrials && all.saving() < kRareBelow && hosvd_level_.saving() < kRareBelow;
+  const std::uint64_t every = rare       ? kRareProbeEvery
+                              : row == 0 ? std::max<std::uint64_t>(2, bricks_in_row / kFirstRowProbes)
+                                         : kProbeEvery;
   return splitmix64(std::uint64_t(row) * bricks_in_row + std::uint64_t(index)) % every == 0;
 }
 
 LevelPipeline::LevelPipeline(const OctreeGeometry& geometry, int level, const CodecParams& codec,
                              std::optional<BrickTarget> target, HistogramRange range, BrickSink sink, LevelPipeline* next)
     : geometry_(geometry), level_(level), dims_(geometry.level(level)), codec_(codec), target_(target), range_(range),
-      sink_(std::move(sink)), next_(next) {}
+      sink_(std::move(sink)), next_(next),
+      hosvd_all_(next ? next->hosvd_all_ : std::make_shared<HosvdEvidence>()) {}
 
 CoreRegion LevelPipeline::core_region(std::int64_t bx, std::int64_t by, std::int64_t bz) const {
   const Box core = geometry_.brick_core_box(level_, bx, by, bz);
@@ -281,9 +285,11 @@ void LevelPipeline::encode_row(std::int64_t row) {
     measured_.voxels += r.error.voxels;
     if (r.encoded.block_dct_bytes > 0) {
       const std::size_t kept = std::min(r.encoded.block_dct_bytes, r.encoded.hosvd_bytes);
-      ++hosvd_trials_;
-      hosvd_trial_bytes_ += r.encoded.block_dct_bytes;
-      hosvd_saved_bytes_ += r.encoded.block_dct_bytes - kept;
+      for (HosvdEvidence* e : {&hosvd_level_, hosvd_all_.get()}) {
+        ++e->trials;
+        e->trial_bytes += r.encoded.block_dct_bytes;
+        e->saved_bytes += r.encoded.block_dct_bytes - kept;
+      }
     }
   }
   if (per_brick) {

@@ -80,7 +80,14 @@ class LevelPipeline {
   std::vector<float> pending_decoded_;     // one decoded slice (2x2 averaged) awaiting its partner
   std::int64_t decoded_slices_ = 0;
   CoreError measured_;
-  std::uint64_t hosvd_trials_ = 0, hosvd_trial_bytes_ = 0, hosvd_saved_bytes_ = 0;  // over bricks that coded both bases
+  // What the HOSVD basis saved on the bricks that coded both bases, in this level's finished
+  // rows and in those of every level (shared by the pipelines of one volume).
+  struct HosvdEvidence {
+    std::uint64_t trials = 0, trial_bytes = 0, saved_bytes = 0;
+    double saving() const { return trial_bytes > 0 ? double(saved_bytes) / double(trial_bytes) : 0.0; }
+  };
+  HosvdEvidence hosvd_level_;
+  std::shared_ptr<HosvdEvidence> hosvd_all_;
 };
 
 }  // namespace strata::ta
