@@ -59,7 +59,7 @@ class StepCalibrator {
     std::uint64_t blocks = 0;
   };
 
-  static constexpr std::int64_t kDenseBlocks = 4096;  // levels with more blocks are sampled
+  static constexpr std::int64_t kDenseBlocks = 8192;  // levels with more blocks are sampled
 
   Extent dims_;
   int block_;
