@@ -309,6 +309,7 @@ std::vector<std::byte> serialize(const CodedBrick& b, std::uint8_t layout) {
   for (std::uint8_t c : b.factor_step_codes) out.put(c);
   for (std::uint8_t c : b.error_table) out.put(c);
   RangeEncoder enc;
+  enc.reserve(b.core_codes.size() / 2 + b.factor_codes.size() + b.correction_codes.size() * 2);  // ~4 bits a code
   encode_stream(b, layout, enc);
   const std::vector<std::byte> stream = enc.finish();
   out.put_bytes(stream);

@@ -96,6 +96,9 @@ class RangeEncoder {
     return out;
   }
 
+  /// Room for `bytes` of stream before the buffer grows (a hint; any size still codes).
+  void reserve(std::size_t bytes) { bytes_.reserve(bytes); }
+
   /// The size finish() would return now, in bytes.
   std::size_t bytes_so_far() const { return bytes_.size() + (range_ != range_coding::kFullRange ? 1 : 0); }
 
