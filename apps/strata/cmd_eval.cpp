@@ -41,6 +41,7 @@ nlohmann::json eval_json(const ta::TaVolume& volume, const ta::StorageReport& s,
             {"bits_per_voxel_brick_headers", s.bits_per_voxel(s.brick_header_bytes, src)},
             {"bits_per_voxel_corrections", s.bits_per_voxel(s.correction_bytes, src)},
             {"bits_per_voxel_lossless_bricks", s.bits_per_voxel(s.lossless_bytes, src)},
+            {"bits_per_voxel_non_finite_masks", s.bits_per_voxel(s.mask_bytes, src)},
             {"bits_per_voxel_container", s.bits_per_voxel(s.container_bytes, src)},
             {"levels", levels}}},
           {"error",
@@ -61,6 +62,8 @@ void print_report(const nlohmann::json& r) {
   if (s["bits_per_voxel_corrections"].get<double>() > 0 || s["bits_per_voxel_lossless_bricks"].get<double>() > 0)
     std::printf("                 (max-error corrections %.3f, lossless bricks %.3f)\n",
                 s["bits_per_voxel_corrections"].get<double>(), s["bits_per_voxel_lossless_bricks"].get<double>());
+  if (s["bits_per_voxel_non_finite_masks"].get<double>() > 0)
+    std::printf("                 (NaN and infinity masks %.3f)\n", s["bits_per_voxel_non_finite_masks"].get<double>());
   const auto& e = r["error"];
   std::printf("level 0, rank %d: SNR %.2f dB  PSNR %.2f dB  NRMSE %.5f  max error %.4g\n", e["rank"].get<int>(),
               e["snr_db"].get<double>(), e["psnr_db"].get<double>(), e["nrmse"].get<double>(),

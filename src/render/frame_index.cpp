@@ -1,6 +1,7 @@
 #include "render/frame_index.hpp"
 
 #include <algorithm>
+#include <limits>
 #include <cmath>
 #include <string>
 
@@ -24,15 +25,6 @@ void check_brick(const lod::ResidentBrick& b, const ta::OctreeGeometry& g) {
                 std::to_string(width * width * width));
 }
 
-std::pair<float, float> sample_range(const float* v, std::size_t n) {
-  float lo = v[0], hi = v[0];
-  for (std::size_t i = 1; i < n; ++i) {
-    lo = std::min(lo, v[i]);
-    hi = std::max(hi, v[i]);
-  }
-  return {lo, hi};
-}
-
 // The brick's [min, max]: from the file's index when it has the key, else from its samples.
 void fill_ranges(const FrameInput& frame, FrameIndex& index) {
   const auto& bricks = frame.bricks->bricks;
@@ -50,7 +42,7 @@ void fill_ranges(const FrameInput& frame, FrameIndex& index) {
       blk.value_lo = entry->min;
       blk.value_hi = entry->max;
     } else {
-      std::tie(blk.value_lo, blk.value_hi) = sample_range(b.samples->data(), b.samples->size());
+      std::tie(blk.value_lo, blk.value_hi) = finite_range(b.samples->data(), b.samples->size());
     }
   }
 }
@@ -115,9 +107,21 @@ void check_spacing(const Spacing& sp) {
 
 }  // namespace
 
+std::pair<float, float> finite_range(const float* v, std::size_t n) {
+  float lo = std::numeric_limits<float>::infinity(), hi = -lo;
+  for (std::size_t i = 0; i < n; ++i) {
+    const bool finite = std::abs(v[i]) <= std::numeric_limits<float>::max();
+    lo = finite && v[i] < lo ? v[i] : lo;
+    hi = finite && v[i] > hi ? v[i] : hi;
+  }
+  return {lo, hi};
+}
+
 void cull_blocks(FrameIndex& index, const TransferFunction& tf, double value_min, double value_max) {
   const ValueMapping m = tf.mapping(value_min, value_max);
-  for (Block& b : index.blocks) b.culled = !tf.visible(m.normalise(b.value_lo), m.normalise(b.value_hi));
+  // A block without finite samples (NaN or infinite only: empty space) is culled.
+  for (Block& b : index.blocks)
+    b.culled = !(b.value_lo <= b.value_hi) || !tf.visible(m.normalise(b.value_lo), m.normalise(b.value_hi));
 }
 
 FrameIndex build_frame_index(const FrameInput& frame, const TransferFunction& tf) {
@@ -169,7 +173,7 @@ FrameIndex build_volume_index(const Volume& volume) {
     blk.offset[std::size_t(a)] = -0.5;
     blk.gradient_scale[std::size_t(a)] = float(0.5 / spacing[std::size_t(a)]);
   }
-  std::tie(blk.value_lo, blk.value_hi) = sample_range(blk.data, std::size_t(volume.voxel_count()));
+  std::tie(blk.value_lo, blk.value_hi) = finite_range(blk.data, std::size_t(volume.voxel_count()));
   index.blocks.push_back(blk);
   return index;
 }

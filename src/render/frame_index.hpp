@@ -1,4 +1,5 @@
 #pragma once
+#include <utility>
 // The per-frame spatial index of the ray caster: a grid over level-0 brick cells, each cell
 // pointing at the block (a resident brick of any level, or a whole in-memory volume) that
 // covers it, with every per-brick constant the sampling loop needs precomputed.
@@ -61,5 +62,9 @@ FrameIndex build_volume_index(const Volume& volume);
 // Marks the blocks whose [min, max] is transparent under `tf` (normalised over
 // [value_min, value_max]) as culled, and the others as not.
 void cull_blocks(FrameIndex& index, const TransferFunction& tf, double value_min, double value_max);
+
+/// The range of the finite ones of n samples: NaN and infinite voxels are empty space. Without
+/// any, {+inf, -inf} (lo > hi: nothing to draw).
+std::pair<float, float> finite_range(const float* v, std::size_t n);
 
 }  // namespace strata::render::detail

@@ -28,6 +28,9 @@ struct Marcher {
   [[gnu::always_inline]] static inline float segment(const Sampler& sample, const Block& b, const LevelParams& lp, const MarchParams& mp,
                        const RayContext& ray, float x, float y, float z, float front, double ratio, Rgbaf& acc) {
     const float v = normalised_sample(sample, x, y, z, mp.value_lo, mp.value_scale);
+    // NaN or infinite voxels (masked cells, outside a field of view) are empty space, and so is a
+    // segment that starts or ends in them.
+    if (!std::isfinite(v) || (Preint && !std::isfinite(front))) return v;
     const float lo = Preint ? std::min(front, v) : v, hi = Preint ? std::max(front, v) : v;
     if (mp.next_visible[Transparency::bin(lo)] > Transparency::bin(hi)) return v;
     Rgbaf c = Preint ? lp.classify.pair(front, v) : lp.classify.single(v);

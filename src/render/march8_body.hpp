@@ -104,7 +104,12 @@ STRATA_MARCH8_ATTRS std::int64_t STRATA_MARCH8_NAME(const GridSampler& s, const 
     const __m256 lo = _mm256_min_ps(fr, v), hi = _mm256_max_ps(fr, v);
     const __m256i blo = _mm256_min_epi32(_mm256_cvttps_epi32(_mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(lo, zero), one), bins_f)), bin_max);
     const __m256i bhi = _mm256_min_epi32(_mm256_cvttps_epi32(_mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(hi, zero), one), bins_f)), bin_max);
-    const __m256i valid = _mm256_cmpgt_epi32(_mm256_set1_epi32(n), lane_i);
+    // Lanes whose segment starts or ends at a NaN or infinite value (x - x is 0 only for finite
+    // x) are empty space, as in the scalar march.
+    const __m256 finite = _mm256_and_ps(_mm256_cmp_ps(_mm256_sub_ps(v, v), zero, _CMP_EQ_OQ),
+                                        _mm256_cmp_ps(_mm256_sub_ps(fr, fr), zero, _CMP_EQ_OQ));
+    const __m256i valid =
+        _mm256_and_si256(_mm256_cmpgt_epi32(_mm256_set1_epi32(n), lane_i), _mm256_castps_si256(finite));
     const __m256i nv = _mm256_and_si256(_mm256_i32gather_epi32(next_visible, blo, 2), low16);
     const __m256i visible = _mm256_xor_si256(_mm256_cmpgt_epi32(nv, bhi), _mm256_set1_epi32(-1));
     const unsigned keep = unsigned(_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_and_si256(visible, valid))));

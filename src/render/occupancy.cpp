@@ -1,6 +1,7 @@
 #include "render/occupancy.hpp"
 
 #include <algorithm>
+#include <limits>
 #include <cmath>
 
 #include "render/frame_index.hpp"
@@ -34,10 +35,12 @@ CellRanges compute_cell_ranges(const float* data, const std::array<int, 3>& n, i
     float* oh = hi1.data() + row * cx;
     for (int c = 0; c < cx; ++c) {
       const auto [first, last] = window(c, nx, dilation);
-      float mn = v[first], mx = v[first];
-      for (int x = first + 1; x <= last; ++x) {
-        mn = std::min(mn, v[x]);
-        mx = std::max(mx, v[x]);
+      // NaN voxels are empty space: `v < mn ? v : mn` passes them by. A cell of NaN only keeps
+      // the empty range (+inf, -inf).
+      float mn = std::numeric_limits<float>::infinity(), mx = -mn;
+      for (int x = first; x <= last; ++x) {
+        mn = v[x] < mn ? v[x] : mn;
+        mx = v[x] > mx ? v[x] : mx;
       }
       ol[c] = mn;
       oh[c] = mx;
@@ -100,7 +103,8 @@ std::shared_ptr<const CellFlags> cell_flags(const Block& b, int dilation, const 
     // interpolation so a sample can never leave the range the flag was decided on.
     const float nlo = (r.lo[c] - value_lo) * value_scale, nhi = (r.hi[c] - value_lo) * value_scale;
     const float margin = 1e-5f + 4e-6f * std::max(std::abs(r.lo[c]), std::abs(r.hi[c])) * value_scale;
-    const bool e = tr.next_visible[std::size_t(Transparency::bin(nlo - margin))] > Transparency::bin(nhi + margin);
+    const bool e = !(r.lo[c] <= r.hi[c]) ||
+                   tr.next_visible[std::size_t(Transparency::bin(nlo - margin))] > Transparency::bin(nhi + margin);
     f->empty[c] = e ? 1 : 0;
     f->empty_count += e ? 1 : 0;
   }

@@ -169,7 +169,8 @@ struct Transparency {
                                          ? std::uint16_t(i)
                                          : next_visible[std::size_t(i) + 1];
   }
-  static int bin(float x) { return std::min(int(std::clamp(x, 0.0f, 1.0f) * float(kBins)), kBins - 1); }
+  // NaN falls into bin 0 (std::clamp would pass it on to an undefined conversion).
+  static int bin(float x) { return std::min(int((x > 0.0f ? (x < 1.0f ? x : 1.0f) : 0.0f) * float(kBins)), kBins - 1); }
 };
 
 }  // namespace strata::render::detail

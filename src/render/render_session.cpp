@@ -3,9 +3,12 @@
 #include "strata/render/render_session.hpp"
 
 #include <algorithm>
+#include <limits>
 #include <cmath>
 
 #include <fmt/format.h>
+
+#include "render/frame_index.hpp"
 
 #include "render/render_session_parts.hpp"
 #include "strata/core/error.hpp"
@@ -143,11 +146,12 @@ Volume load_as_float(const std::filesystem::path& input, DType& source_dtype) {
   return source.converted(DType::f32);
 }
 
+// The range of the finite samples (NaN and infinite ones are empty space); {0, 0} without any.
 std::pair<double, double> sample_range(const Volume& v) {
   const auto s = v.samples<float>();
-  if (s.empty()) return {0, 0};
-  const auto [lo, hi] = std::minmax_element(s.begin(), s.end());
-  return {*lo, *hi};
+  const auto [lo, hi] = detail::finite_range(s.data(), s.size());
+  if (!(lo <= hi)) return {0, 0};
+  return {lo, hi};
 }
 
 }  // namespace

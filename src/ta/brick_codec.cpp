@@ -4,6 +4,7 @@
 #include <memory>
 
 #include "strata/core/error.hpp"
+#include "ta/non_finite.hpp"
 #include "strata/quant/bitpack.hpp"
 #include "strata/store/byte_planes.hpp"
 #include "strata/store/zstd_frame.hpp"
@@ -155,9 +156,12 @@ PayloadParts payload_parts(std::span<const std::byte> payload, const quant::Quan
   });
 }
 
-void dequantize_brick(store::PayloadKind kind, std::span<const std::byte> payload, const quant::QuantScheme& scheme,
-                      int brick_width, int rank, DecodeScratch& scratch, quant::DequantizedModel& model,
-                      const std::string& context) {
+namespace {
+
+// dequantize_brick for every kind but `masked`.
+void dequantize_unmasked(store::PayloadKind kind, std::span<const std::byte> payload, const quant::QuantScheme& scheme,
+                         int brick_width, int rank, DecodeScratch& scratch, quant::DequantizedModel& model,
+                         const std::string& context) {
   if (kind == store::PayloadKind::tucker_coded) {
     // The rank slider truncates at reconstruction (reconstruct_model): the model stays whole.
     quant::dequantize(quant::deserialize_coded(payload, brick_width, context), model);
@@ -180,6 +184,30 @@ void dequantize_brick(store::PayloadKind kind, std::span<const std::byte> payloa
     const tensor::Ranks3& r = view.ranks();
     quant::dequantize(view, {std::min(rank, r[0]), std::min(rank, r[1]), std::min(rank, r[2])}, model);
   });
+}
+
+}  // namespace
+
+void dequantize_brick(store::PayloadKind kind, std::span<const std::byte> payload, const quant::QuantScheme& scheme,
+                      int brick_width, int rank, DecodeScratch& scratch, quant::DequantizedModel& model,
+                      const std::string& context) {
+  if (kind != store::PayloadKind::masked) {
+    dequantize_unmasked(kind, payload, scheme, brick_width, rank, scratch, model, context);
+    model.non_finite_index.clear();
+    model.non_finite_value.clear();
+    return;
+  }
+  const std::size_t voxels = std::size_t(brick_width) * std::size_t(brick_width) * std::size_t(brick_width);
+  MaskedPayload masked = unwrap_masked(payload, voxels, scratch.inflated, context);
+  if (masked.inner == store::PayloadKind::constant) {
+    model = quant::DequantizedModel{};
+    model.dims = {brick_width, brick_width, brick_width};
+    model.offset = masked.inner_constant;  // no Tucker part: the reconstruction is the offset
+  } else {
+    dequantize_unmasked(masked.inner, masked.inner_payload, scheme, brick_width, rank, scratch, model, context);
+  }
+  model.non_finite_index = std::move(masked.mask.index);
+  model.non_finite_value = std::move(masked.mask.value);
 }
 
 void decode_brick(store::PayloadKind kind, std::span<const std::byte> payload, float constant_value,
@@ -205,15 +233,20 @@ void reconstruct_model(const quant::DequantizedModel& model, const tensor::Ranks
   if (!model.samples.empty()) {
     if (out.size() != model.samples.size()) throw Error("reconstruct: buffer does not match the stored brick");
     std::copy(model.samples.begin(), model.samples.end(), out.begin());
-    return;
+  } else {
+    if (model.has_tucker()) reconstructor.reconstruct(model.view(), leading, out);
+    else std::fill(out.begin(), out.end(), 0.0f);
+    // Quantized (fixed-rank) bricks carry neither: their samples stay exactly the kernel's.
+    if (model.offset != 0)
+      for (float& v : out) v += model.offset;
+    if (leading == model.ranks)
+      for (std::size_t i = 0; i < model.correction_index.size(); ++i)
+        out[model.correction_index[i]] += model.correction_value[i];
   }
-  if (model.has_tucker()) reconstructor.reconstruct(model.view(), leading, out);
-  else std::fill(out.begin(), out.end(), 0.0f);
-  // Quantized (fixed-rank) bricks carry neither: their samples stay exactly the kernel's.
-  if (model.offset != 0)
-    for (float& v : out) v += model.offset;
-  if (leading == model.ranks)
-    for (std::size_t i = 0; i < model.correction_index.size(); ++i) out[model.correction_index[i]] += model.correction_value[i];
+  for (std::size_t i = 0; i < model.non_finite_index.size(); ++i) {
+    if (model.non_finite_index[i] >= out.size()) throw Error("reconstruct: a non-finite voxel lies outside the brick");
+    out[model.non_finite_index[i]] = model.non_finite_value[i];
+  }
 }
 
 }  // namespace strata::ta

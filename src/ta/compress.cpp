@@ -31,20 +31,28 @@ HistogramRange value_range(io::VolumeSource& source, ProgressSink& progress, std
       using T = decltype(tag);
       const auto values = slab.samples<T>();
       if (values.empty()) return;
+      // Branch-free min/max in the sample type (vectorised), widened once per slab. NaN and
+      // infinite samples are left out: the bricks keep them in a mask (ta/non_finite.hpp).
       if constexpr (std::is_floating_point_v<T>) {
-        // A NaN would slip through min/max and poison every decomposition it touches.
-        for (T v : values)
-          if (!std::isfinite(v))
-            throw Error(source.path().string() + ": samples: NaN or infinite values cannot be compressed");
+        T mn = std::numeric_limits<T>::infinity(), mx = -mn;
+        for (T v : values) {
+          const bool finite = std::abs(v) <= std::numeric_limits<T>::max();
+          mn = finite && v < mn ? v : mn;
+          mx = finite && v > mx ? v : mx;
+        }
+        if (mn <= mx) {
+          lo = std::min(lo, double(mn));
+          hi = std::max(hi, double(mx));
+        }
+      } else {
+        T mn = values[0], mx = values[0];
+        for (T v : values) {
+          mn = v < mn ? v : mn;
+          mx = v > mx ? v : mx;
+        }
+        lo = std::min(lo, double(mn));
+        hi = std::max(hi, double(mx));
       }
-      // Branch-free min/max in the sample type (vectorised), widened once per slab.
-      T mn = values[0], mx = values[0];
-      for (T v : values) {
-        mn = v < mn ? v : mn;
-        mx = v > mx ? v : mx;
-      }
-      lo = std::min(lo, double(mn));
-      hi = std::max(hi, double(mx));
       const std::size_t slice_size = std::size_t(slab.dims().x * slab.dims().y);
       for (std::int64_t z = 0; calibrator && z < slab.dims().z; ++z) {
         const T* src = values.data() + std::size_t(z) * slice_size;
@@ -52,8 +60,7 @@ HistogramRange value_range(io::VolumeSource& source, ProgressSink& progress, std
       }
     });
   }, progress, "scan range", slab_bytes);
-  if (!std::isfinite(lo) || !std::isfinite(hi))
-    throw Error(source.path().string() + ": samples: NaN or infinite values cannot be compressed");
+  if (!(lo <= hi)) return {0, 0};  // no finite sample: every brick is a constant NaN or infinity
   return {lo, hi};
 }
 

@@ -6,6 +6,7 @@
 
 #include "strata/core/error.hpp"
 #include "strata/quant/coded_brick.hpp"
+#include "ta/non_finite.hpp"
 
 namespace strata::ta {
 
@@ -35,6 +36,41 @@ void add_coded_parts(const quant::CodedBrick& b, std::size_t payload_bytes, Stor
 
 }  // namespace
 
+namespace {
+
+// Attributes one stored payload of `kind` to the report's parts; a masked brick's mask, then
+// its inner brick.
+void add_payload(store::PayloadKind kind, std::span<const std::byte> stored, const TaVolume& volume,
+                 DecodeScratch& scratch, StorageReport& r) {
+  const auto& c = volume.container();
+  const int brick = volume.geometry().layout().brick;
+  if (kind == store::PayloadKind::constant) return;
+  if (kind == store::PayloadKind::masked) {
+    const std::size_t voxels = std::size_t(brick) * std::size_t(brick) * std::size_t(brick);
+    const MaskedPayload m = unwrap_masked(stored, voxels, scratch.inflated, c.path().string());
+    r.mask_bytes += stored.size() - m.inner_payload.size();
+    return add_payload(m.inner, m.inner_payload, volume, scratch, r);
+  }
+  if (kind == store::PayloadKind::raw_zstd || kind == store::PayloadKind::raw_packed) {
+    r.lossless_bytes += stored.size();
+    return;
+  }
+  if (kind == store::PayloadKind::tucker_coded) {
+    add_coded_parts(quant::deserialize_coded(stored, brick, c.path().string()), stored.size(), r);
+    return;
+  }
+  const auto plain = plain_payload(kind, stored, volume.quant_scheme(), scratch, c.path().string());
+  const auto parts = payload_parts(plain, volume.quant_scheme(), c.path().string());
+  const double ratio = double(stored.size()) / double(plain.size());
+  const auto core = std::uint64_t(double(parts.core_bytes) * ratio);
+  const auto factors = std::uint64_t(double(parts.factor_bytes) * ratio);
+  r.core_bytes += core;
+  r.factor_bytes += factors;
+  r.brick_header_bytes += stored.size() - core - factors;
+}
+
+}  // namespace
+
 StorageReport storage_report(const TaVolume& volume) {
   const auto& c = volume.container();
   StorageReport r;
@@ -52,24 +88,7 @@ StorageReport storage_report(const TaVolume& volume) {
       ++r.constant_per_level[e.key.level];
       continue;
     }
-    const auto stored = c.payload(e);
-    if (e.kind == store::PayloadKind::raw_zstd || e.kind == store::PayloadKind::raw_packed) {
-      r.lossless_bytes += stored.size();
-      continue;
-    }
-    if (e.kind == store::PayloadKind::tucker_coded) {
-      add_coded_parts(quant::deserialize_coded(stored, volume.geometry().layout().brick, c.path().string()), stored.size(),
-                      r);
-      continue;
-    }
-    const auto plain = plain_payload(e.kind, stored, volume.quant_scheme(), scratch, c.path().string());
-    const auto parts = payload_parts(plain, volume.quant_scheme(), c.path().string());
-    const double ratio = double(stored.size()) / double(plain.size());
-    const auto core = std::uint64_t(double(parts.core_bytes) * ratio);
-    const auto factors = std::uint64_t(double(parts.factor_bytes) * ratio);
-    r.core_bytes += core;
-    r.factor_bytes += factors;
-    r.brick_header_bytes += stored.size() - core - factors;
+    add_payload(e.kind, c.payload(e), volume, scratch, r);
   }
   r.container_bytes = r.file_bytes - payload_total;
   return r;

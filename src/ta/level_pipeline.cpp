@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstring>
 #include <exception>
+#include <initializer_list>
 #include <span>
 #include <utility>
 
@@ -11,6 +12,7 @@
 #include "strata/core/hash.hpp"
 #include "strata/core/threads.hpp"
 #include "strata/tensor/reconstruct.hpp"
+#include "ta/non_finite.hpp"
 
 
 namespace strata::ta {
@@ -21,7 +23,21 @@ std::int64_t clamp_index(std::int64_t i, std::int64_t n) { return std::min(std::
 
 // ---- Downsampling for the next level --------------------------------------------------------
 
-// 2x2 averages in x and y; an odd last column/row averages with itself.
+// The mean of the finite ones of n values; with none, the first of them (NaN stays NaN, an
+// infinity stays one). The coarser levels' stand-in for an average that met a NaN or an infinity.
+float finite_mean(std::initializer_list<float> values) {
+  double sum = 0;
+  int count = 0;
+  for (float v : values)
+    if (std::isfinite(v)) {
+      sum += double(v);
+      ++count;
+    }
+  return count > 0 ? float(sum / count) : *values.begin();
+}
+
+// 2x2 averages in x and y; an odd last column/row averages with itself. A non-finite result (a
+// NaN or infinite voxel among the four) becomes the mean of the finite ones.
 void downsample_xy(const float* slice, const Extent& dims, float* out) {
   const Extent half = half_extent(dims);
   for (std::int64_t y = 0; y < half.y; ++y) {
@@ -29,11 +45,14 @@ void downsample_xy(const float* slice, const Extent& dims, float* out) {
     const float* r1 = slice + std::min(2 * y + 1, dims.y - 1) * dims.x;
     float* o = out + y * half.x;
     const std::int64_t pairs = dims.x / 2;  // columns with a partner
-    for (std::int64_t x = 0; x < pairs; ++x)
+    for (std::int64_t x = 0; x < pairs; ++x) {
       o[x] = 0.25f * (r0[2 * x] + r0[2 * x + 1] + r1[2 * x] + r1[2 * x + 1]);
+      if (!std::isfinite(o[x])) o[x] = finite_mean({r0[2 * x], r0[2 * x + 1], r1[2 * x], r1[2 * x + 1]});
+    }
     if (pairs < half.x) {
       const std::int64_t x0 = dims.x - 1;
       o[pairs] = 0.25f * (r0[x0] + r0[x0] + r1[x0] + r1[x0]);
+      if (!std::isfinite(o[pairs])) o[pairs] = finite_mean({r0[x0], r1[x0]});
     }
   }
 }
@@ -172,23 +191,30 @@ void LevelPipeline::downsample_core(std::span<const float> decoded, std::int64_t
       const float *a0 = row_of(ya, za), *a1 = row_of(yb, za);
       const float *b0 = row_of(ya, pair ? zb : za), *b1 = row_of(yb, pair ? zb : za);
       float* o = out_slice + hy * half.x;
+      // A non-finite average (a NaN or infinite voxel among the eight) becomes the mean of the
+      // finite ones; finite ones keep their exact arithmetic.
       if (pair) {
         for (std::int64_t hx = hx0; hx < pairs_end; ++hx) {
           const std::int64_t x = 2 * hx - ox;
           const float h0 = 0.25f * (a0[x] + a0[x + 1] + a1[x] + a1[x + 1]);
           const float h1 = 0.25f * (b0[x] + b0[x + 1] + b1[x] + b1[x + 1]);
           o[hx] = 0.5f * (h0 + h1);
+          if (!std::isfinite(o[hx]))
+            o[hx] = finite_mean({a0[x], a0[x + 1], a1[x], a1[x + 1], b0[x], b0[x + 1], b1[x], b1[x + 1]});
         }
       } else {
         for (std::int64_t hx = hx0; hx < pairs_end; ++hx) {
           const std::int64_t x = 2 * hx - ox;
           o[hx] = 0.25f * (a0[x] + a0[x + 1] + a1[x] + a1[x + 1]);
+          if (!std::isfinite(o[hx])) o[hx] = finite_mean({a0[x], a0[x + 1], a1[x], a1[x + 1]});
         }
       }
       if (pairs_end < (core.hi.x + 1) / 2) {  // odd last column (level edge): averages with itself
         const std::int64_t x = d.x - 1 - ox;
         const float h0 = 0.25f * (a0[x] + a0[x] + a1[x] + a1[x]);
         o[pairs_end] = pair ? 0.5f * (h0 + 0.25f * (b0[x] + b0[x] + b1[x] + b1[x])) : h0;
+        if (!std::isfinite(o[pairs_end]))
+          o[pairs_end] = pair ? finite_mean({a0[x], a1[x], b0[x], b1[x]}) : finite_mean({a0[x], a1[x]});
       }
     }
   }
@@ -246,15 +272,35 @@ void LevelPipeline::encode_row(std::int64_t row) {
         const std::int64_t bx = i % dims_.bricks.x, by = i / dims_.bricks.x;
         gather_samples(bx, by, row, samples);
         RowResult& r = results[std::size_t(i)];
-        // Culling metadata covers what a renderer may sample: original and decoded values. A
-        // constant brick decodes to its value, which stands for every sample (an error-target
-        // brick may be constant within its bound).
-        const bool constant = encode_and_decode(bx, by, row, samples, decoded, r.encoded, reconstructor, scratch,
-                                                brick_tries_hosvd(row, i));
-        const float c = r.encoded.constant_value;
-        r.stats = constant ? brick_stats(std::span(&c, 1), std::span(&c, 1), range_)
-                           : brick_stats(decoded, samples.values(), range_);
-        if (target_) r.error = core_error(samples.values(), decoded, samples.dims(), core_region(bx, by, row));
+        const NonFiniteMask mask = has_non_finite(samples.values()) ? take_non_finite(samples.values()) : NonFiniteMask{};
+        if (uniform_non_finite(mask, decoded.size())) {
+          // All NaN (outside a field of view) or all one infinity: a constant brick of it.
+          r.encoded = EncodedBrick{};
+          r.encoded.constant_value = mask.value[0];
+          std::fill(decoded.begin(), decoded.end(), mask.value[0]);
+          r.stats = brick_stats(std::span(&mask.value[0], 1), std::span(&mask.value[0], 1), range_);
+        } else {
+          // Culling metadata covers what a renderer may sample: original and decoded values (of
+          // the finite voxels: the masked ones hold the same stand-in in both). A constant
+          // brick decodes to its value, which stands for every sample (an error-target brick
+          // may be constant within its bound).
+          const bool constant = encode_and_decode(bx, by, row, samples, decoded, r.encoded, reconstructor, scratch,
+                                                  brick_tries_hosvd(row, i));
+          const float c = r.encoded.constant_value;
+          if (!mask.empty()) {
+            if (constant) std::fill(decoded.begin(), decoded.end(), c);
+            copy_masked(mask, samples.values(), decoded);  // the stand-in on both sides
+          }
+          r.stats = constant && mask.empty() ? brick_stats(std::span(&c, 1), std::span(&c, 1), range_)
+                                             : brick_stats(decoded, samples.values(), range_);
+          const CoreRegion core = core_region(bx, by, row);
+          if (target_) r.error = core_error(samples.values(), decoded, samples.dims(), core);
+          if (!mask.empty()) {
+            r.error.voxels -= masked_in_core(mask, samples.dims(), core);  // their error is 0: not counted
+            wrap_with_mask(mask, decoded.size(), codec_.zstd_level, r.encoded);
+            restore_non_finite(mask, decoded);
+          }
+        }
         if (per_brick) {
           downsample_core(decoded, bx, by, row);
         } else if (next_) {
@@ -323,7 +369,10 @@ void LevelPipeline::emit_decoded_slices(std::int64_t z0, std::int64_t z1) {
       continue;
     }
     downsample_xy(slice, d, h.data());
-    for (std::size_t i = 0; i < half_size; ++i) pending_decoded_[i] = 0.5f * (pending_decoded_[i] + h[i]);
+    for (std::size_t i = 0; i < half_size; ++i) {
+      const float mean = 0.5f * (pending_decoded_[i] + h[i]);
+      pending_decoded_[i] = std::isfinite(mean) ? mean : finite_mean({pending_decoded_[i], h[i]});
+    }
     next_->push_slice(std::exchange(pending_decoded_, {}));
   }
 }

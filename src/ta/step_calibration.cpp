@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <limits>
 
 #include "strata/core/error.hpp"
 #include "strata/core/threads.hpp"
@@ -118,6 +119,10 @@ void StepCalibrator::transform_layer() {
 
 void StepCalibrator::add_block(const float* samples, Tally& tally) const {
   const std::size_t w = std::size_t(block_), plane = w * w;
+  // NaN and infinite samples are not coded (the bricks mask them): their blocks say nothing.
+  bool non_finite = false;
+  for (std::size_t i = 0; i < w * plane; ++i) non_finite |= !(std::abs(samples[i]) <= std::numeric_limits<float>::max());
+  if (non_finite) return;
   ++tally.blocks;
   // A flat block has no spectrum (its float transform would leave rounding noise). The DC
   // coefficient of any other block holds the block mean less the brick mean, unknown here: it

@@ -22,8 +22,9 @@ using store::MetadataField;
 // files (`quant` "coded") coded Tucker bricks and the lossless fallback; both constant bricks.
 bool kind_allowed(store::PayloadKind kind, bool coded) {
   using store::PayloadKind;
-  // Either mode stores a brick losslessly (raw_packed) when that is smaller.
-  if (kind == PayloadKind::constant || kind == PayloadKind::raw_packed) return true;
+  // Either mode stores a brick losslessly (raw_packed) when that is smaller, and wraps a brick
+  // with NaN or infinite voxels (masked).
+  if (kind == PayloadKind::constant || kind == PayloadKind::raw_packed || kind == PayloadKind::masked) return true;
   return coded ? kind == PayloadKind::tucker_coded || kind == PayloadKind::raw_zstd
                : kind == PayloadKind::tucker || kind == PayloadKind::tucker_zstd;
 }
@@ -111,7 +112,7 @@ TaVolume::TaVolume(std::unique_ptr<store::ContainerReader> container) : containe
     if (!kind_allowed(e.kind, coded))
       throw FormatError(file, name,
                         std::string("payload kind ") + store::payload_kind_name(e.kind) + " does not belong in a file with quant \"" +
-                            quant_ + "\"" + (coded ? " (expected constant, tucker_coded, raw_zstd or raw_packed)" : " (expected constant, tucker, tucker_zstd or raw_packed)"));
+                            quant_ + "\"" + (coded ? " (expected constant, tucker_coded, raw_zstd, raw_packed or masked)" : " (expected constant, tucker, tucker_zstd, raw_packed or masked)"));
     if (e.kind != store::PayloadKind::constant && e.size == 0)
       throw FormatError(file, name, std::string("a ") + store::payload_kind_name(e.kind) + " brick needs payload bytes, the index gives it none");
     ++bricks_per_level[e.key.level];

@@ -5,11 +5,14 @@
 #include <bit>
 #include <chrono>
 #include <cmath>
+#include <limits>
+#include <optional>
 #include <cstdio>
 #include <nlohmann/json.hpp>
 
 #include "render/occupancy.hpp"
 #include "render/shading.hpp"
+#include "strata/core/isa.hpp"
 #include "strata/core/error.hpp"
 #include "strata/gen/generators.hpp"
 #include "strata/render/raycaster.hpp"
@@ -321,6 +324,46 @@ TEST(RenderRayCaster, ThreadCountDoesNotChangeTheImage) {
   const Image a = RayCaster(TransferFunction::preset("ct"), one).render(cam, b.frame(v, 0, 65535));
   const Image c = RayCaster(TransferFunction::preset("ct"), two).render(cam, b.frame(v, 0, 65535));
   EXPECT_EQ(a.pixels(), c.pixels());
+}
+
+// NaN and infinite voxels (masked cells, outside a field of view) are empty space, whole or in
+// bricks, in the scalar and the 8-lane march: an all-NaN volume draws only the background, and
+// prisms with NaN in their lower half (and an infinity here and there) draw something, less
+// than the whole, and nothing over the background where a ray met no finite voxel.
+TEST(RenderRayCaster, NanAndInfiniteVoxelsAreEmptySpace) {
+  const Volume whole = prisms_volume().converted(DType::f32);
+  Volume cut = whole, none = whole;
+  const Extent d = whole.dims();
+  for (std::int64_t z = 0; z < d.z; ++z)
+    for (std::int64_t y = 0; y < d.y; ++y)
+      for (std::int64_t x = 0; x < d.x; ++x) {
+        none.set_value(x, y, z, std::numeric_limits<double>::quiet_NaN());
+        if (y < d.y / 2) cut.set_value(x, y, z, std::numeric_limits<double>::quiet_NaN());
+        else if ((x + y + z) % 97 == 0) cut.set_value(x, y, z, std::numeric_limits<double>::infinity());
+      }
+  const Camera cam = perspective_camera(d, 33, 21, 70, 50);
+  auto brightness = [](const Image& img) {
+    std::uint64_t sum = 0;
+    for (const Rgba8& p : img.pixels()) sum += std::uint64_t(p.r) + p.g + p.b;
+    return sum;
+  };
+  for (const bool bricked : {false, true}) {
+    for (const bool vector_march : {false, true}) {
+      std::optional<ScopedIsaLimit> limit;
+      if (!vector_march) limit.emplace(Isa::generic);
+      RayCaster rc(TransferFunction::preset("ct"), options(0.5, true, true));
+      auto draw = [&](const Volume& v) {
+        if (!bricked) return rc.render(cam, v, 0, 65535);
+        const BrickedVolume b(v, 16, 2);
+        return rc.render(cam, b.frame(v, 0, 65535));
+      };
+      const std::string label = std::string(bricked ? "bricked" : "whole") + (vector_march ? ", 8 lanes" : ", scalar");
+      EXPECT_EQ(brightness(draw(none)), 0u) << label;
+      const std::uint64_t all = brightness(draw(whole)), part = brightness(draw(cut));
+      EXPECT_GT(part, 0u) << label;
+      EXPECT_LT(part, all) << label;
+    }
+  }
 }
 
 // ---- Empty-space skipping inside bricks ------------------------------------------------------

@@ -243,40 +243,22 @@ int in_death_dir(const std::function<int(const fs::path&)>& body) {
 // In the parent, after EXPECT_EXIT.
 void remove_death_dir() { fs::remove_all(death_dir(getpid())); }
 
-// Compresses `raw` to dir/out.strata; kCleanError when that throws a strata::Error naming the
-// input and leaves neither the output nor its .tmp.
-int compress_raw_expecting_error(const fs::path& dir, float bad) {
-  const fs::path raw = raw_with(dir, bad), out = dir / "out.strata";
-  auto source = io::open_volume(raw);
-  try {
-    compress_volume(*source, out, params(8, 1, 4, "u16,b8log+", 1), silent_progress());
-  } catch (const Error& e) {
-    if (!contains(e.what(), "bad.raw")) return kWrongMessage;
-    return fs::exists(out) || fs::exists(fs::symlink_status(fs::path(out) += ".tmp")) ? kLeftovers : kCleanError;
-  } catch (...) {
-    return kForeignException;
-  }
-  return kNoError;
-}
-
 }  // namespace
 
-TEST(TaCompressErrorsDeathTest, NanSampleIsAnErrorNamingTheFile) {
-  GTEST_FLAG_SET(death_test_style, "threadsafe");
-  EXPECT_EXIT(std::exit(in_death_dir([](const fs::path& d) {
-                return compress_raw_expecting_error(d, std::numeric_limits<float>::quiet_NaN());
-              })),
-              ::testing::ExitedWithCode(kCleanError), "");
-  remove_death_dir();
-}
-
-TEST(TaCompressErrorsDeathTest, InfiniteSampleIsAnErrorNamingTheFile) {
-  GTEST_FLAG_SET(death_test_style, "threadsafe");
-  EXPECT_EXIT(std::exit(in_death_dir([](const fs::path& d) {
-                return compress_raw_expecting_error(d, -std::numeric_limits<float>::infinity());
-              })),
-              ::testing::ExitedWithCode(kCleanError), "");
-  remove_death_dir();
+// A NaN or infinite sample (once an error here) is kept exactly: the fixed-rank mode codes the
+// brick's other voxels and restores it (tests/ta/test_non_finite.cpp covers every mode).
+TEST(TaCompressNonFinite, NanAndInfiniteSamplesOfARawFileDecodeAsThemselves) {
+  test::TempDir dir;
+  for (const float bad : {std::numeric_limits<float>::quiet_NaN(), -std::numeric_limits<float>::infinity()}) {
+    const fs::path raw = raw_with(dir.path(), bad), out = dir / "out.strata";
+    auto source = io::open_volume(raw);
+    compress_volume(*source, out, params(8, 1, 4, "u16,b8log+", 1), silent_progress());
+    const TaVolume t(out);
+    const float decoded = t.decode_box(0, Box{{11, 9, 9}, {12, 10, 10}}, t.rank()).samples<float>()[0];
+    if (std::isnan(bad)) EXPECT_TRUE(std::isnan(decoded));
+    else EXPECT_EQ(decoded, bad);
+    EXPECT_TRUE(std::isfinite(t.decode_box(0, Box{{10, 9, 9}, {11, 10, 10}}, t.rank()).samples<float>()[0]));
+  }
 }
 
 // A write failure while bricks are being encoded (disk full) must surface as an Error and

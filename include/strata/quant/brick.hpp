@@ -94,6 +94,10 @@ struct DequantizedModel {
   std::vector<std::uint32_t> correction_index;
   std::vector<float> correction_value;
   std::vector<float> samples;  // non-empty: a losslessly stored brick (no Tucker part)
+  // Written over the reconstruction at any rank: the brick's NaN and infinite voxels (payload
+  // kind `masked`; set by ta::dequantize_brick, empty otherwise).
+  std::vector<std::uint32_t> non_finite_index;
+  std::vector<float> non_finite_value;
   bool has_tucker() const { return ranks[0] > 0 && ranks[1] > 0 && ranks[2] > 0; }
   tensor::TuckerView view() const;
 };

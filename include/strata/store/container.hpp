@@ -23,7 +23,7 @@
 namespace strata::store {
 
 inline constexpr std::uint16_t kFormatVersionMajor = 1;
-inline constexpr std::uint16_t kFormatVersionMinor = 3;
+inline constexpr std::uint16_t kFormatVersionMinor = 4;
 /// The first minor version whose checksums are bound to keys, kinds and names.
 inline constexpr std::uint16_t kBoundChecksumsMinor = 3;
 inline constexpr std::size_t kHeaderSize = 64;
@@ -40,6 +40,7 @@ enum class PayloadKind : std::uint8_t {
   tucker_coded = 4,  // Tucker brick coded to an error target (quant/coded_brick.hpp), format 1.1
   raw_zstd = 5,      // the float samples, byte planes, zstd: lossless (ta/raw_brick.hpp), format 1.1
   raw_packed = 6,    // the samples' non-repeating box, integer codes where exact, zstd: lossless (ta/raw_brick.hpp), format 1.3
+  masked = 7,        // a brick with NaN or infinite voxels: their mask, then the brick of the others (ta/non_finite.hpp), format 1.4
 };
 const char* payload_kind_name(PayloadKind k);
 
