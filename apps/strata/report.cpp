@@ -16,8 +16,9 @@ void RawInputArgs::add_to(CLI::App& cmd) {
   cmd.add_option("--dtype", dtype, "Raw input: sample type u8|i8|u16|i16|u32|i32|f32|f64");
   cmd.add_option("--spacing", spacing, "Raw input: voxel spacing SX,SY,SZ");
   cmd.add_flag("--big-endian", big_endian, "Raw input: samples are big endian");
-  cmd.add_option("--volume", volume,
-                 "Which 3D volume of a file that holds several (NIfTI with dim[0] > 3: time points, components), from 0")
+  cmd.add_option("--volume,--component,--time", volume,
+                 "Which 3D volume of a file that holds several, from 0: a time point or component (NIfTI dim[4..7], "
+                 "a NRRD fourth axis: interleaved components first or a series last, told apart by `kinds`)")
       ->check(kNonNegativeInteger);
 }
 

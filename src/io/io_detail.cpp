@@ -2,6 +2,8 @@
 // the memory-mapped VolumeSource and small helpers. The plain-file classes are in files.cpp.
 #include "io/io_detail.hpp"
 
+#include "strata/core/checked.hpp"
+
 #include <zlib.h>
 
 #include <algorithm>
@@ -270,8 +272,9 @@ namespace {
 class MappedSource final : public VolumeSource {
  public:
   MappedSource(std::shared_ptr<MappedFile> file, std::uint64_t offset, const VolumeInfo& info, bool swap,
-               std::filesystem::path path)
-      : file_(std::move(file)), offset_(offset), info_(info), swap_(swap), path_(std::move(path)) {}
+               std::filesystem::path path, Interleave interleave)
+      : file_(std::move(file)), offset_(offset), info_(info), swap_(swap), path_(std::move(path)),
+        interleave_(interleave) {}
 
   const VolumeInfo& info() const override { return info_; }
   const std::filesystem::path& path() const override { return path_; }
@@ -288,12 +291,20 @@ class MappedSource final : public VolumeSource {
  private:
   std::uint64_t byte_offset(std::int64_t x, std::int64_t y, std::int64_t z) const {
     auto index = std::uint64_t((z * info_.dims.y + y) * info_.dims.x + x);
-    return offset_ + index * dtype_size(info_.dtype);
+    return offset_ + (index * std::uint64_t(interleave_.count) + std::uint64_t(interleave_.index)) * dtype_size(info_.dtype);
   }
 
   void copy_box(const Box& box, std::byte* out) const {
     const Extent size = box.size();
-    const std::uint64_t row_bytes = std::uint64_t(size.x) * dtype_size(info_.dtype);
+    const std::uint64_t sample = dtype_size(info_.dtype);
+    if (interleave_.count > 1) {  // one sample at a time: the others volumes' lie between
+      for (std::int64_t z = box.lo.z; z < box.hi.z; ++z)
+        for (std::int64_t y = box.lo.y; y < box.hi.y; ++y)
+          for (std::int64_t x = box.lo.x; x < box.hi.x; ++x, out += sample)
+            std::memcpy(out, file_->data() + byte_offset(x, y, z), sample);
+      return;
+    }
+    const std::uint64_t row_bytes = std::uint64_t(size.x) * sample;
     // Full-width boxes are contiguous per slice, so they copy in one piece per slice.
     const bool full_rows = size.x == info_.dims.x;
     for (std::int64_t z = box.lo.z; z < box.hi.z; ++z) {
@@ -331,6 +342,7 @@ class MappedSource final : public VolumeSource {
   VolumeInfo info_;
   bool swap_;
   std::filesystem::path path_;
+  Interleave interleave_;
 };
 
 }  // namespace
@@ -343,8 +355,11 @@ void check_box_inside(const Box& box, const Extent& dims, const std::filesystem:
 
 std::unique_ptr<VolumeSource> make_mapped_source(std::shared_ptr<MappedFile> file, std::uint64_t offset,
                                                  const VolumeInfo& info, bool big_endian,
-                                                 std::filesystem::path path, const std::string& field) {
-  const std::uint64_t needed = checked_volume_bytes(info, path.string(), field);
+                                                 std::filesystem::path path, const std::string& field,
+                                                 Interleave interleave) {
+  const auto all = checked_mul(checked_volume_bytes(info, path.string(), field), std::uint64_t(interleave.count));
+  if (!all) throw FormatError(path.string(), field, "the interleaved volumes overflow a 64-bit byte count");
+  const std::uint64_t needed = *all;
   if (offset > file->size() || file->size() - offset < needed) {
     std::uint64_t available = offset > file->size() ? 0 : file->size() - offset;
     throw FormatError(path.string(), field,
@@ -353,7 +368,21 @@ std::unique_ptr<VolumeSource> make_mapped_source(std::shared_ptr<MappedFile> fil
   }
   const bool file_is_big = big_endian;
   const bool swap = file_is_big != (std::endian::native == std::endian::big);
-  return std::make_unique<MappedSource>(std::move(file), offset, info, swap, std::move(path));
+  return std::make_unique<MappedSource>(std::move(file), offset, info, swap, std::move(path), interleave);
+}
+
+std::int64_t choose_volume(std::int64_t volumes, const Extent& dims, const ReadOptions& options,
+                           const std::string& file, const std::string& field, const std::string& what) {
+  if (volumes == 1 && options.volume.value_or(0) == 0) return 0;
+  if (!options.volume)
+    throw FormatError(file, field,
+                      fmt::format("holds {} volumes of {} ({}); choose one with --volume T (0..{})", volumes,
+                                  dims.to_string(), what, volumes - 1));
+  const std::int64_t t = *options.volume;
+  if (t < 0 || t >= volumes)
+    throw ParameterError("ReadOptions::volume",
+                         fmt::format("{}: volume {} does not exist; the file holds {} (0..{})", file, t, volumes, volumes - 1));
+  return t;
 }
 
 }  // namespace strata::io::detail

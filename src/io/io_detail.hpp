@@ -84,11 +84,25 @@ std::uint64_t checked_volume_bytes(const VolumeInfo& info, const std::string& fi
 // Throws Error naming `path` unless `box` is non-empty and lies inside `dims` (VolumeSource::read_box).
 void check_box_inside(const Box& box, const Extent& dims, const std::filesystem::path& path);
 
+// Samples of several volumes stored interleaved (a NRRD vector axis first: component fastest):
+// the source reads volume `index` of `count`.
+struct Interleave {
+  std::int64_t count = 1, index = 0;
+};
+
 // A VolumeSource over x-fastest samples at `offset` of a mapped file, optionally byte-swapped.
-// Checks that offset + info.byte_size() fits in the file (else FormatError naming `field`).
+// Checks that offset + info.byte_size() (times the interleaved count) fits in the file (else
+// FormatError naming `field`).
 std::unique_ptr<VolumeSource> make_mapped_source(std::shared_ptr<MappedFile> file, std::uint64_t offset,
                                                  const VolumeInfo& info, bool big_endian,
-                                                 std::filesystem::path path, const std::string& field);
+                                                 std::filesystem::path path, const std::string& field,
+                                                 Interleave interleave = {});
+
+// Which of a file's `volumes` 3D volumes to read: 0 for a file of one; for several the caller's
+// choice (ReadOptions::volume), which must exist. Errors name `file`, `field` (the header field
+// that makes several) and, in the hint, what the volumes are (`what`, e.g. "dim[4..7]").
+std::int64_t choose_volume(std::int64_t volumes, const Extent& dims, const ReadOptions& options,
+                           const std::string& file, const std::string& field, const std::string& what);
 
 // Swaps bytes of `count` samples of `sample_size` bytes in place (big endian <-> native).
 void byte_swap(std::byte* data, std::size_t count, std::size_t sample_size);

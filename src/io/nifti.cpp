@@ -240,15 +240,7 @@ NiftiHeader parse_header(const std::byte* data, std::uint64_t size, const std::s
 // Where the chosen volume starts: a file of one volume needs no choice; of several, the
 // caller's (ReadOptions::volume), which must exist.
 std::uint64_t volume_offset(const NiftiHeader& header, const ReadOptions& options, const std::string& file) {
-  if (header.volumes == 1 && options.volume.value_or(0) == 0) return header.vox_offset;
-  if (!options.volume)
-    throw FormatError(file, "dim",
-                      fmt::format("holds {} volumes of {} (dim[4..7]); choose one with --volume T (0..{})", header.volumes,
-                                  header.stored.dims.to_string(), header.volumes - 1));
-  const std::int64_t t = *options.volume;
-  if (t < 0 || t >= header.volumes)
-    throw ParameterError("ReadOptions::volume", fmt::format("{}: volume {} does not exist; the file holds {} (0..{})", file,
-                                                            t, header.volumes, header.volumes - 1));
+  const std::int64_t t = choose_volume(header.volumes, header.stored.dims, options, file, "dim", "dim[4..7]");
   return header.vox_offset + std::uint64_t(t) * header.stored.byte_size();
 }
 

@@ -27,6 +27,7 @@ struct NrrdHeader {
   std::vector<std::int64_t> sizes;
   std::vector<double> spacings;          // NaN where the header says nan
   std::vector<double> direction_norms;   // from `space directions`; NaN for `none`
+  std::vector<std::string> kinds;        // lower case, one per axis when given
   std::optional<Encoding> encoding;
   std::optional<bool> big_endian;
   std::int64_t byte_skip = 0;
@@ -170,12 +171,16 @@ struct HeaderParser {
       for (const auto& w : words(value)) header.sizes.push_back(parse_int(w, field));
     } else if (field == "spacings") header.spacings = parse_doubles(value, field);
     else if (field == "space directions") header.direction_norms = parse_direction_norms(value);
+    else if (field == "kinds") {
+      header.kinds.clear();
+      for (const auto& w : words(value)) header.kinds.push_back(ascii_lower(w));
+    }
     else if (field == "encoding") header.encoding = parse_encoding(value);
     else if (field == "endian") header.big_endian = parse_endian(value);
     else if (field == "byte skip" || field == "byteskip") header.byte_skip = parse_int(value, "byte skip");
     else if (field == "line skip" || field == "lineskip") header.line_skip = parse_int(value, "line skip");
     else if (field == "data file" || field == "datafile") header.data_file = check_single_data_file(value);
-    // Every other field (content, kinds, units, space origin, ...) does not affect the samples.
+    // Every other field (content, units, space origin, ...) does not affect the samples.
   }
 
   void parse_line(const std::string& line, std::size_t line_number) {
@@ -222,7 +227,8 @@ struct HeaderParser {
 
 // The validated meaning of a header.
 struct NrrdLayout {
-  VolumeInfo info;
+  VolumeInfo info;  // of one 3D volume; info.volumes of them
+  bool interleaved = false;  // the volume axis comes first (component fastest), else last
   Encoding encoding = Encoding::raw;
   bool big_endian = false;
   std::int64_t byte_skip = 0;
@@ -237,6 +243,39 @@ void drop_leading_unit_axis(NrrdHeader& h) {
   h.sizes.erase(h.sizes.begin());
   if (h.spacings.size() == 4) h.spacings.erase(h.spacings.begin());
   if (h.direction_norms.size() == 4) h.direction_norms.erase(h.direction_norms.begin());
+  h.dimension = 3;
+}
+
+// A 4-D header holds several 3D volumes along its one axis whose kind is not spatial (domain or
+// space): first, interleaved (vector, RGB-color, list, ...: multi-channel microscopy), or last,
+// one volume after the other (time, list: a series). That axis leaves the 3-D layout and becomes
+// the volume count. Without `kinds` the axis cannot be told and the file is refused.
+void split_volume_axis(NrrdHeader& h, NrrdLayout& layout, const std::string& file) {
+  if (h.dimension != 4 || h.sizes.size() != 4) return;
+  if (h.kinds.size() != 4)
+    throw FormatError(file, "kinds",
+                      "a 4-D volume needs the axis kinds, to tell its components or time points from its three space "
+                      "axes (e.g. kinds: vector domain domain domain)");
+  const auto spatial = [](const std::string& k) { return k == "domain" || k == "space"; };
+  std::size_t axis = 4;
+  for (std::size_t a = 0; a < 4; ++a)
+    if (!spatial(h.kinds[a])) {
+      if (axis != 4 || (a != 0 && a != 3))
+        throw FormatError(file, "kinds",
+                          fmt::format("\"{} {} {} {}\": expected three spatial axes (domain or space) and one other, "
+                                      "first or last", h.kinds[0], h.kinds[1], h.kinds[2], h.kinds[3]));
+      axis = a;
+    }
+  if (axis == 4) throw FormatError(file, "kinds", "all four axes are spatial; expected one axis of components or times");
+  const auto drop = [&](auto& v) {
+    if (v.size() == 4) v.erase(v.begin() + std::ptrdiff_t(axis));
+  };
+  if (h.sizes[axis] < 1) throw FormatError(file, "sizes", fmt::format("axis {} is {}; expected at least 1", axis, h.sizes[axis]));
+  layout.info.volumes = h.sizes[axis];
+  layout.interleaved = axis == 0;
+  drop(h.sizes);
+  drop(h.spacings);
+  drop(h.direction_norms);
   h.dimension = 3;
 }
 
@@ -293,10 +332,14 @@ std::filesystem::path resolve_data_file(const std::string& value, const std::fil
 NrrdLayout make_layout(NrrdHeader h, const std::filesystem::path& path) {
   const std::string file = path.string();
   drop_leading_unit_axis(h);
-  check_required(h, file);
   NrrdLayout layout;
+  split_volume_axis(h, layout, file);
+  check_required(h, file);
+  const std::int64_t volumes = layout.info.volumes;
   layout.info = VolumeInfo{{h.sizes[0], h.sizes[1], h.sizes[2]}, *h.dtype, spacing_of(h, file)};
-  checked_volume_bytes(layout.info, file, "sizes");
+  layout.info.volumes = volumes;
+  if (!checked_mul(checked_volume_bytes(layout.info, file, "sizes"), std::uint64_t(volumes)))
+    throw FormatError(file, "sizes", "the volumes overflow a 64-bit byte count (corrupt or hostile header)");
   layout.encoding = *h.encoding;
   layout.big_endian = h.big_endian.value_or(false);
   layout.byte_skip = h.byte_skip;
@@ -344,26 +387,47 @@ std::uint64_t skip_lines(const MappedFile& file, std::uint64_t start, std::int64
 
 // Exact sizes: extra or missing bytes mean `sizes` or `type` disagree with the data, and
 // reading anyway would silently scramble the volume.
+// The bytes of every volume of the file (checked against overflow by make_layout).
+std::uint64_t data_bytes(const NrrdLayout& layout) { return layout.info.byte_size() * std::uint64_t(layout.info.volumes); }
+
+std::string sizes_text(const NrrdLayout& layout) {
+  const std::string dims = layout.info.dims.to_string();
+  return layout.info.volumes == 1 ? dims : fmt::format("{} volumes of {}", layout.info.volumes, dims);
+}
+
 void check_data_bytes(const std::string& file, const NrrdLayout& layout, std::uint64_t available,
                       const char* where) {
-  const std::uint64_t needed = layout.info.byte_size();
+  const std::uint64_t needed = data_bytes(layout);
   if (available == needed) return;
   throw FormatError(file, "data",
                     fmt::format("{} holds {} bytes of samples, but sizes {} of type {} need {}{}", where, available,
-                                layout.info.dims.to_string(), dtype_name(layout.info.dtype), needed,
+                                sizes_text(layout), dtype_name(layout.info.dtype), needed,
                                 available < needed ? " (truncated file or wrong sizes)" : " (wrong sizes or type)"));
 }
 
-std::unique_ptr<VolumeSource> open_raw_encoded(const std::filesystem::path& path, const NrrdLayout& layout) {
+// The source of the chosen volume (ReadOptions::volume) of the samples at `offset` of `data`.
+std::unique_ptr<VolumeSource> volume_source(std::shared_ptr<MappedFile> data, std::uint64_t offset,
+                                            const NrrdLayout& layout, const std::filesystem::path& path,
+                                            const ReadOptions& options) {
+  const std::int64_t t = choose_volume(layout.info.volumes, layout.info.dims, options, path.string(), "kinds",
+                                       layout.interleaved ? "components, interleaved" : "the last axis");
+  if (layout.interleaved)
+    return make_mapped_source(std::move(data), offset, layout.info, layout.big_endian, path, "data",
+                              {layout.info.volumes, t});
+  return make_mapped_source(std::move(data), offset + std::uint64_t(t) * layout.info.byte_size(), layout.info,
+                            layout.big_endian, path, "data");
+}
+
+std::unique_ptr<VolumeSource> open_raw_encoded(const std::filesystem::path& path, const NrrdLayout& layout,
+                                               const ReadOptions& options) {
   auto data = map_data_file(path, layout);
   const std::uint64_t start = skip_lines(*data, layout.data_start, layout.line_skip, path.string());
   std::uint64_t offset = start + std::uint64_t(std::max<std::int64_t>(layout.byte_skip, 0));
   // byte skip -1: the samples are the last bytes of the file, whatever precedes them.
-  if (layout.byte_skip == -1 && data->size() - start >= layout.info.byte_size())
-    offset = data->size() - layout.info.byte_size();
+  if (layout.byte_skip == -1 && data->size() - start >= data_bytes(layout)) offset = data->size() - data_bytes(layout);
   check_data_bytes(path.string(), layout, offset > data->size() ? 0 : data->size() - offset,
                    layout.data_path == path ? "the file after its header" : "the data file");
-  return make_mapped_source(std::move(data), offset, layout.info, layout.big_endian, path, "data");
+  return volume_source(std::move(data), offset, layout, path, options);
 }
 
 std::unique_ptr<VolumeSource> open_gzip_encoded(const std::filesystem::path& path, const NrrdLayout& layout,
@@ -371,11 +435,12 @@ std::unique_ptr<VolumeSource> open_gzip_encoded(const std::filesystem::path& pat
   // For compressed encodings the byte skip counts decoded bytes (as teem does).
   const auto skip = std::uint64_t(layout.byte_skip);
   // Decoded sizes are file sizes: they must fit in a signed 64-bit offset.
-  const auto declared = checked_add(layout.byte_skip, std::int64_t(layout.info.byte_size()));
+  const auto declared = data_bytes(layout) > std::uint64_t(INT64_MAX) ? std::nullopt
+                                                                      : checked_add(layout.byte_skip, std::int64_t(data_bytes(layout)));
   if (!declared)
     throw FormatError(path.string(), "byte skip",
                       fmt::format("{} plus the {} bytes of samples overflows a 64-bit file offset", skip,
-                                  layout.info.byte_size()));
+                                  data_bytes(layout)));
   std::shared_ptr<MappedFile> data;
   {
     auto compressed = map_data_file(path, layout);
@@ -383,13 +448,13 @@ std::unique_ptr<VolumeSource> open_gzip_encoded(const std::filesystem::path& pat
     if (start >= compressed->size())
       throw FormatError(path.string(), "data", "no gzip data follows the header (truncated file)");
     const std::string declared_by =
-        fmt::format("the header (sizes {} of type {}{})", layout.info.dims.to_string(), dtype_name(layout.info.dtype),
+        fmt::format("the header (sizes {} of type {}{})", sizes_text(layout), dtype_name(layout.info.dtype),
                     skip ? fmt::format(" after a byte skip of {}", skip) : "");
     data = gunzip_to_temp_file(compressed->data() + start, compressed->size() - start, options, "strata-nrrd",
                                path.string(), "data", {std::uint64_t(*declared), declared_by});
   }
   check_data_bytes(path.string(), layout, skip > data->size() ? 0 : data->size() - skip, "the decoded gzip stream");
-  return make_mapped_source(std::move(data), skip, layout.info, layout.big_endian, path, "data");
+  return volume_source(std::move(data), skip, layout, path, options);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -455,7 +520,7 @@ class NrrdWriter final : public VolumeWriter {
 std::unique_ptr<VolumeSource> open_nrrd(const std::filesystem::path& path, const ReadOptions& options) {
   const NrrdLayout layout = read_layout(path);
   if (layout.encoding == Encoding::gzip) return open_gzip_encoded(path, layout, options);
-  return open_raw_encoded(path, layout);
+  return open_raw_encoded(path, layout, options);
 }
 
 std::unique_ptr<VolumeWriter> create_nrrd_writer(const std::filesystem::path& path, const VolumeInfo& info,

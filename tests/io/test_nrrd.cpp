@@ -283,5 +283,67 @@ TEST(IoNrrdRealData, FrogTissueLabels) {
   EXPECT_LE(ids.size(), 26u);
 }
 
+
+// ---- Several volumes: a fourth axis of components (first, interleaved) or times (last) ------
+
+std::string nrrd4(const std::string& type, const std::string& sizes, const std::string& kinds, const std::string& encoding) {
+  return "NRRD0004\ntype: " + type + "\ndimension: 4\nsizes: " + sizes + "\nkinds: " + kinds +
+         "\nspacings: nan 0.5 0.5 2\nendian: little\nencoding: " + encoding + "\n\n";
+}
+
+TEST(IoNrrd, InterleavedComponentsAndSeriesReadOneVolumeEach) {
+  test::TempDir dir;
+  // 3 x 4 x 2 voxels: RGB components first (component fastest), or 3 time points last.
+  std::vector<std::uint16_t> rgb(3 * 24), series(24 * 3);
+  for (std::size_t i = 0; i < rgb.size(); ++i) rgb[i] = std::uint16_t(1000 + 7 * i);
+  for (std::size_t i = 0; i < series.size(); ++i) series[i] = std::uint16_t(5 * i);
+  write_text(dir / "rgb.nrrd", nrrd4("uint16", "3 3 4 2", "RGB-color domain domain domain", "raw") + little_endian_bytes(rgb));
+  write_text(dir / "rgb_gz.nrrd", nrrd4("uint16", "3 3 4 2", "vector space space space", "gzip") + gzip(little_endian_bytes(rgb)));
+  std::string series_header = nrrd4("uint16", "3 4 2 3", "domain domain domain time", "raw");
+  series_header.replace(series_header.find("nan 0.5 0.5 2"), 13, "0.5 0.5 2 nan");
+  write_text(dir / "series.nrrd", series_header + little_endian_bytes(series));
+  for (const char* name : {"rgb.nrrd", "rgb_gz.nrrd"}) {
+    for (std::int64_t c = 0; c < 3; ++c) {
+      ReadOptions o;
+      o.volume = c;
+      const auto source = open_volume(dir / name, o);
+      EXPECT_EQ(source->info().volumes, 3);
+      EXPECT_EQ(source->info().dims, (Extent{3, 4, 2}));
+      EXPECT_DOUBLE_EQ(source->info().spacing.z, 2.0);
+      const Volume v = source->read_all();
+      for (std::int64_t i = 0; i < 24; ++i) ASSERT_EQ(v.samples<std::uint16_t>()[std::size_t(i)], rgb[std::size_t(3 * i + c)]) << name << " " << c;
+      // A box in the middle reads the same samples as the whole.
+      const Volume box = source->read_box({{1, 1, 1}, {3, 3, 2}});
+      EXPECT_EQ(box.samples<std::uint16_t>()[0], rgb[std::size_t(3 * (1 + 3 * (1 + 4 * 1)) + c)]);
+    }
+  }
+  for (std::int64_t t = 0; t < 3; ++t) {
+    ReadOptions o;
+    o.volume = t;
+    const Volume v = read_volume(dir / "series.nrrd", o);
+    for (std::int64_t i = 0; i < 24; ++i) ASSERT_EQ(v.samples<std::uint16_t>()[std::size_t(i)], series[std::size_t(24 * t + i)]);
+  }
+}
+
+TEST(IoNrrd, SeveralVolumesNeedTheirKindsAndAChoice) {
+  test::TempDir dir;
+  const std::string data(3 * 24 * 2, '\0');
+  write_text(dir / "nokinds.nrrd", "NRRD0004\ntype: uint16\ndimension: 4\nsizes: 3 3 4 2\nendian: little\nencoding: raw\n\n" + data);
+  write_text(dir / "twoaxes.nrrd", nrrd4("uint16", "3 3 4 2", "vector list domain domain", "raw") + data);
+  write_text(dir / "middle.nrrd", nrrd4("uint16", "3 3 4 2", "domain vector domain domain", "raw") + data);
+  write_text(dir / "spatial.nrrd", nrrd4("uint16", "3 3 4 2", "domain domain domain domain", "raw") + data);
+  write_text(dir / "short.nrrd", nrrd4("uint16", "3 3 4 2", "vector domain domain domain", "raw") + data.substr(2));
+  write_text(dir / "ok.nrrd", nrrd4("uint16", "3 3 4 2", "vector domain domain domain", "raw") + data);
+  for (const char* name : {"nokinds.nrrd", "twoaxes.nrrd", "middle.nrrd", "spatial.nrrd"})
+    EXPECT_NE(test::error_of([&] { open_volume(dir / name); }).find(std::string(name) + ": kinds: "), std::string::npos) << name;
+  ReadOptions first;
+  first.volume = 0;
+  EXPECT_NE(test::error_of([&] { open_volume(dir / "short.nrrd", first); }).find("3 volumes of 3x4x2"), std::string::npos);
+  EXPECT_NE(test::error_of([&] { open_volume(dir / "ok.nrrd"); }).find("choose one with --volume T (0..2)"), std::string::npos);
+  ReadOptions fourth;
+  fourth.volume = 3;
+  EXPECT_EQ(test::parameter_of([&] { open_volume(dir / "ok.nrrd", fourth); }), "ReadOptions::volume");
+}
+
 }  // namespace
 }  // namespace strata::io
