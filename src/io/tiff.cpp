@@ -88,10 +88,12 @@ class TiffFile {
 // ---------------------------------------------------------------------------------------------
 // Page format
 
-// The tags that must agree across all pages of a stack.
+// The tags that must agree across all pages of a stack, and the channel a source reads.
 struct PageFormat {
   std::uint32_t width = 0, height = 0;
   std::uint16_t bits = 0, sample_format = SAMPLEFORMAT_UINT, samples = 1;
+  std::uint16_t planar = PLANARCONFIG_CONTIG;  // channels interleaved per pixel, or each in strips of its own
+  std::uint16_t channel = 0;                   // of `samples`: the volume read (ReadOptions::volume)
 };
 
 std::uint16_t uint16_tag(TIFF* tif, ttag_t tag) {
@@ -114,9 +116,10 @@ PageFormat read_page_format(TiffFile& file, const std::string& where) {
   f.bits = uint16_tag(file.get(), TIFFTAG_BITSPERSAMPLE);
   f.sample_format = uint16_tag(file.get(), TIFFTAG_SAMPLEFORMAT);
   f.samples = uint16_tag(file.get(), TIFFTAG_SAMPLESPERPIXEL);
-  if (f.samples != 1)
-    throw FormatError(where, "SamplesPerPixel",
-                      fmt::format("is {}; only single-channel (greyscale) pages are supported", f.samples));
+  if (f.samples == 0) throw FormatError(where, "SamplesPerPixel", "is 0; expected 1 or more channels");
+  f.planar = uint16_tag(file.get(), TIFFTAG_PLANARCONFIG);
+  if (f.planar != PLANARCONFIG_CONTIG && f.planar != PLANARCONFIG_SEPARATE)
+    throw FormatError(where, "PlanarConfiguration", fmt::format("is {}; expected 1 (chunky) or 2 (planar)", f.planar));
   // Rows stored bottom-up or transposed would come out mirrored; refuse rather than guess.
   const std::uint16_t orientation = uint16_tag(file.get(), TIFFTAG_ORIENTATION);
   if (orientation != ORIENTATION_TOPLEFT)
@@ -156,6 +159,21 @@ void check_same_format(const PageFormat& page, const PageFormat& first, const st
   check("BitsPerSample", page.bits, first.bits);
   check("SampleFormat", page.sample_format, first.sample_format);
   check("SamplesPerPixel", page.samples, first.samples);
+  check("PlanarConfiguration", page.planar, first.planar);
+}
+
+// Channels: a chunky page interleaves them per pixel (the channel's sample is every
+// `samples`-th); a planar page stores each in strips or tiles of its own.
+bool chunky(const PageFormat& f) { return f.planar == PLANARCONFIG_CONTIG && f.samples > 1; }
+
+// Copies `count` samples of the format's channel from a decoded row starting at pixel 0 of `in`.
+void copy_channel(const PageFormat& f, const std::byte* in, std::size_t count, std::byte* out) {
+  const std::size_t sample = f.bits / 8;
+  if (!chunky(f)) {
+    std::memcpy(out, in, count * sample);
+    return;
+  }
+  for (std::size_t x = 0; x < count; ++x) std::memcpy(out + x * sample, in + (x * f.samples + f.channel) * sample, sample);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -194,7 +212,9 @@ struct PageRegion {
 void copy_from_strips(TiffFile& file, const PageFormat& f, const PageRegion& r, std::byte* out,
                       const std::string& where) {
   TIFF* tif = file.get();
-  const std::size_t sample = f.bits / 8, page_row = std::size_t(f.width) * sample, out_row = r.row_bytes(sample);
+  const std::size_t sample = f.bits / 8, pixel = sample * (chunky(f) ? f.samples : 1);
+  const std::size_t page_row = std::size_t(f.width) * pixel, out_row = r.row_bytes(sample);
+  const tsample_t plane = f.planar == PLANARCONFIG_SEPARATE ? tsample_t(f.channel) : 0;
   std::uint32_t rows_per_strip = 0;
   TIFFGetFieldDefaulted(tif, TIFFTAG_ROWSPERSTRIP, &rows_per_strip);
   rows_per_strip = std::clamp<std::uint32_t>(rows_per_strip, 1, f.height);
@@ -203,38 +223,38 @@ void copy_from_strips(TiffFile& file, const PageFormat& f, const PageRegion& r, 
     const std::uint32_t strip_y0 = y / rows_per_strip * rows_per_strip;
     const std::uint32_t strip_y1 = std::min(f.height, strip_y0 + rows_per_strip);
     const tmsize_t needed = tmsize_t(strip_y1 - strip_y0) * tmsize_t(page_row);
-    const tmsize_t got = TIFFReadEncodedStrip(tif, TIFFComputeStrip(tif, y, 0), strip.data(), tmsize_t(strip.size()));
+    const tmsize_t got = TIFFReadEncodedStrip(tif, TIFFComputeStrip(tif, y, plane), strip.data(), tmsize_t(strip.size()));
     if (got < needed)
       throw FormatError(where, "StripByteCounts",
                         fmt::format("rows {}..{} could not be decoded: {}", strip_y0, strip_y1, file.take_errors()));
     for (; y < std::min(strip_y1, r.y1); ++y)
-      std::memcpy(out + std::size_t(y - r.y0) * out_row, strip.data() + std::size_t(y - strip_y0) * page_row + r.x0 * sample,
-                  out_row);
+      copy_channel(f, strip.data() + std::size_t(y - strip_y0) * page_row + r.x0 * pixel, r.x1 - r.x0,
+                   out + std::size_t(y - r.y0) * out_row);
   }
 }
 
 void copy_from_tiles(TiffFile& file, const PageFormat& f, const PageRegion& r, std::byte* out,
                      const std::string& where) {
   TIFF* tif = file.get();
-  const std::size_t sample = f.bits / 8, out_row = r.row_bytes(sample);
+  const std::size_t sample = f.bits / 8, pixel = sample * (chunky(f) ? f.samples : 1), out_row = r.row_bytes(sample);
+  const tsample_t plane = f.planar == PLANARCONFIG_SEPARATE ? tsample_t(f.channel) : 0;
   std::uint32_t tile_w = 0, tile_h = 0;
   if (TIFFGetField(tif, TIFFTAG_TILEWIDTH, &tile_w) != 1 || TIFFGetField(tif, TIFFTAG_TILELENGTH, &tile_h) != 1 ||
       tile_w == 0 || tile_h == 0)
     throw FormatError(where, "TileWidth/TileLength", "missing or zero in a tiled page");
   std::vector<std::byte> tile(std::size_t(std::max<tmsize_t>(TIFFTileSize(tif), 0)));
-  const std::size_t tile_row = std::size_t(tile_w) * sample;
+  const std::size_t tile_row = std::size_t(tile_w) * pixel;
   if (tile.size() < tile_row * tile_h) throw FormatError(where, "TileWidth/TileLength", file.take_errors());
   for (std::uint32_t ty = r.y0 / tile_h * tile_h; ty < r.y1; ty += tile_h) {
     for (std::uint32_t tx = r.x0 / tile_w * tile_w; tx < r.x1; tx += tile_w) {
-      const tmsize_t got = TIFFReadEncodedTile(tif, TIFFComputeTile(tif, tx, ty, 0, 0), tile.data(), tmsize_t(tile.size()));
+      const tmsize_t got = TIFFReadEncodedTile(tif, TIFFComputeTile(tif, tx, ty, 0, plane), tile.data(), tmsize_t(tile.size()));
       if (got < tmsize_t(tile_row * tile_h))
         throw FormatError(where, "TileByteCounts",
                           fmt::format("tile at x {}, y {} could not be decoded: {}", tx, ty, file.take_errors()));
       const std::uint32_t x0 = std::max(r.x0, tx), x1 = std::min(r.x1, tx + tile_w);
       for (std::uint32_t y = std::max(r.y0, ty); y < std::min(r.y1, ty + tile_h); ++y)
-        std::memcpy(out + std::size_t(y - r.y0) * out_row + std::size_t(x0 - r.x0) * sample,
-                    tile.data() + std::size_t(y - ty) * tile_row + std::size_t(x0 - tx) * sample,
-                    std::size_t(x1 - x0) * sample);
+        copy_channel(f, tile.data() + std::size_t(y - ty) * tile_row + std::size_t(x0 - tx) * pixel, x1 - x0,
+                     out + std::size_t(y - r.y0) * out_row + std::size_t(x0 - r.x0) * sample);
     }
   }
 }
@@ -360,10 +380,17 @@ class TiffSource final : public VolumeSource {
 VolumeInfo info_from(const PageFormat& f, std::int64_t pages, const Spacing& spacing, const std::string& where) {
   VolumeInfo info{{f.width, f.height, pages}, dtype_of_format(f, where), spacing};
   checked_volume_bytes(info, where, "ImageWidth/ImageLength");
+  info.volumes = f.samples;
   return info;
 }
 
-std::unique_ptr<VolumeSource> open_multi_page(const fs::path& path) {
+// The channel to read of a stack of `format` pages (ReadOptions::volume; any of one).
+void choose_channel(PageFormat& format, const VolumeInfo& info, const ReadOptions& options, const std::string& file) {
+  format.channel = std::uint16_t(choose_volume(format.samples, info.dims, options, file, "SamplesPerPixel",
+                                               format.planar == PLANARCONFIG_SEPARATE ? "channels, planar" : "channels"));
+}
+
+std::unique_ptr<VolumeSource> open_multi_page(const fs::path& path, const ReadOptions& options) {
   auto file = std::make_unique<TiffFile>(path, "r");
   const auto label = [&](std::size_t n) { return fmt::format("{} page {}", path.string(), n); };
   const PageFormat first = read_page_format(*file, label(0));
@@ -380,10 +407,12 @@ std::unique_ptr<VolumeSource> open_multi_page(const fs::path& path) {
   VolumeInfo info = info0;
   info.dims.z = std::int64_t(pages.size());
   checked_volume_bytes(info, path.string(), "pages");
-  return std::make_unique<TiffSource>(path, info, first, std::move(pages), std::move(file));
+  PageFormat format = first;
+  choose_channel(format, info, options, path.string());
+  return std::make_unique<TiffSource>(path, info, format, std::move(pages), std::move(file));
 }
 
-std::unique_ptr<VolumeSource> open_folder(const fs::path& dir) {
+std::unique_ptr<VolumeSource> open_folder(const fs::path& dir, const ReadOptions& options) {
   const std::vector<fs::path> files = list_slice_files(dir);
   std::vector<Page> pages;
   PageFormat first;
@@ -402,6 +431,7 @@ std::unique_ptr<VolumeSource> open_folder(const fs::path& dir) {
     pages.push_back({slice, 0, where});
   }
   const VolumeInfo info = info_from(first, std::int64_t(pages.size()), spacing, files.front().string());
+  choose_channel(first, info, options, dir.string());
   return std::make_unique<TiffSource>(dir, info, first, std::move(pages), nullptr);
 }
 
@@ -603,9 +633,9 @@ bool names_folder(const fs::path& path) {
 
 }  // namespace
 
-std::unique_ptr<VolumeSource> open_tiff(const std::filesystem::path& path, const ReadOptions&) {
-  if (fs::is_directory(path)) return open_folder(path);
-  return open_multi_page(path);
+std::unique_ptr<VolumeSource> open_tiff(const std::filesystem::path& path, const ReadOptions& options) {
+  if (fs::is_directory(path)) return open_folder(path, options);
+  return open_multi_page(path, options);
 }
 
 std::unique_ptr<VolumeWriter> create_tiff_writer(const std::filesystem::path& path, const VolumeInfo& info,

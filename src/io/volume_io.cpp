@@ -124,9 +124,9 @@ std::unique_ptr<VolumeSource> open_volume(const std::filesystem::path& path, con
   std::error_code ec;
   if (std::filesystem::is_regular_file(path, ec) && std::filesystem::file_size(path, ec) == 0 && !ec)
     throw FormatError(path.string(), "size", fmt::format("empty file (0 bytes), expected a {} volume", format_name(format)));
-  // NIfTI (dim[4..7]) and NRRD (a fourth axis) files hold several volumes; elsewhere a chosen
-  // volume other than the only one would be silently ignored.
-  if (format != FileFormat::nifti && format != FileFormat::nrrd && options.volume.value_or(0) != 0)
+  // NIfTI (dim[4..7]), NRRD (a fourth axis) and TIFF (channels) files hold several volumes; a
+  // raw file's chosen volume other than the only one would be silently ignored.
+  if (format == FileFormat::raw && options.volume.value_or(0) != 0)
     throw ParameterError("ReadOptions::volume", fmt::format("{}: volume {} does not exist; a {} file holds one volume (0)",
                                                             path.string(), *options.volume, format_name(format)));
   switch (format) {

@@ -29,10 +29,12 @@ struct PageSpec {
   std::uint16_t compression = COMPRESSION_NONE, predictor = PREDICTOR_NONE;
   std::uint32_t rows_per_strip = 0;  // 0: the whole page in one strip
   std::uint32_t tile = 0;            // > 0: square tiles of this size instead of strips
+  bool planar = false;               // channels in planes of their own (data: one plane after another)
   std::string description;
   std::vector<std::byte> data;  // rows top to bottom
 
   std::size_t row_bytes() const { return std::size_t(width) * samples * bits / 8; }
+  std::size_t plane_row_bytes() const { return std::size_t(width) * bits / 8; }
 };
 
 std::vector<std::byte> random_bytes(std::size_t n, std::uint64_t seed) {
@@ -56,6 +58,17 @@ PageSpec page_of(std::uint32_t width, std::uint32_t height, std::uint16_t bits, 
 void write_strips(TIFF* tif, const PageSpec& p) {
   const std::uint32_t rows = p.rows_per_strip ? p.rows_per_strip : p.height;
   TIFFSetField(tif, TIFFTAG_ROWSPERSTRIP, rows);
+  if (p.planar) {
+    const std::size_t row = p.plane_row_bytes(), plane = row * p.height;
+    for (tsample_t c = 0; c < p.samples; ++c)
+      for (std::uint32_t y = 0; y < p.height; y += rows) {
+        const std::uint32_t n = std::min(rows, p.height - y);
+        std::vector<std::byte> buffer(p.data.begin() + std::ptrdiff_t(c * plane + y * row),
+                                      p.data.begin() + std::ptrdiff_t(c * plane + (y + n) * row));
+        ASSERT_GE(TIFFWriteEncodedStrip(tif, TIFFComputeStrip(tif, y, c), buffer.data(), tmsize_t(buffer.size())), 0);
+      }
+    return;
+  }
   for (std::uint32_t y = 0, strip = 0; y < p.height; y += rows, ++strip) {
     const std::uint32_t n = std::min(rows, p.height - y);
     std::vector<std::byte> buffer(p.data.begin() + std::ptrdiff_t(y * p.row_bytes()),
@@ -67,7 +80,7 @@ void write_strips(TIFF* tif, const PageSpec& p) {
 void write_tiles(TIFF* tif, const PageSpec& p) {
   TIFFSetField(tif, TIFFTAG_TILEWIDTH, p.tile);
   TIFFSetField(tif, TIFFTAG_TILELENGTH, p.tile);
-  const std::size_t sample = p.bits / 8, tile_row = p.tile * sample;
+  const std::size_t sample = std::size_t(p.bits / 8) * p.samples, tile_row = p.tile * sample;  // a pixel's bytes
   for (std::uint32_t ty = 0; ty < p.height; ty += p.tile)
     for (std::uint32_t tx = 0; tx < p.width; tx += p.tile) {
       std::vector<std::byte> tile(tile_row * p.tile);  // edge tiles padded with zeros
@@ -90,7 +103,7 @@ void write_pages(const fs::path& path, const std::vector<PageSpec>& pages, const
     TIFFSetField(tif, TIFFTAG_SAMPLESPERPIXEL, p.samples);
     TIFFSetField(tif, TIFFTAG_SAMPLEFORMAT, p.sample_format);
     TIFFSetField(tif, TIFFTAG_PHOTOMETRIC, p.samples == 3 ? PHOTOMETRIC_RGB : PHOTOMETRIC_MINISBLACK);
-    TIFFSetField(tif, TIFFTAG_PLANARCONFIG, PLANARCONFIG_CONTIG);
+    TIFFSetField(tif, TIFFTAG_PLANARCONFIG, p.planar ? PLANARCONFIG_SEPARATE : PLANARCONFIG_CONTIG);
     TIFFSetField(tif, TIFFTAG_COMPRESSION, p.compression);
     if (p.predictor != PREDICTOR_NONE) TIFFSetField(tif, TIFFTAG_PREDICTOR, p.predictor);
     if (!p.description.empty()) TIFFSetField(tif, TIFFTAG_IMAGEDESCRIPTION, p.description.c_str());
@@ -344,16 +357,61 @@ TEST(IoTiffErrors, FolderSliceWithSeveralPages) {
   expect_error([&] { io::open_volume(dir / "stack"); }, {"a2.tif", "pages"});
 }
 
-TEST(IoTiffErrors, RgbAndUnsupportedSampleTypes) {
+TEST(IoTiffErrors, ChannelsNeedAChoiceAndUnsupportedSampleTypes) {
   TempDir dir;
   PageSpec rgb = page_of(8, 6, 8, SAMPLEFORMAT_UINT, 1);
   rgb.samples = 3;
   rgb.data = random_bytes(rgb.row_bytes() * rgb.height, 1);
   write_pages(dir / "rgb.tif", {rgb});
-  expect_error([&] { io::open_volume(dir / "rgb.tif"); }, {"rgb.tif", "SamplesPerPixel"});
+  expect_error([&] { io::open_volume(dir / "rgb.tif"); }, {"rgb.tif", "SamplesPerPixel", "choose one with --volume T (0..2)"});
+  io::ReadOptions fourth;
+  fourth.volume = 3;
+  EXPECT_EQ(test::parameter_of([&] { io::open_volume(dir / "rgb.tif", fourth); }), "ReadOptions::volume");
 
   write_pages(dir / "u64.tif", {page_of(4, 4, 64, SAMPLEFORMAT_UINT, 1)});
   expect_error([&] { io::open_volume(dir / "u64.tif"); }, {"u64.tif", "BitsPerSample"});
+}
+
+// Multi-channel microscopy: every channel of chunky strips, chunky tiles and planar strips reads
+// as a volume of its own, whole and in boxes.
+TEST(IoTiff, EveryChannelReadsAsAVolume) {
+  TempDir dir;
+  struct Layout {
+    const char* name;
+    std::uint16_t bits, samples;
+    std::uint32_t tile, rows_per_strip;
+    bool planar;
+  };
+  for (const Layout& l : {Layout{"chunky.tif", 8, 3, 0, 2, false}, Layout{"tiles.tif", 16, 2, 16, 0, false},
+                          Layout{"planar.tif", 16, 4, 0, 3, true}}) {
+    std::vector<PageSpec> pages;
+    for (std::uint64_t z = 0; z < 3; ++z) {
+      PageSpec p = page_of(20, 18, l.bits, SAMPLEFORMAT_UINT, 10 + z);
+      p.samples = l.samples;
+      p.tile = l.tile;
+      p.rows_per_strip = l.rows_per_strip;
+      p.planar = l.planar;
+      p.data = random_bytes(p.row_bytes() * p.height, 20 + z);
+      pages.push_back(p);
+    }
+    write_pages(dir / l.name, pages);
+    const std::size_t sample = l.bits / 8;
+    for (std::uint16_t c = 0; c < l.samples; ++c) {
+      io::ReadOptions o;
+      o.volume = c;
+      auto source = io::open_volume(dir / l.name, o);
+      EXPECT_EQ(source->info().volumes, l.samples) << l.name;
+      Volume expected({20, 18, 3}, l.bits == 8 ? DType::u8 : DType::u16);
+      for (std::size_t z = 0; z < 3; ++z)
+        for (std::size_t i = 0; i < 20 * 18; ++i) {
+          const std::size_t from = l.planar ? (c * 20 * 18 + i) * sample : (i * l.samples + c) * sample;
+          std::memcpy(expected.bytes() + (z * 20 * 18 + i) * sample, pages[z].data.data() + from, sample);
+        }
+      EXPECT_TRUE(source->read_all() == expected) << l.name << " channel " << c;
+      const Box box{{3, 5, 1}, {19, 17, 3}};
+      EXPECT_TRUE(source->read_box(box) == expected.crop(box)) << l.name << " channel " << c;
+    }
+  }
 }
 
 TEST(IoTiffErrors, NotATiffAndEmptyFolder) {
