@@ -168,11 +168,13 @@ Image RenderSession::Plain::frame(const Camera& camera, const FrameSettings& set
   return image;
 }
 
-// Exact voxel counts in 64 bins over the value range, binned as the compressor bins bricks.
+// Exact voxel counts in 64 bins over the value range, binned as the compressor bins bricks;
+// NaN and infinite voxels (empty space) are not counted.
 std::vector<std::uint64_t> RenderSession::Plain::histogram() const {
   std::vector<std::uint64_t> counts(store::kHistogramBins, 0);
   const store::HistogramBinning binning(range.first, range.second);
-  for (float v : volume.samples<float>()) ++counts[std::size_t(binning.bin(v))];
+  for (float v : volume.samples<float>())
+    if (std::isfinite(v)) ++counts[std::size_t(binning.bin(v))];
   return counts;
 }
 

@@ -272,7 +272,8 @@ void LevelPipeline::encode_row(std::int64_t row) {
         const std::int64_t bx = i % dims_.bricks.x, by = i / dims_.bricks.x;
         gather_samples(bx, by, row, samples);
         RowResult& r = results[std::size_t(i)];
-        const NonFiniteMask mask = has_non_finite(samples.values()) ? take_non_finite(samples.values()) : NonFiniteMask{};
+        const NonFiniteMask mask = has_non_finite(samples.values()) ? take_non_finite(samples.values(), samples.dims())
+                                                                  : NonFiniteMask{};
         if (uniform_non_finite(mask, decoded.size())) {
           // All NaN (outside a field of view) or all one infinity: a constant brick of it.
           r.encoded = EncodedBrick{};

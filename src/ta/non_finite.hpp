@@ -28,10 +28,11 @@ struct NonFiniteMask {
 /// @brief Whether any of `samples` is NaN or infinite (one vectorised pass, no early exit).
 bool has_non_finite(std::span<const float> samples);
 
-/// @brief Takes the non-finite samples out of `samples`: each is replaced by the mean of the
-/// brick's finite samples (0 when there are none), a flat stand-in that costs the codecs almost
-/// nothing; returns where they were and what they held.
-NonFiniteMask take_non_finite(std::span<float> samples);
+/// @brief Takes the non-finite samples out of `samples` (a brick of `dims`, first index fastest):
+/// each is replaced by a pull-push fill from the finite ones nearby (0 when there are none), a
+/// stand-in that continues the data so the codecs pay little for it; returns where they were and
+/// what they held.
+NonFiniteMask take_non_finite(std::span<float> samples, const tensor::Dims3& dims);
 
 /// @brief Writes the mask's values back into `out` (a decoded brick of the mask's size).
 void restore_non_finite(const NonFiniteMask& mask, std::span<float> out);

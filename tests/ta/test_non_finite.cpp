@@ -176,19 +176,26 @@ TEST(TaNonFinite, MaskedPayloadsRoundTripAndRefuseDamage) {
   EXPECT_TRUE(std::isnan(p.mask.value[0]));
   EXPECT_EQ(p.mask.value[1], kInf);
   EXPECT_EQ(p.mask.value[2], -kInf);
-  // A mask of another brick size, a truncated payload, an unknown inner kind, a class of 4.
+  // A mask of another brick size, a truncated payload, an unknown inner kind.
   EXPECT_TRUE(names_field([&] { unwrap_masked(bytes, 9, scratch, "test"); }, "masked brick mask"));
   EXPECT_TRUE(names_field([&] { unwrap_masked(std::span(bytes).first(7), 8, scratch, "test"); }, "masked brick mask size"));
   std::vector<std::byte> bad = bytes;
   bad[0] = std::byte{7};
   EXPECT_TRUE(names_field([&] { unwrap_masked(bad, 8, scratch, "test"); }, "masked brick inner kind"));
-  std::vector<std::byte> classes(8, std::byte{0});
-  classes[2] = std::byte{4};
-  const std::vector<std::byte> frame = store::zstd_compress(classes, 3);
-  std::vector<std::byte> forged{std::byte{6}, std::byte{0}, std::byte{0}, std::byte{0}, std::byte{0}};
-  for (int k = 0; k < 4; ++k) forged.push_back(std::byte((frame.size() >> (8 * k)) & 0xFF));
-  forged.insert(forged.end(), frame.begin(), frame.end());
-  EXPECT_TRUE(names_field([&] { unwrap_masked(forged, 8, scratch, "test"); }, "masked brick mask"));
+  // A 7-voxel brick whose packed mask also marks an eighth voxel, and a mask that marks none.
+  auto forged = [](std::vector<std::byte> packed_classes) {
+    const std::vector<std::byte> frame = store::zstd_compress(packed_classes, 3);
+    std::vector<std::byte> out{std::byte{6}, std::byte{0}, std::byte{0}, std::byte{0}, std::byte{0}};
+    for (int k = 0; k < 4; ++k) out.push_back(std::byte((frame.size() >> (8 * k)) & 0xFF));
+    out.insert(out.end(), frame.begin(), frame.end());
+    return out;
+  };
+  EXPECT_TRUE(names_field([&] { unwrap_masked(forged({std::byte{1}, std::byte{0x40}}), 7, scratch, "test"); },
+                          "masked brick mask"));
+  EXPECT_TRUE(names_field([&] { unwrap_masked(forged({std::byte{0}, std::byte{0}}), 8, scratch, "test"); },
+                          "masked brick mask"));
+  EXPECT_EQ(unwrap_masked(forged({std::byte{1}, std::byte{0x10}}), 7, scratch, "test").mask.index,
+            (std::vector<std::uint32_t>{0, 6}));
 }
 
 // A real SPM-style resampled image (python3-nibabel's test data: NaN outside the field of view):
