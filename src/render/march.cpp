@@ -40,6 +40,7 @@ struct Marcher {
       if (c.a > kShadeThreshold) {
         float g[3];
         sample.gradient(x, y, z, g);
+        if (!std::isfinite(g[0]) || !std::isfinite(g[1]) || !std::isfinite(g[2])) sample.finite_gradient(x, y, z, g);
         g[0] *= b.gradient_scale[0];
         g[1] *= b.gradient_scale[1];
         g[2] *= b.gradient_scale[2];

@@ -208,6 +208,25 @@ STRATA_MARCH8_ATTRS std::int64_t STRATA_MARCH8_NAME(const GridSampler& s, const 
           gy = _mm256_load_ps(gys);
           gz = _mm256_load_ps(gzs);
         }
+        // Lanes whose stencil met NaN or infinite voxels take the scalar march's fallback.
+        const __m256 gsum = _mm256_add_ps(_mm256_add_ps(gx, gy), gz);
+        if (const unsigned broken = want & unsigned(_mm256_movemask_ps(_mm256_cmp_ps(_mm256_sub_ps(gsum, gsum), zero, _CMP_NEQ_UQ)))) {
+          alignas(32) float gxs[8], gys[8], gzs[8];
+          _mm256_store_ps(gxs, gx);
+          _mm256_store_ps(gys, gy);
+          _mm256_store_ps(gzs, gz);
+          for (int l = 0; l < n; ++l)
+            if ((broken >> l) & 1u) {
+              float g[3] = {gxs[l], gys[l], gzs[l]};
+              if (!std::isfinite(g[0]) || !std::isfinite(g[1]) || !std::isfinite(g[2])) s.finite_gradient(xs[l], ys[l], zs[l], g);
+              gxs[l] = g[0];
+              gys[l] = g[1];
+              gzs[l] = g[2];
+            }
+          gx = _mm256_load_ps(gxs);
+          gy = _mm256_load_ps(gys);
+          gz = _mm256_load_ps(gzs);
+        }
         // Blinn-Phong as in Marcher::segment, 8 lanes at once (same operations and order).
         const __m256 g0 = _mm256_mul_ps(gx, _mm256_set1_ps(b.gradient_scale[0]));
         const __m256 g1 = _mm256_mul_ps(gy, _mm256_set1_ps(b.gradient_scale[1]));

@@ -4,6 +4,7 @@
 // Everything here is inlined into the scalar march and read by the 8-lane march
 // (march8_body.hpp), which repeats these operations on vectors.
 #include <algorithm>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -52,6 +53,20 @@ struct GridSampler {
     const float c0 = c00 + fy * (c10 - c00);
     const float c1 = c01 + fy * (c11 - c01);
     return c0 + fz * (c1 - c0);
+  }
+
+  // The gradient where the stencil below meets NaN or infinite voxels (empty space): along each
+  // axis the central difference when both taps are finite, else twice the one-sided difference
+  // toward the finite tap, else 0. The surface of a NaN region then shades like any other.
+  void finite_gradient(float x, float y, float z, float g[3]) const {
+    const float c = (*this)(x, y, z);
+    auto axis = [c](float hi, float lo) {
+      const bool h = std::isfinite(hi), l = std::isfinite(lo);
+      return h && l ? hi - lo : h && std::isfinite(c) ? 2.0f * (hi - c) : l && std::isfinite(c) ? 2.0f * (c - lo) : 0.0f;
+    };
+    g[0] = axis((*this)(x + 1, y, z), (*this)(x - 1, y, z));
+    g[1] = axis((*this)(x, y + 1, z), (*this)(x, y - 1, z));
+    g[2] = axis((*this)(x, y, z + 1), (*this)(x, y, z - 1));
   }
 
   // Central differences one voxel either side, in local voxel units (times 2): f(p + e_a) -
@@ -106,6 +121,7 @@ struct ConstantSampler {
   explicit ConstantSampler(const Block& b) : value(b.constant) {}
   float operator()(float, float, float) const { return value; }
   void gradient(float, float, float, float g[3]) const { g[0] = g[1] = g[2] = 0; }
+  void finite_gradient(float, float, float, float g[3]) const { g[0] = g[1] = g[2] = 0; }
 };
 
 // A sample normalised for classification: (value - lo) * scale, the frame's value mapping.
