@@ -191,33 +191,21 @@ STRATA_MARCH8_ATTRS std::int64_t STRATA_MARCH8_NAME(const GridSampler& s, const 
 #undef STRATA_LERP
 #undef STRATA_G
         }
-        if (const unsigned rest = want & ~inside) {  // lanes near the grid's faces, one by one
-          alignas(32) float gxs[8], gys[8], gzs[8];
-          _mm256_store_ps(gxs, gx);
-          _mm256_store_ps(gys, gy);
-          _mm256_store_ps(gzs, gz);
-          for (int l = 0; l < n; ++l)
-            if ((rest >> l) & 1u) {
-              float g[3];
-              s.gradient(xs[l], ys[l], zs[l], g);
-              gxs[l] = g[0];
-              gys[l] = g[1];
-              gzs[l] = g[2];
-            }
-          gx = _mm256_load_ps(gxs);
-          gy = _mm256_load_ps(gys);
-          gz = _mm256_load_ps(gzs);
-        }
-        // Lanes whose stencil met NaN or infinite voxels take the scalar march's fallback.
+        // Lanes near the grid's faces take the scalar gradient, one by one; any lane whose stencil
+        // met NaN or infinite voxels then takes the scalar march's fallback (one-sided
+        // differences toward the finite side).
         const __m256 gsum = _mm256_add_ps(_mm256_add_ps(gx, gy), gz);
-        if (const unsigned broken = want & unsigned(_mm256_movemask_ps(_mm256_cmp_ps(_mm256_sub_ps(gsum, gsum), zero, _CMP_NEQ_UQ)))) {
+        const unsigned rest = want & ~inside;
+        const unsigned broken = want & inside & unsigned(_mm256_movemask_ps(_mm256_cmp_ps(_mm256_sub_ps(gsum, gsum), zero, _CMP_NEQ_UQ)));
+        if (rest | broken) {
           alignas(32) float gxs[8], gys[8], gzs[8];
           _mm256_store_ps(gxs, gx);
           _mm256_store_ps(gys, gy);
           _mm256_store_ps(gzs, gz);
           for (int l = 0; l < n; ++l)
-            if ((broken >> l) & 1u) {
+            if (((rest | broken) >> l) & 1u) {
               float g[3] = {gxs[l], gys[l], gzs[l]};
+              if ((rest >> l) & 1u) s.gradient(xs[l], ys[l], zs[l], g);
               if (!std::isfinite(g[0]) || !std::isfinite(g[1]) || !std::isfinite(g[2])) s.finite_gradient(xs[l], ys[l], zs[l], g);
               gxs[l] = g[0];
               gys[l] = g[1];
