@@ -25,6 +25,8 @@ $strata compress "$w/prisms.nrrd" -o "$w/scalar.strata" --brick 8 --overlap 1 --
 $strata compress "$w/prisms.nrrd" -o "$w/scalar_nozstd.strata" --brick 8 --overlap 1 --rank 4 --zstd 0 --quant u8,b8lin
 $strata compress "$w/prisms.nrrd" -o "$w/coded.strata" --brick 8 --overlap 1 --psnr 40
 $strata compress "$w/prisms.nrrd" -o "$w/coded_max.strata" --brick 8 --overlap 1 --max-error 0.5
+$strata compress fuzz/corpus/nrrd/nan_f32.nrrd -o "$w/masked.strata" --brick 8 --overlap 1 --psnr 40
+$strata compress fuzz/corpus/nrrd/nan_f32.nrrd -o "$w/masked_rank.strata" --brick 8 --overlap 1 --rank 4
 $strata labels encode "$w/cells.nrrd" -o "$w/labels.strata"
 $strata labels encode "$w/cells.nrrd" -o "$w/labels_fixed.strata" --ids fixed
 
@@ -34,12 +36,12 @@ cp "$w/prisms.nrrd" $c/nrrd/prisms_gzip.nrrd
 cp "$w/prisms_raw.nrrd" $c/nrrd/prisms_raw.nrrd
 cp "$w/cells.nrrd" $c/nrrd/cells.nrrd
 cp "$w/sphere.nrrd" $c/nrrd/sphere_f32.nrrd
-cp tests/data/fibsem_medulla_sp_crop20.nrrd $c/nrrd/
+cp tests/data/fibsem_medulla_sp_crop20.nrrd $c/nrrd/  # nan_f32.nrrd is kept: written by hand
 cp "$w/prisms.nii" "$w/prisms.nii.gz" "$w/cells.nii" "$w/wide_nifti2.nii.gz" $c/nifti/
 cp "$w/prisms.tif" "$w/cells.tif" "$w/sphere.tif" $c/tiff/
 for f in prisms sphere; do (cat "$w/$f.raw.json"; printf '\n--\n'; cat "$w/$f.raw") >$c/raw_sidecar/$f; done
 cp "$w"/{scalar,scalar_nozstd,coded,coded_max,labels,labels_fixed}.strata $c/container/
-build/fuzz/fuzz/fuzz_extract_seeds $c "$w"/{scalar,scalar_nozstd,coded,coded_max,labels,labels_fixed}.strata
+build/fuzz/fuzz/fuzz_extract_seeds $c "$w"/{scalar,scalar_nozstd,coded,coded_max,masked,masked_rank,labels,labels_fixed}.strata
 cp "$w/scalar.strata" fuzz/data/scalar.strata
 cp "$w/labels.strata" fuzz/data/labels.strata
 cp "$w/sphere.nrrd" fuzz/data/plain.nrrd

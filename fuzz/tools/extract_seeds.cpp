@@ -1,6 +1,6 @@
 // Seed inputs for the payload and section targets, cut out of real .strata files:
 //   fuzz_extract_seeds OUT_CORPUS_DIR FILE.strata...
-// writes OUT/tucker_fixed/<file>-<n>, OUT/tucker_coded/<file>-<n> (each with the target's
+// writes OUT/tucker_fixed/<file>-<n>, OUT/tucker_coded/<file>-<n>, OUT/masked/<file>-<n> (each with the target's
 // prefix bytes, at most 3 per file and kind), OUT/mixture_graph/<file> and
 // OUT/label_ids/<file>-L<n> (the sections of label files, zstd-inflated). fuzz/make_corpus.sh
 // runs it.
@@ -57,10 +57,12 @@ int main(int argc, char** argv) {
       const auto rank = std::byte(m.value("rank", 4));
       if (e.kind == strata::store::PayloadKind::tucker || e.kind == strata::store::PayloadKind::tucker_zstd) {
         const std::byte zstd{e.kind == strata::store::PayloadKind::tucker_zstd};
-        const std::byte scheme(scheme_index(m.value("quant", std::string())));
+        const auto scheme = std::byte(scheme_index(m.value("quant", std::string())));
         write(out / "tucker_fixed" / (stem + "-" + std::to_string(n++)), {zstd, scheme, rank, width}, payload);
       } else if (e.kind == strata::store::PayloadKind::tucker_coded) {
         write(out / "tucker_coded" / (stem + "-" + std::to_string(n++)), {rank}, payload);
+      } else if (e.kind == strata::store::PayloadKind::masked) {
+        write(out / "masked" / (stem + "-" + std::to_string(n++)), {rank, width}, payload);
       }
     }
     if (reader.has_section("mixture_graph")) write(out / "mixture_graph" / stem, {}, reader.section("mixture_graph"));

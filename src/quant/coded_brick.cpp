@@ -99,6 +99,7 @@ int frequency_class(int sum) { return sum < 3 ? sum : sum < 5 ? 3 : sum < 8 ? 4 
 // longer waits on the store of the code before it.
 template <class Visit>
 void for_each_dct_core_code(const tensor::Ranks3& r, int blocks, const std::int32_t* known, Visit&& visit) {
+  if (core_count(r) == 0) return;  // no model (also: max_rank - 1 below would be -1)
   const std::size_t sj = std::size_t(r[0]), sk = std::size_t(r[0]) * std::size_t(r[1]);
   std::vector<std::uint16_t> size(core_count(r), 0), zeros(sj, 0);
   if (known)
@@ -226,6 +227,12 @@ void decode_stream(RangeDecoder& dec, std::uint8_t layout, CodedBrick& b) {
   }
 }
 
+// The rows a factor's columns span: every row, or those inside the margin of a block-DCT brick
+// (its basis has that many columns).
+std::int64_t fitted_rows(const CodedBrick& b, std::size_t n) {
+  return b.dct_block > 0 ? b.dims[n] - 2 * std::int64_t(b.margin) : b.dims[n];
+}
+
 bool dct_layout_ok(const CodedBrick& b) {
   for (std::int64_t d : b.dims) {
     const std::int64_t fitted = d - 2 * std::int64_t(b.margin);
@@ -236,8 +243,9 @@ bool dct_layout_ok(const CodedBrick& b) {
 
 void check_brick(const CodedBrick& b) {
   for (std::size_t n = 0; n < 3; ++n)
-    if (b.dims[n] < 1 || b.dims[n] > kMaxExtent || b.ranks[n] < 0 || b.ranks[n] > b.dims[n])
-      throw Error("coded brick: extents must be in [1, 65535] and ranks in [0, extent], got " + tensor::to_string(b.dims));
+    if (b.dims[n] < 1 || b.dims[n] > kMaxExtent || b.ranks[n] < 0 || b.ranks[n] > fitted_rows(b, n))
+      throw Error("coded brick: extents must be in [1, 65535] and ranks in [0, extent] (inside the margin for a "
+                  "block-DCT basis), got " + tensor::to_string(b.dims));
   const bool none = no_model(b.ranks);
   if (!none && (b.ranks[0] == 0 || b.ranks[1] == 0 || b.ranks[2] == 0))
     throw Error("coded brick: ranks must be all zero or all positive");
@@ -347,8 +355,12 @@ CodedBrick deserialize_coded(std::span<const std::byte> bytes, int brick_width, 
   if (b.dims[0] != brick_width || b.dims[1] != brick_width || b.dims[2] != brick_width)
     throw FormatError(context, "coded brick extents",
                       "expected " + std::to_string(brick_width) + " along every axis, found " + tensor::to_string(b.dims));
+  // A block-DCT basis has one column per fitted row: more would read past it.
   for (std::size_t n = 0; n < 3; ++n)
-    if (b.ranks[n] > b.dims[n]) throw FormatError(context, "coded brick ranks", "expected ranks in [0, extent]");
+    if (b.ranks[n] > fitted_rows(b, n))
+      throw FormatError(context, "coded brick ranks",
+                        b.dct_block > 0 ? "expected ranks in [0, extent - 2 margin] for a block-DCT basis"
+                                        : "expected ranks in [0, extent]");
   if (!no_model(b.ranks) && (b.ranks[0] == 0 || b.ranks[1] == 0 || b.ranks[2] == 0))
     throw FormatError(context, "coded brick ranks", "must be all zero or all positive");
   if (!std::isfinite(b.offset) || !std::isfinite(b.core_step) || (!no_model(b.ranks) && !(b.core_step > 0)))

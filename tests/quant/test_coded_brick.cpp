@@ -6,6 +6,7 @@
 #include <cmath>
 #include <random>
 
+#include "support/test_support.hpp"
 #include "strata/core/error.hpp"
 #include "strata/quant/coded_brick.hpp"
 
@@ -140,6 +141,33 @@ TEST(QuantCodedBrick, InconsistentBricksAreRejectedOnWrite) {
   b = sample_brick(true, false, 9);
   b.dct_block = 5;  // does not tile 8 rows
   EXPECT_THROW(serialize(b), Error);
+}
+
+// A block-DCT basis has one column per fitted row (8 here: 12 less a margin of 2 each side); a
+// rank beyond it would read past the basis (found by fuzz_masked): refused on write and read.
+TEST(QuantCodedBrick, BlockDctRanksBeyondTheFittedRowsAreRefused) {
+  CodedBrick b = sample_brick(true, false, 9);
+  std::vector<std::byte> bytes = serialize(b);
+  b.ranks[0] = 9;
+  EXPECT_THROW(serialize(b), Error);
+  // The ranks' u16 at bytes 8-9: R1 = 9 > 8, caught before the basis is touched.
+  bytes[8] = std::byte{9};
+  bytes[9] = std::byte{0};
+  EXPECT_NE(test::error_of([&] { (void)deserialize_coded(bytes, 12, "test"); }).find("test: coded brick ranks: "),
+            std::string::npos);
+}
+
+// A block-DCT brick without a model whose one block spans the fitted rows (found by fuzz_masked:
+// the context tables were sized from rank - 1 = -1) round-trips as the offset alone.
+TEST(QuantCodedBrick, BlockDctBrickWithoutAModelInOneBlockRoundTrips) {
+  CodedBrick b;
+  b.dims = {12, 12, 12};
+  b.offset = 3.5f;
+  b.core_step = 1.0f;
+  b.dct_block = 8;
+  b.margin = 2;
+  const CodedBrick back = deserialize_coded(serialize(b), 12, "test");
+  EXPECT_EQ(back, b);
 }
 
 // Truncations, flipped bytes and a wrong expected width are FormatErrors or decode to some
