@@ -1,5 +1,6 @@
 #include "ta/non_finite.hpp"
 
+#include <bit>
 #include <cmath>
 #include <limits>
 
@@ -51,9 +52,11 @@ constexpr int kMaskZstdLevel = 9;
 }  // namespace
 
 bool has_non_finite(std::span<const float> samples) {
-  bool bad = false;
-  for (float v : samples) bad |= !(std::abs(v) <= std::numeric_limits<float>::max());
-  return bad;
+  // An all-ones exponent is NaN or an infinity: integer masks and compares, which vectorise on
+  // any x86-64 (the float compare did not, and cost 1% of the encoder).
+  std::uint32_t bad = 0;
+  for (float v : samples) bad |= std::uint32_t((std::bit_cast<std::uint32_t>(v) & 0x7F800000u) == 0x7F800000u);
+  return bad != 0;
 }
 
 namespace {

@@ -475,9 +475,7 @@ void extend_factors(CodedModel& cm, const tensor::Tensor3& x0, int margin) {
 // the largest voxel magnitude ‖B‖_F Π max_i ‖row i of Û_n‖ (Cauchy–Schwarz on a row of the
 // Kronecker product), twice, plus the roundings of the offset and correction additions.
 double decoder_slack(const CodedModel& m, double max_correction) {
-  double core_norm = 0;
-  for (float c : m.model.core) core_norm += double(c) * double(c);
-  double magnitude = std::sqrt(core_norm);
+  double magnitude = std::sqrt(sum_squares(m.model.core.data(), std::int64_t(m.model.core.size())));
   for (std::size_t n = 0; n < 3 && m.model.has_tucker(); ++n) {
     const Eigen::Map<const tensor::Matrix<float>> u(m.model.factors[n].data(), m.model.dims[n], m.model.ranks[n]);
     magnitude *= double(u.rowwise().norm().maxCoeff());
