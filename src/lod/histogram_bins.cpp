@@ -1,5 +1,7 @@
 #include "strata/lod/histogram_bins.hpp"
 
+#include <cmath>
+
 namespace strata::lod {
 
 std::uint64_t visible_bins_where(double lo, double hi, const std::function<bool(double, double)>& visible) {
@@ -11,8 +13,9 @@ std::uint64_t visible_bins_where(double lo, double hi, const std::function<bool(
 }
 
 bool brick_visible(const store::BrickEntry& entry, std::uint64_t visible_bins, double lo, double hi) {
+  // A constant NaN or infinite brick (outside a field of view) is empty space.
   if (entry.kind == store::PayloadKind::constant)
-    return (visible_bins >> histogram_bin(entry.min, lo, hi)) & 1u;
+    return std::isfinite(entry.min) && ((visible_bins >> histogram_bin(entry.min, lo, hi)) & 1u);
   return (entry.histogram & visible_bins) != 0;
 }
 

@@ -114,8 +114,8 @@ std::vector<std::uint64_t> RenderSession::Scalar::histogram() const {
   for (const store::BrickEntry& e : volume.container().bricks()) {
     if (e.key.level != 0) continue;
     if (e.kind == store::PayloadKind::constant) {
-      ++counts[std::size_t(lod::histogram_bin(e.min, volume.value_min(), volume.value_max()))];
-      continue;
+      if (std::isfinite(e.min)) ++counts[std::size_t(lod::histogram_bin(e.min, volume.value_min(), volume.value_max()))];
+      continue;  // all NaN or infinite: empty space, no value to count
     }
     for (int bin = 0; bin < store::kHistogramBins; ++bin) counts[std::size_t(bin)] += (e.histogram >> bin) & 1u;
   }
