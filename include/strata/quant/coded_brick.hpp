@@ -14,7 +14,7 @@
 /// | 0 | layout | u8 | 2 (1: format 1.1, block-DCT cores with the Tucker contexts; still read) |
 /// | 1 | flags | u8 | bit 0: a sparse correction follows; bit 1: block-DCT factors |
 /// | 2 | I1, I2, I3 | u16 ×3 | brick extents |
-/// | 8 | R1, R2, R3 | u16 ×3 | stored ranks; all 0: the brick is `offset` (plus corrections) |
+/// | 8 | R1, R2, R3 | u16 ×3 | stored ranks; all 0: the brick is `offset` (plus corrections); at most the extent, or extent − 2·margin with block-DCT factors |
 /// | 14 | offset | f32 | added to every reconstructed voxel (the brick mean) |
 /// | 18 | core_step | f32 | Δ of the core codes |
 /// | 22 | dct_block, margin | u8 ×2 | only with flag bit 1 (block-DCT basis) |
