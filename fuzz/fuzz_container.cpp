@@ -1,7 +1,8 @@
 // The .strata container: header, metadata JSON, brick index (plain and compressed) and
 // sections, as `strata info` opens it; then, as `decompress` and `labels decode` do, the codec's
 // own metadata (TaVolume or EncodedLabels over the open container) and one decode of the
-// coarsest level (one brick for a TA file, the smallest mip level for a label file).
+// coarsest level (one brick for a TA file, the smallest mip level for a label file). A volume
+// set's first members are opened and read the same way.
 //
 // Every input is read twice: as it is, and with the header, metadata and index checksums
 // recomputed, so mutations get past the checksums to the parsers behind them (payload and
@@ -15,13 +16,12 @@
 #include "strata/mixture/encoded_labels.hpp"
 #include "strata/store/container.hpp"
 #include "strata/store/crc32c.hpp"
+#include "strata/store/volume_set.hpp"
 #include "strata/ta/ta_volume.hpp"
 
 namespace {
 
-void read_container(const std::filesystem::path& path) {
-  if (!strata::store::is_strata_file(path)) return;
-  auto reader = std::make_unique<strata::store::ContainerReader>(path);
+void read_codec(std::unique_ptr<strata::store::ContainerReader> reader) {
   const nlohmann::json& m = reader->metadata();
   (void)reader->file_size();
   std::size_t checked = 0;
@@ -48,6 +48,18 @@ void read_container(const std::filesystem::path& path) {
     const strata::Extent dims = labels.level_dims(top);
     if (strata::fuzz::small_extent(dims.x, dims.y, dims.z, 1 << 18)) (void)labels.dominant_labels(top);
   }
+}
+
+void read_container(const std::filesystem::path& path) {
+  if (!strata::store::is_strata_file(path)) return;
+  auto reader = std::make_unique<strata::store::ContainerReader>(path);
+  if (!strata::store::is_volume_set(*reader)) {
+    read_codec(std::move(reader));
+    return;
+  }
+  const std::int64_t count = std::min<std::int64_t>(strata::store::volume_count(*reader), 4);
+  for (std::int64_t i = 0; i < count; ++i)
+    strata::fuzz::run_guarded([&] { read_codec(strata::store::open_member(*reader, i)); });
 }
 
 template <class T>

@@ -6,6 +6,7 @@
 #include <optional>
 #include <tuple>
 
+#include "all_volumes.hpp"
 #include "cli_checks.hpp"
 #include "commands.hpp"
 #include "report.hpp"
@@ -26,6 +27,7 @@ struct CompressArgs {
   std::optional<double> psnr, rmse, max_error;
   double coarse_growth = 2.0;
   RawInputArgs raw;
+  bool all_volumes = false;
 };
 
 // The error target the flags ask for, checked here so a bad value names its own flag.
@@ -67,14 +69,7 @@ ta::CompressParams to_params(const CompressArgs& args) {
   return p;
 }
 
-void run_compress(const CompressArgs& args, const GlobalOptions& global) {
-  const ta::CompressParams params = to_params(args);
-  check_output_file(args.output, "--output", {args.input}, {".strata"});
-  auto progress = global.make_progress();
-  io::ReadOptions read = args.raw.to_read_options();
-  read.progress = progress.get();
-  auto source = io::open_volume(args.input, read);
-  ta::CompressReport r = ta::compress_volume(*source, args.output, params, *progress);
+void print_compress_report(const std::string& name, const ta::CompressParams& params, const ta::CompressReport& r) {
   std::int64_t bricks = 0, constant = 0, hosvd_trials = 0;
   for (const auto& l : r.levels) {
     bricks += l.bricks;
@@ -82,7 +77,7 @@ void run_compress(const CompressArgs& args, const GlobalOptions& global) {
     hosvd_trials += l.hosvd_trials;
   }
   std::printf("%s: %lld bricks in %zu levels (%lld constant), %s, %.3f bits/voxel, %.2f s (%.1f Mvox/s)\n",
-              args.output.c_str(), (long long)bricks, r.levels.size(), (long long)constant,
+              name.c_str(), (long long)bricks, r.levels.size(), (long long)constant,
               human_bytes(r.file_bytes).c_str(), 8.0 * double(r.file_bytes) / double(r.input_voxels), r.seconds,
               double(r.input_voxels) / r.seconds / 1e6);
   if (params.codec.target.kind != ta::TargetKind::none && !r.levels.empty())
@@ -92,6 +87,23 @@ void run_compress(const CompressArgs& args, const GlobalOptions& global) {
     std::printf("bases: %lld of %lld bricks also tried the HOSVD basis\n", (long long)hosvd_trials,
                 (long long)(bricks - constant));
   }
+}
+
+void run_compress(const CompressArgs& args, const GlobalOptions& global) {
+  const ta::CompressParams params = to_params(args);
+  check_output_file(args.output, "--output", {args.input}, {".strata"});
+  auto progress = global.make_progress();
+  io::ReadOptions read = args.raw.to_read_options();
+  read.progress = progress.get();
+  const auto compress = [&](io::VolumeSource& source, const std::filesystem::path& output, const std::string& name) {
+    print_compress_report(name, params, ta::compress_volume(source, output, params, *progress));
+  };
+  if (args.all_volumes) {
+    encode_all_volumes(args.input, read, args.output, compress);
+    return;
+  }
+  auto source = io::open_volume(args.input, read);
+  compress(*source, args.output, args.output);
 }
 
 }  // namespace
@@ -133,6 +145,7 @@ void register_compress(CLI::App& app, const GlobalOptions& global) {
   cmd->add_option("--memory-limit", args->memory_limit,
                   "Bound the working memory, e.g. 512M or 2G (input slabs shrink to fit; default: 64 MiB slabs)");
   args->raw.add_to(*cmd);
+  add_all_volumes_flag(*cmd, args->all_volumes);
   cmd->callback([args, &global] { run_compress(*args, global); });
 }
 

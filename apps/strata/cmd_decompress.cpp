@@ -1,8 +1,12 @@
 // `strata decompress IN.strata -o OUT [--level L] [--rank K] [--box ...]`.
+#include <optional>
+
 #include "cli_checks.hpp"
 #include "commands.hpp"
+#include "report.hpp"
 #include "strata/core/error.hpp"
 #include "strata/io/volume_io.hpp"
+#include "strata/store/volume_set.hpp"
 #include "strata/ta/ta_volume.hpp"
 
 namespace strata::cli {
@@ -13,6 +17,7 @@ struct DecompressArgs {
   std::string input, output, box;
   int level = 0, rank = 0;
   bool keep_float = false;
+  std::optional<std::int64_t> volume;
 };
 
 // Back to the source's sample type (rounded and clamped) unless --float is given or the level
@@ -24,7 +29,7 @@ Volume to_output_type(Volume decoded, const ta::TaVolume& volume, const Decompre
 
 void run_decompress(const DecompressArgs& args, const GlobalOptions&) {
   check_volume_output(args.output, "--output", {args.input});
-  ta::TaVolume volume(args.input);
+  ta::TaVolume volume(store::open_volume(args.input, args.volume));
   volume.check_level(args.level);
   const Extent dims = volume.geometry().level(args.level).dims;
   const Box box = args.box.empty() ? Box::whole(dims) : parse_box(args.box);
@@ -47,6 +52,7 @@ void register_decompress(CLI::App& app, const GlobalOptions& global) {
   cmd->add_option("--rank", args->rank, "Reconstruction rank K (default: the stored rank)");
   cmd->add_option("--box", args->box, "Sub-box x0,y0,z0:x1,y1,z1 in level coordinates (half-open)");
   cmd->add_flag("--float", args->keep_float, "Write f32 samples instead of the source type");
+  add_volume_option(*cmd, args->volume);
   cmd->callback([args, &global] { run_decompress(*args, global); });
 }
 

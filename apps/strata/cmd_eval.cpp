@@ -1,4 +1,5 @@
 // `strata eval ORIGINAL IN.strata [--rank K] [--json]`: storage cost and reconstruction error.
+#include <optional>
 #include <cstdio>
 #include <nlohmann/json.hpp>
 
@@ -8,6 +9,7 @@
 #include "strata/core/error.hpp"
 #include "strata/io/volume_io.hpp"
 #include "strata/ta/evaluate.hpp"
+#include "strata/store/volume_set.hpp"
 
 namespace strata::cli {
 
@@ -15,6 +17,7 @@ namespace {
 
 struct EvalArgs {
   std::string original, compressed;
+  std::optional<std::int64_t> volume;
   int rank = 0;
   bool json = false;
 };
@@ -32,7 +35,7 @@ nlohmann::json eval_json(const ta::TaVolume& volume, const ta::StorageReport& s,
                       {"bits_per_voxel", s.bits_per_voxel(s.payload_bytes_per_level[l], src)}});
   }
   const ErrorMetrics& m = e.metrics;
-  return {{"file", volume.container().path().string()},
+  return {{"file", volume.container().name()},
           {"storage",
            {{"file_bytes", s.file_bytes},
             {"bits_per_voxel", s.bits_per_voxel(s.file_bytes, src)},
@@ -77,8 +80,11 @@ void print_report(const nlohmann::json& r) {
 }
 
 void run_eval(const EvalArgs& args, const GlobalOptions&) {
-  ta::TaVolume volume(args.compressed);
-  auto original = io::open_volume(args.original);
+  // --volume picks the same volume of both: a time point of a series and its member of the set.
+  ta::TaVolume volume(store::open_volume(args.compressed, args.volume));
+  io::ReadOptions read;
+  read.volume = args.volume;
+  auto original = io::open_volume(args.original, read);
   if (args.rank < 0) throw UsageError("--rank", "must be positive, got " + std::to_string(args.rank));
   const int k = args.rank > 0 ? std::min(args.rank, volume.rank()) : volume.rank();
   const nlohmann::json report = eval_json(volume, ta::storage_report(volume), ta::error_report(volume, *original, k));
@@ -96,6 +102,7 @@ void register_eval(CLI::App& app, const GlobalOptions& global) {
   cmd->add_option("compressed", args->compressed, "The .strata file")->required();
   cmd->add_option("--rank", args->rank, "Reconstruction rank K (default: the stored rank)");
   cmd->add_flag("--json", args->json, "Print JSON");
+  add_volume_option(*cmd, args->volume);
   cmd->callback([args, &global] { run_eval(*args, global); });
 }
 

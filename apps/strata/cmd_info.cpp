@@ -1,6 +1,7 @@
 // `strata info FILE`: what a volume file holds, computed by streaming it slab by slab.
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <map>
 #include <nlohmann/json.hpp>
 
@@ -13,6 +14,7 @@
 #include "strata/mixture/encoded_labels.hpp"
 #include "strata/store/container.hpp"
 #include "strata/store/metadata_json.hpp"
+#include "strata/store/volume_set.hpp"
 #include "strata/ta/ta_volume.hpp"
 
 namespace strata::cli {
@@ -78,11 +80,14 @@ void print_volume_report(const nlohmann::json& j) {
     std::printf("background:  %.4f of voxels are 0\n", j["background_fraction"].get<double>());
 }
 
-// Opens `file` with the reader of its codec, which checks every field docs/format.md defines
-// (against each other and against the index), so the report below only describes valid files.
-// Returns the container to report on.
-std::unique_ptr<store::ContainerReader> open_validated(const std::string& file, std::unique_ptr<ta::TaVolume>& volume) {
-  auto reader = std::make_unique<store::ContainerReader>(file);
+// Opens a container (from `open`, which gives a fresh reader of the same bytes each call) with
+// the reader of its codec, which checks every field docs/format.md defines (against each other
+// and against the index), so the report below only describes valid files. Returns the container
+// to report on.
+using OpenContainer = std::function<std::unique_ptr<store::ContainerReader>()>;
+std::unique_ptr<store::ContainerReader> open_validated(const OpenContainer& open, std::unique_ptr<ta::TaVolume>& volume) {
+  auto reader = open();
+  const std::string file = reader->name();
   const nlohmann::json& m = reader->metadata();
   const auto codec = m.find("codec");
   if (codec == m.end())
@@ -92,7 +97,7 @@ std::unique_ptr<store::ContainerReader> open_validated(const std::string& file, 
     return nullptr;
   }
   if (*codec == mixture::kMixtureCodecName) {
-    mixture::EncodedLabels labels(std::make_unique<store::ContainerReader>(file));
+    mixture::EncodedLabels labels(open());  // its checks; the report reads `reader`
     return reader;
   }
   throw FormatError(file, "metadata.codec",
@@ -100,12 +105,12 @@ std::unique_ptr<store::ContainerReader> open_validated(const std::string& file, 
 }
 
 // A .strata file: container header, codec parameters, levels and brick counts, sizes.
-nlohmann::json container_report(const std::string& file) {
+nlohmann::json container_report(const OpenContainer& open) {
   std::unique_ptr<ta::TaVolume> volume;
-  const std::unique_ptr<store::ContainerReader> labels = open_validated(file, volume);
+  const std::unique_ptr<store::ContainerReader> labels = open_validated(open, volume);
   const store::ContainerReader& reader = volume ? volume->container() : *labels;
   const nlohmann::json& m = reader.metadata();
-  nlohmann::json j{{"file", file}, {"format", "strata"}, {"file_bytes", reader.file_size()},
+  nlohmann::json j{{"file", reader.name()}, {"format", "strata"}, {"file_bytes", reader.file_size()},
                    {"metadata_bytes", reader.metadata_bytes()}, {"index_bytes", reader.index_bytes()}};
   for (const char* key : {"codec", "source", "brick", "overlap", "rank", "quant", "hooi_iterations", "zstd_level"})
     if (m.contains(key)) j[key] = m[key];
@@ -181,11 +186,39 @@ void print_container_report(const nlohmann::json& j) {
     std::printf("payloads:    %s x %llu\n", kind.c_str(), count.get<unsigned long long>());
 }
 
+// A volume set without --volume: the set's own size, then every member as a file of its own.
+nlohmann::json volume_set_report(const store::ContainerReader& set) {
+  const std::int64_t count = store::volume_count(set);
+  nlohmann::json members = nlohmann::json::array();
+  for (std::int64_t i = 0; i < count; ++i)
+    members.push_back(container_report([&] { return store::open_member(set, i); }));
+  return {{"file", set.name()},     {"format", "strata"},
+          {"codec", store::kVolumeSetCodec}, {"file_bytes", set.file_size()},
+          {"source", set.metadata().value("source", nlohmann::json::object())}, {"volumes", members}};
+}
+
+void print_volume_set_report(const nlohmann::json& j) {
+  std::printf("file:        %s (%s)\n", j["file"].get<std::string>().c_str(), human_bytes(j["file_bytes"].get<std::uint64_t>()).c_str());
+  std::printf("format:      .strata volume set of %zu volumes (--volume T opens one)\n", j["volumes"].size());
+  for (const auto& member : j["volumes"]) {
+    std::printf("\n");
+    print_container_report(member);
+  }
+}
+
+void run_strata_info(const InfoArgs& args) {
+  const store::ContainerReader outer(args.file);
+  nlohmann::json report;
+  if (store::is_volume_set(outer) && !args.raw.volume) report = volume_set_report(outer);
+  else report = container_report([&] { return store::open_volume(args.file, args.raw.volume); });
+  if (args.json) std::printf("%s\n", report.dump(2).c_str());
+  else if (report.contains("volumes")) print_volume_set_report(report);
+  else print_container_report(report);
+}
+
 void run_info(const InfoArgs& args, const GlobalOptions& global) {
   if (store::is_strata_file(args.file)) {
-    nlohmann::json report = container_report(args.file);
-    if (args.json) std::printf("%s\n", report.dump(2).c_str());
-    else print_container_report(report);
+    run_strata_info(args);
     return;
   }
   auto progress = global.make_progress();

@@ -2,14 +2,17 @@
 // file. Random boxes (seeded) are answered by the chosen method and counted exactly; the share
 // of (label, box) pairs whose error exceeds 1..6 sigma is printed (Gaussian: 31.7%, 4.6%,
 // 0.27% outside 1, 2, 3 sigma).
+#include <optional>
 #include <cmath>
 #include <cstdio>
 #include <nlohmann/json.hpp>
 
 #include "cli_checks.hpp"
 #include "commands.hpp"
+#include "report.hpp"
 #include "strata/mixture/encoded_labels.hpp"
 #include "strata/mixture/query_calibration.hpp"
+#include "strata/store/volume_set.hpp"
 
 namespace strata::cli {
 
@@ -23,10 +26,11 @@ struct LabelsCalibrateArgs {
   int boxes = 30;
   std::uint64_t seed = 1;
   bool json = false;
+  std::optional<std::int64_t> volume;
 };
 
 void run_labels_calibrate(const LabelsCalibrateArgs& args, const GlobalOptions&) {
-  const mixture::EncodedLabels labels(args.input);
+  const mixture::EncodedLabels labels(store::open_volume(args.input, args.volume));
   const mixture::BoxQuery query(labels, labels.lookup(), labels.graph().num_sources);
   mixture::QueryOptions options;
   options.method = mixture::parse_query_method(args.method);
@@ -77,6 +81,7 @@ void register_labels_calibrate(CLI::App& labels, const GlobalOptions& global) {
       ->capture_default_str()
       ->check(CLI::IsMember({"hybrid", "footprint", "coarse"}));
   cmd->add_flag("--json", args->json, "Print JSON");
+  add_volume_option(*cmd, args->volume);
   cmd->callback([args, &global] { naming_files({args->input}, [&] { run_labels_calibrate(*args, global); }); });
 }
 

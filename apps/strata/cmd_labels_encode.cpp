@@ -1,6 +1,7 @@
 // `strata labels encode IN -o OUT.strata`: Mixture Graph of a label volume (paper 4).
 #include <cstdio>
 
+#include "all_volumes.hpp"
 #include "cli_checks.hpp"
 #include "commands.hpp"
 #include "report.hpp"
@@ -18,29 +19,13 @@ struct LabelsEncodeArgs {
   std::uint32_t tau = 3;
   bool no_error = false, json = false;
   RawInputArgs raw;
+  bool all_volumes = false;
 };
 
-void run_labels_encode(const LabelsEncodeArgs& args, const GlobalOptions& global) {
-  mixture::EncodeOptions o;
-  o.bits = args.bits;
-  o.strategy = mixture::parse_pair_score(args.strategy);
-  o.tau = args.tau;
-  o.ids = mixture::parse_ids_mode(args.ids);
-  o.measure_error = !args.no_error;
-  o.ids_zstd = args.zstd;
-  auto progress = global.make_progress();
-  io::ReadOptions read = args.raw.to_read_options();
-  read.progress = progress.get();
-  check_output_file(args.output, "--output", {args.input}, {".strata"});
-  auto source = io::open_volume(args.input, read);
-  const Extent dims = source->info().dims;
-  if (!dtype_is_integer(source->info().dtype))
-    throw Error(args.input + ": " + std::string(dtype_name(source->info().dtype)) +
-                " samples: a label volume needs integer samples (u8, i8, u16, i16, u32 or i32); convert the "
-                "segmentation to an integer type first");
-  const mixture::EncodeReport r = mixture::encode_labels(*source, args.output, o, *progress);
+void print_encode_report(const std::string& name, const Extent& dims, const mixture::EncodeOptions& o,
+                         const LabelsEncodeArgs& args, const mixture::EncodeReport& r) {
   if (args.json) {
-    nlohmann::json j{{"file", args.output},        {"nodes", r.nodes},
+    nlohmann::json j{{"file", name},        {"nodes", r.nodes},
                      {"internal_nodes", r.internal_nodes}, {"sources", r.sources},
                      {"depth", r.depth},           {"distinct_mixtures", r.distinct_mixtures},
                      {"input_pairs", r.input_pairs}, {"file_bytes", r.file_bytes},
@@ -56,11 +41,38 @@ void run_labels_encode(const LabelsEncodeArgs& args, const GlobalOptions& global
     std::printf("%s\n", j.dump(2).c_str());
     return;
   }
-  std::printf("%s: %llu nodes (%llu sources), depth %u, %s (graph %s), %.3f bits/voxel", args.output.c_str(),
+  std::printf("%s: %llu nodes (%llu sources), depth %u, %s (graph %s), %.3f bits/voxel", name.c_str(),
               (unsigned long long)r.nodes, (unsigned long long)r.sources, r.depth, human_bytes(r.file_bytes).c_str(),
               human_bytes(r.graph_bytes).c_str(), r.bits_per_voxel);
   if (r.max_l1) std::printf(", max l1 error %.5f", *r.max_l1);
   std::printf(", %.2f s (factorize %.2f s)\n", r.seconds, r.factor_seconds);
+}
+
+void run_labels_encode(const LabelsEncodeArgs& args, const GlobalOptions& global) {
+  mixture::EncodeOptions o;
+  o.bits = args.bits;
+  o.strategy = mixture::parse_pair_score(args.strategy);
+  o.tau = args.tau;
+  o.ids = mixture::parse_ids_mode(args.ids);
+  o.measure_error = !args.no_error;
+  o.ids_zstd = args.zstd;
+  auto progress = global.make_progress();
+  io::ReadOptions read = args.raw.to_read_options();
+  read.progress = progress.get();
+  check_output_file(args.output, "--output", {args.input}, {".strata"});
+  const auto encode = [&](io::VolumeSource& source, const std::filesystem::path& output, const std::string& name) {
+    if (!dtype_is_integer(source.info().dtype))
+      throw Error(args.input + ": " + std::string(dtype_name(source.info().dtype)) +
+                  " samples: a label volume needs integer samples (u8, i8, u16, i16, u32 or i32); convert the "
+                  "segmentation to an integer type first");
+    print_encode_report(name, source.info().dims, o, args, mixture::encode_labels(source, output, o, *progress));
+  };
+  if (args.all_volumes) {
+    encode_all_volumes(args.input, read, args.output, encode);
+    return;
+  }
+  auto source = io::open_volume(args.input, read);
+  encode(*source, args.output, args.output);
 }
 
 }  // namespace
@@ -87,6 +99,7 @@ void register_labels_encode(CLI::App& labels, const GlobalOptions& global) {
   cmd->add_flag("--no-error", args->no_error, "Skip measuring the max l1 reconstruction error");
   cmd->add_flag("--json", args->json, "Print the report as JSON");
   args->raw.add_to(*cmd);
+  add_all_volumes_flag(*cmd, args->all_volumes);
   cmd->callback([args, &global] {
     naming_files({args->input, args->output}, [&] { run_labels_encode(*args, global); });
   });

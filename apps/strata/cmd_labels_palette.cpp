@@ -1,5 +1,6 @@
 // `strata labels palette IN.strata --colors colors.json -o palette.json`: propagates RGBA per
 // label through the Mixture Graph (paper §3.4), giving the pre-filtered colour of every node.
+#include <optional>
 #include <array>
 #include <chrono>
 #include <cstdio>
@@ -12,6 +13,7 @@
 #include "report.hpp"
 #include "strata/mixture/encoded_labels.hpp"
 #include "strata/mixture/palette.hpp"
+#include "strata/store/volume_set.hpp"
 
 namespace strata::cli {
 
@@ -19,6 +21,7 @@ namespace {
 
 struct LabelsPaletteArgs {
   std::string input, colors, output;
+  std::optional<std::int64_t> volume;
 };
 
 std::array<float, 4> parse_rgba(const nlohmann::json& j, const std::string& file, const std::string& key) {
@@ -34,7 +37,7 @@ std::array<float, 4> parse_rgba(const nlohmann::json& j, const std::string& file
 void run_labels_palette(const LabelsPaletteArgs& args, const GlobalOptions&) {
   using clock = std::chrono::steady_clock;
   check_output_file(args.output, "--output", {args.input, args.colors}, {".json"});
-  const mixture::EncodedLabels labels(args.input);
+  const mixture::EncodedLabels labels(store::open_volume(args.input, args.volume));
   nlohmann::json colors = io::read_json_file(args.colors, "json");
   if (!colors.is_object()) throw FormatError(args.colors, "json", "expected an object {\"<label>\": [r, g, b, a], ...}");
   std::array<float, 4> fallback{0, 0, 0, 0};
@@ -88,6 +91,7 @@ void register_labels_palette(CLI::App& labels, const GlobalOptions& global) {
   cmd->add_option("input", args->input, "Input .strata label file")->required();
   cmd->add_option("--colors", args->colors, "JSON {\"<label value>\": [r,g,b,a], ..., \"default\": [r,g,b,a]}")->required();
   cmd->add_option("-o,--output", args->output, "Output palette JSON")->required();
+  add_volume_option(*cmd, args->volume);
   cmd->callback([args, &global] {
     naming_files({args->input, args->colors, args->output}, [&] { run_labels_palette(*args, global); });
   });

@@ -2,6 +2,7 @@
 // axis-aligned box (paper §3.6): per label the expected voxel count +- sigma, by footprint
 // assembly over the mip levels (default: hybrid, a level-0 shell plus sampled interior) or,
 // with --naive, by an exact scan of level 0.
+#include <optional>
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -9,10 +10,12 @@
 
 #include "cli_checks.hpp"
 #include "commands.hpp"
+#include "report.hpp"
 #include "strata/core/error.hpp"
 #include "strata/core/extent.hpp"
 #include "strata/mixture/box_query.hpp"
 #include "strata/mixture/encoded_labels.hpp"
+#include "strata/store/volume_set.hpp"
 
 namespace strata::cli {
 
@@ -25,11 +28,12 @@ struct LabelsQueryArgs {
   bool naive = false, json = false;
   std::size_t top = 0;
   std::uint64_t max_samples = 4096;
+  std::optional<std::int64_t> volume;
 };
 
 void run_labels_query(const LabelsQueryArgs& args, const GlobalOptions&) {
   using clock = std::chrono::steady_clock;
-  const mixture::EncodedLabels labels(args.input);
+  const mixture::EncodedLabels labels(store::open_volume(args.input, args.volume));
   const Extent dims = labels.level_dims(0);
   const Box box = args.box.empty() ? Box::whole(dims) : parse_box(args.box);
   if (box.empty() || !Box::whole(dims).contains(box))
@@ -109,6 +113,7 @@ void register_labels_query(CLI::App& labels, const GlobalOptions& global) {
   cmd->add_flag("--naive", args->naive, "Exact count by scanning level 0 (same as --method naive; uses --threads)");
   cmd->add_option("--top", args->top, "Only the N labels with the largest counts (default: all, by label value)");
   cmd->add_flag("--json", args->json, "Print JSON");
+  add_volume_option(*cmd, args->volume);
   cmd->callback([args, &global] { naming_files({args->input}, [&] { run_labels_query(*args, global); }); });
 }
 

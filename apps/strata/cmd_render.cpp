@@ -31,6 +31,7 @@ struct RenderArgs {
   bool exact = false, ortho = false;
   std::string cache = "1G";
   std::int64_t max_bricks = 8192;
+  std::optional<std::int64_t> volume;
 };
 
 std::pair<int, int> parse_size(const std::string& text) {
@@ -112,6 +113,7 @@ render::SessionOptions session_options(const RenderArgs& a) {
   s.cache_bytes = parse_byte_size(a.cache, "--cache");
   s.max_bricks = a.max_bricks;
   s.target_fps = a.target_fps;
+  s.volume = a.volume;
   as_usage_error([&] { render::validate(s); });
   return s;
 }
@@ -231,6 +233,7 @@ void register_render(CLI::App& app, const GlobalOptions& global) {
   cmd->add_option("--colors", a->colors, "Label files: JSON colour map (default: a hash colour per label)");
   cmd->add_option("--lod-bias", a->lod_bias, "Label files: added to the mip level chosen per sample (-64..64)")
       ->capture_default_str();
+  add_volume_option(*cmd, a->volume);
   cmd->callback([a, &global] { run_render(*a, global); });
 }
 

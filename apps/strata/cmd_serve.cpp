@@ -2,10 +2,12 @@
 // API (docs/viewer.md) over the named volumes, with the browser client compiled in.
 #include <cstdio>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "commands.hpp"
+#include "report.hpp"
 #include "strata/server/api.hpp"
 #include "strata/server/http_server.hpp"
 
@@ -19,6 +21,7 @@ struct ServeArgs {
   int port = 8080;
   std::uint64_t cache_mb = 1024;
   std::size_t queue = 4;
+  std::optional<std::int64_t> volume;
 };
 
 void run_serve(const ServeArgs& a, const GlobalOptions&) {
@@ -26,6 +29,7 @@ void run_serve(const ServeArgs& a, const GlobalOptions&) {
   server::ApiOptions options;
   options.cache_bytes = a.cache_mb << 20;
   options.queue_capacity = a.queue;
+  options.volume = a.volume;
   std::printf("Opening %zu dataset%s\n", files.size(), files.size() == 1 ? "" : "s");
   server::Api api(files, options);
   for (const std::string& line : api.summary()) std::printf("  %s\n", line.c_str());
@@ -63,6 +67,7 @@ void register_serve(CLI::App& app, const GlobalOptions& global) {
   cmd->add_option("--queue", a->queue, "Frames that may wait for the renderer; more get 503 Retry-After: 1")
       ->capture_default_str()
       ->check(CLI::Range(1, 256));
+  add_volume_option(*cmd, a->volume);
   cmd->callback([a, &global] { run_serve(*a, global); });
 }
 

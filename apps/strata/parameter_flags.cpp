@@ -46,6 +46,7 @@ constexpr ParameterFlag kParameterFlags[] = {
     {"box", "--box"},
     {"isa", "--isa"},
     {"level", "--level"},
+    {"volume", "--volume"},
     {"preset_or_path", "--tf"},
     {"progress_mode", "--progress"},
 };

@@ -16,9 +16,14 @@ void RawInputArgs::add_to(CLI::App& cmd) {
   cmd.add_option("--dtype", dtype, "Raw input: sample type u8|i8|u16|i16|u32|i32|f32|f64");
   cmd.add_option("--spacing", spacing, "Raw input: voxel spacing SX,SY,SZ");
   cmd.add_flag("--big-endian", big_endian, "Raw input: samples are big endian");
+  add_volume_option(cmd, volume);
+}
+
+void add_volume_option(CLI::App& cmd, std::optional<std::int64_t>& volume) {
   cmd.add_option("--volume,--component,--time", volume,
                  "Which 3D volume of a file that holds several, from 0: a time point or component (NIfTI dim[4..7], "
-                 "a NRRD fourth axis: interleaved components first or a series last, told apart by `kinds`)")
+                 "a NRRD fourth axis: interleaved components first or a series last, told apart by `kinds`; a TIFF "
+                 "channel; a member of a .strata volume set)")
       ->check(kNonNegativeInteger);
 }
 

@@ -23,6 +23,10 @@ struct RawInputArgs {
   io::ReadOptions to_read_options() const;
 };
 
+// --volume (aliases --component, --time): which volume of a file that holds several, including
+// a .strata volume set.
+void add_volume_option(CLI::App& cmd, std::optional<std::int64_t>& volume);
+
 std::string human_bytes(std::uint64_t bytes);
 // Writes `j` (indented when `indent` >= 0) through a temporary file and a rename.
 void write_json_file(const std::filesystem::path& path, const nlohmann::json& j, int indent = 2);

@@ -31,7 +31,7 @@ void reconstruct_at_rank(const quant::DequantizedModel& model, int k, tensor::Br
 }
 
 std::string brick_context(const ta::TaVolume& volume, const store::BrickKey& key) {
-  return volume.container().path().string() + ": " + store::brick_name(key);
+  return volume.container().name() + ": " + store::brick_name(key);
 }
 
 }  // namespace strata::lod

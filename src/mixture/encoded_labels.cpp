@@ -43,8 +43,8 @@ EncodedLabels::EncodedLabels(const std::filesystem::path& path)
     : EncodedLabels(std::make_unique<store::ContainerReader>(path)) {}
 
 EncodedLabels::EncodedLabels(std::unique_ptr<store::ContainerReader> reader)
-    : path_(reader->path()), reader_(std::move(reader)) {
-  const std::string file = path_.string();
+    : reader_(std::move(reader)) {
+  const std::string file = reader_->name();
   const nlohmann::json& m = reader_->metadata();
   const MetadataField meta{file, "metadata"};
   const std::string codec = m.is_object() && m.contains("codec") && m["codec"].is_string() ? m["codec"].get<std::string>() : "";
@@ -174,10 +174,12 @@ EncodedLabels::EncodedLabels(std::unique_ptr<store::ContainerReader> reader)
 }
 
 const nlohmann::json& EncodedLabels::metadata() const { return reader_->metadata(); }
+const std::filesystem::path& EncodedLabels::path() const { return reader_->path(); }
+const std::string& EncodedLabels::name() const { return reader_->name(); }
 
 Extent EncodedLabels::level_dims(int level) const {
   if (level < 0 || level >= level_count())
-    throw Error(path_.string() + ": level " + std::to_string(level) + " is not in 0.." + std::to_string(level_count() - 1));
+    throw Error(name() + ": level " + std::to_string(level) + " is not in 0.." + std::to_string(level_count() - 1));
   return level_dims_[std::size_t(level)];
 }
 
@@ -188,7 +190,7 @@ std::uint32_t EncodedLabels::node_at(int level, std::int64_t x, std::int64_t y, 
 void EncodedLabels::decode_box(int level, const Box& box, std::span<std::uint32_t> out) const {
   const Extent d = level_dims(level);
   if (box.lo.x < 0 || box.lo.y < 0 || box.lo.z < 0 || box.hi.x > d.x || box.hi.y > d.y || box.hi.z > d.z)
-    throw Error(path_.string() + ": box is outside level " + std::to_string(level));
+    throw Error(name() + ": box is outside level " + std::to_string(level));
   if (out.size() != std::size_t(box.voxel_count())) throw Error("decode_box: output size does not match the box");
   if (ids_mode_ == IdsMode::blocks) {
     blocks_[std::size_t(level)].decode_box(box, out);
@@ -242,7 +244,7 @@ std::vector<std::uint32_t> EncodedLabels::dominant_sources() const {
 
 std::vector<float> EncodedLabels::label_fractions(std::int64_t label_value) const {
   const auto source = label_map_.id_of(label_value);
-  if (!source) throw Error(path_.string() + ": label " + std::to_string(label_value) + " does not occur in the volume");
+  if (!source) throw Error(name() + ": label " + std::to_string(label_value) + " does not occur in the volume");
   std::vector<float> indicator(graph_.num_sources, 0.0f);
   indicator[*source] = 1.0f;
   return propagate_palette(graph_, schedule_, indicator, 1);

@@ -39,7 +39,7 @@ bool no_model(const tensor::Ranks3& r) { return r[0] == 0 && r[1] == 0 && r[2] =
 // neighbours, so a coefficient's context is the size of its three causal neighbours (previous
 // along each mode) and how far it lies from the corner.
 struct CoreModels {
-  static constexpr int kNeighbourClasses = 7, kDistanceClasses = 4, kMagnitudeClasses = 12;
+  static constexpr int kNeighbourClasses = 7, kMagnitudeClasses = 12;
   static constexpr int kLowerClasses = 4, kFrequencyClasses = 6;  // block-DCT cores
   std::array<BitModel, kNeighbourClasses * kLowerClasses * kFrequencyClasses> zero{};
   std::array<UIntModel, kMagnitudeClasses> magnitude{};

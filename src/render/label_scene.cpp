@@ -63,7 +63,7 @@ bool LabelScene::anything_visible() const {
 
 LabelPrepareReport LabelScene::prepare(int finest_level, bool skip_grids) {
   if (finest_level < 0 || finest_level >= level_count())
-    throw Error(labels_.path().string() + ": level " + std::to_string(finest_level) + " is not in 0.." +
+    throw Error(labels_.name() + ": level " + std::to_string(finest_level) + " is not in 0.." +
                 std::to_string(level_count() - 1));
   LabelPrepareReport report;
   if (palette_stale_) {

@@ -14,6 +14,7 @@
 #include "strata/core/error.hpp"
 #include "strata/core/stopwatch.hpp"
 #include "strata/io/volume_io.hpp"
+#include "strata/store/volume_set.hpp"
 #include "strata/lod/histogram_bins.hpp"
 #include "strata/render/sampling_limits.hpp"
 #include "strata/store/brick_histogram.hpp"
@@ -72,7 +73,7 @@ RenderSession::Scalar::Scalar(std::unique_ptr<store::ContainerReader> input, con
   if (s.cache_bytes < brick * brick * brick * sizeof(float))
     throw ParameterError("SessionOptions::cache_bytes",
                          fmt::format("{}: must hold at least one reconstructed brick ({} bytes), got {}",
-                                     volume.container().path().string(), brick * brick * brick * sizeof(float),
+                                     volume.container().name(), brick * brick * brick * sizeof(float),
                                      s.cache_bytes));
   selection.max_bricks = s.max_bricks;
   selection.memory_budget = s.cache_bytes;
@@ -140,8 +141,10 @@ Image RenderSession::Labels::frame(const Camera& camera, const FrameSettings& se
 
 namespace {
 
-Volume load_as_float(const std::filesystem::path& input, DType& source_dtype) {
-  Volume source = io::read_volume(input);
+Volume load_as_float(const std::filesystem::path& input, std::optional<std::int64_t> volume, DType& source_dtype) {
+  io::ReadOptions read;
+  read.volume = volume;
+  Volume source = io::read_volume(input, read);
   source_dtype = source.dtype();
   return source.converted(DType::f32);
 }
@@ -156,8 +159,8 @@ std::pair<double, double> sample_range(const Volume& v) {
 
 }  // namespace
 
-RenderSession::Plain::Plain(const std::filesystem::path& input)
-    : volume(load_as_float(input, source_dtype)), range(sample_range(volume)), prepared(volume) {}
+RenderSession::Plain::Plain(const std::filesystem::path& input, std::optional<std::int64_t> volume_index)
+    : volume(load_as_float(input, volume_index, source_dtype)), range(sample_range(volume)), prepared(volume) {}
 
 Image RenderSession::Plain::frame(const Camera& camera, const FrameSettings& settings, const RenderOptions& options,
                                   nlohmann::json& stats) {
@@ -209,11 +212,11 @@ RenderSession::RenderSession(const std::filesystem::path& input, const SessionOp
     : path_(input), options_(options) {
   validate(options);
   if (!store::is_strata_file(input)) {
-    plain_ = std::make_unique<Plain>(input);
+    plain_ = std::make_unique<Plain>(input, options.volume);
     return;
   }
   // One reader, opened once: its codec picks the session kind, which takes it over.
-  auto reader = std::make_unique<store::ContainerReader>(input);
+  auto reader = store::open_volume(input, options.volume);
   if (reader->metadata().value("codec", std::string()) == mixture::kMixtureCodecName)
     labels_ = std::make_unique<Labels>(std::move(reader));
   else
@@ -271,7 +274,9 @@ nlohmann::json RenderSession::describe() const {
   const std::vector<std::uint64_t> histogram = plain_    ? plain_->histogram()
                                                : scalar_ ? scalar_->histogram()
                                                          : std::vector<std::uint64_t>{};
-  return {{"name", path_.filename().string()},
+  std::string name = path_.filename().string();
+  if (options_.volume) name += " (volume " + std::to_string(*options_.volume) + ")";
+  return {{"name", name},
           {"kind", dataset_kind_name(kind())},
           {"dims", json_of(dims())},
           {"spacing", json_of(spacing())},

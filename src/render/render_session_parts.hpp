@@ -86,7 +86,7 @@ struct RenderSession::Plain {
   CasterSlot casters;
   PreparedVolume prepared;
 
-  explicit Plain(const std::filesystem::path& input);
+  Plain(const std::filesystem::path& input, std::optional<std::int64_t> volume);
   Image frame(const Camera& camera, const FrameSettings& settings, const RenderOptions& options, nlohmann::json& stats);
   std::vector<std::uint64_t> histogram() const;
 };

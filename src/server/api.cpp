@@ -94,6 +94,7 @@ render::SessionOptions session_options(const ApiOptions& o, std::size_t strata_f
   s.loader_threads = o.loader_threads;
   s.target_fps = o.coarse_fps;
   s.min_interactive_scale = o.coarse_min_scale;
+  s.volume = o.volume;
   return s;
 }
 

@@ -310,21 +310,38 @@ std::uint64_t ContainerWriter::finish(nlohmann::json metadata) {
 
 std::span<const std::byte> ContainerReader::checked_range(std::uint64_t offset, std::uint64_t size,
                                                           const std::string& what) const {
-  if (offset > file_->size() || size > file_->size() - offset)
-    throw FormatError(path_.string(), what,
-                      fmt::format("range [{}, +{}) lies outside the {}-byte file (truncated?)", offset, size, file_->size()));
-  return {file_->data() + offset, std::size_t(size)};
+  if (offset > bytes_.size() || size > bytes_.size() - offset)
+    throw FormatError(name_, what,
+                      fmt::format("range [{}, +{}) lies outside the {}-byte file (truncated?)", offset, size, bytes_.size()));
+  return {bytes_.data() + offset, std::size_t(size)};
 }
 
 ContainerReader::ContainerReader(const std::filesystem::path& path)
-    : path_(path), file_(std::make_shared<io::MappedFile>(path)) {
-  const std::string file = path.string();
-  if (file_->size() < kMagic.size() || std::memcmp(file_->data(), kMagic.data(), kMagic.size()) != 0)
+    : path_(path), name_(path.string()), file_(std::make_shared<io::MappedFile>(path)) {
+  bytes_ = {file_->data(), std::size_t(file_->size())};
+  open();
+}
+
+ContainerReader::ContainerReader(const ContainerReader& outer, const std::string& section, std::string name)
+    : path_(outer.path_), name_(std::move(name)), file_(outer.file_) {
+  const auto it = outer.sections_.find(section);
+  if (it == outer.sections_.end()) throw FormatError(outer.name_, "sections", "no section named '" + section + "'");
+  // The outer reader checked that the range lies inside the file; the member's own checksums
+  // (header, metadata, index, every payload) protect its bytes, so the section's check value,
+  // which would read every byte of the member, is checked only when the
+  // outer reader's section() is asked for it.
+  bytes_ = outer.bytes_.subspan(it->second.offset, it->second.size);
+  open();
+}
+
+void ContainerReader::open() {
+  const std::string& file = name_;
+  if (bytes_.size() < kMagic.size() || std::memcmp(bytes_.data(), kMagic.data(), kMagic.size()) != 0)
     throw FormatError(file, "magic", "not a .strata file");
-  if (file_->size() < kHeaderSize)
+  if (bytes_.size() < kHeaderSize)
     throw FormatError(file, "header",
-                      fmt::format("the file ends after {} bytes, inside the {}-byte header (truncated)", file_->size(), kHeaderSize));
-  const std::span<const std::byte> h(file_->data(), kHeaderSize);
+                      fmt::format("the file ends after {} bytes, inside the {}-byte header (truncated)", bytes_.size(), kHeaderSize));
+  const std::span<const std::byte> h(bytes_.data(), kHeaderSize);
   if (load_field<std::uint32_t>(h, 60) != crc32c(h.data(), 60)) throw FormatError(file, "header", "checksum mismatch");
   const auto major = load_field<std::uint16_t>(h, 8);
   if (major != kFormatVersionMajor)
@@ -374,7 +391,7 @@ void ContainerReader::check_index_fits_memory(std::uint64_t count) const {
   if (memory == 0) return;  // the system does not say; the frame and file size bounds still hold
   const std::uint64_t needed = saturating_mul(count, kOpenBytesPerEntry), allowed = memory / kIndexMemoryShareDivisor;
   if (needed > allowed)
-    throw FormatError(path_.string(), "index_count",
+    throw FormatError(name_, "index_count",
                       fmt::format("{} entries would take {:.1f} GiB to open, more than half of this machine's {:.1f} GiB "
                                   "(a corrupt or hostile header, or a volume too large for this machine)",
                                   count, double(needed) / double(1ull << 30), double(memory) / double(1ull << 30)));
@@ -383,7 +400,7 @@ void ContainerReader::check_index_fits_memory(std::uint64_t count) const {
 // An index entry the payload kinds table allows: a known kind, a range inside the file, and for
 // a constant brick no payload bytes and min == max (the value every voxel has).
 void ContainerReader::check_entry(const BrickEntry& e) const {
-  const std::string file = path_.string();
+  const std::string file = name_;
   if (!known_kind(e.kind))
     throw FormatError(file, "index", fmt::format("{} has unknown payload kind {}", brick_name(e.key), int(e.kind)));
   checked_range(e.offset, e.size, brick_name(e.key));
@@ -400,7 +417,7 @@ void ContainerReader::check_entry(const BrickEntry& e) const {
 void ContainerReader::read_sections() {
   const auto it = metadata_.find("sections");
   if (it == metadata_.end()) return;
-  const MetadataField field{path_.string(), "metadata.sections"};
+  const MetadataField field{name_, "metadata.sections"};
   for (const auto& [name, s] : json_object(*it, field).items()) {
     const MetadataField at = field / name;
     json_object(s, at);
@@ -415,11 +432,11 @@ ContainerReader::~ContainerReader() = default;
 
 // Format 1.0/1.1 (and 1.2 without flag bit 0): count entries of 64 bytes.
 std::vector<BrickEntry> ContainerReader::read_plain_index(std::uint64_t offset, std::uint64_t count, std::uint32_t crc) {
-  if (count > file_->size() / kIndexEntrySize) throw FormatError(path_.string(), "index_count", "larger than the file");
+  if (count > bytes_.size() / kIndexEntrySize) throw FormatError(name_, "index_count", "larger than the file");
   check_index_fits_memory(count);
   index_size_ = count * kIndexEntrySize;
   const auto index = checked_range(offset, index_size_, "index");
-  if (crc32c(index.data(), index.size()) != crc) throw FormatError(path_.string(), "index", "checksum mismatch");
+  if (crc32c(index.data(), index.size()) != crc) throw FormatError(name_, "index", "checksum mismatch");
   std::vector<BrickEntry> entries;
   entries.reserve(count);
   for (std::uint64_t i = 0; i < count; ++i) entries.push_back(decode_entry(index.subspan(i * kIndexEntrySize).first<kIndexEntrySize>()));
@@ -429,11 +446,11 @@ std::vector<BrickEntry> ContainerReader::read_plain_index(std::uint64_t offset, 
 // Format 1.2 with flag bit 0: see encode_compressed_index. Offsets are derived (and their ranges
 // checked) here; kinds and keys are checked by the constructor, as for the plain index.
 std::vector<BrickEntry> ContainerReader::read_compressed_index(std::uint64_t offset, std::uint64_t count, std::uint32_t crc) {
-  const std::string file = path_.string();
+  const std::string file = name_;
   const auto frame_size = load_field<std::uint64_t>(checked_range(offset, kIndexSizeField, "index"), 0);
   const auto frame = checked_range(offset + kIndexSizeField, frame_size, "index");
   index_size_ = kIndexSizeField + frame_size;
-  if (crc32c(file_->data() + offset, index_size_) != crc) throw FormatError(file, "index", "checksum mismatch");
+  if (crc32c(bytes_.data() + offset, index_size_) != crc) throw FormatError(file, "index", "checksum mismatch");
   if (count > saturating_mul(frame_size, kZstdMaxExpansion) / kColumnBytesPerEntry)
     throw FormatError(file, "index_count",
                       fmt::format("{} entries need {} bytes of columns each, more than a {}-byte zstd frame can "
@@ -472,9 +489,9 @@ std::vector<BrickEntry> ContainerReader::read_compressed_index(std::uint64_t off
     if (e.size == 0) continue;  // offset 0, crc32c of nothing: 0
     // `end` lies inside the file (the previous range was checked) and the gap is bounded by the
     // file size, so a hostile gap cannot wrap the offset around to an earlier position.
-    if (gaps[payload] > file_->size())
+    if (gaps[payload] > bytes_.size())
       throw FormatError(file, brick_name(e.key),
-                        fmt::format("offset gap {} lies outside the {}-byte file", gaps[payload], file_->size()));
+                        fmt::format("offset gap {} lies outside the {}-byte file", gaps[payload], bytes_.size()));
     e.offset = packed_offset(end, e.kind) + gaps[payload];
     e.crc32c = crcs[payload++];
     checked_range(e.offset, e.size, brick_name(e.key));
@@ -493,7 +510,7 @@ std::span<const std::byte> ContainerReader::payload(const BrickEntry& e) const {
   std::uint32_t check = crc32c(bytes.data(), bytes.size());
   if (minor_ >= kBoundChecksumsMinor) check = payload_check_value(check, e.size, e.key, e.kind, metadata_crc_);
   if (check != e.crc32c)
-    throw FormatError(path_.string(), brick_name(e.key),
+    throw FormatError(name_, brick_name(e.key),
                       minor_ >= kBoundChecksumsMinor
                           ? "payload checksum mismatch (the payload is corrupted, or its index entry or the metadata "
                             "was altered: the checksum covers the bytes, the key, the kind and the metadata)"
@@ -505,18 +522,18 @@ bool ContainerReader::has_section(const std::string& name) const { return sectio
 
 std::span<const std::byte> ContainerReader::section(const std::string& name) const {
   auto it = sections_.find(name);
-  if (it == sections_.end()) throw FormatError(path_.string(), "sections", "no section named '" + name + "'");
+  if (it == sections_.end()) throw FormatError(name_, "sections", "no section named '" + name + "'");
   auto bytes = checked_range(it->second.offset, it->second.size, "section " + name);
   const bool bound = minor_ >= kBoundChecksumsMinor;
   if ((bound ? section_check_value(bytes, name) : crc32c(bytes.data(), bytes.size())) != it->second.crc32c)
-    throw FormatError(path_.string(), "section " + name,
+    throw FormatError(name_, "section " + name,
                       bound ? "checksum mismatch (the section is corrupted, or its entry in metadata.sections belongs "
                               "to another section: the checksum covers the bytes and the name)"
                             : "checksum mismatch (file corrupted)");
   return bytes;
 }
 
-std::uint64_t ContainerReader::file_size() const { return file_->size(); }
+std::uint64_t ContainerReader::file_size() const { return bytes_.size(); }
 
 bool is_strata_file(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);

@@ -47,7 +47,7 @@ void add_payload(store::PayloadKind kind, std::span<const std::byte> stored, con
   if (kind == store::PayloadKind::constant) return;
   if (kind == store::PayloadKind::masked) {
     const std::size_t voxels = std::size_t(brick) * std::size_t(brick) * std::size_t(brick);
-    const MaskedPayload m = unwrap_masked(stored, voxels, scratch.inflated, c.path().string());
+    const MaskedPayload m = unwrap_masked(stored, voxels, scratch.inflated, c.name());
     r.mask_bytes += stored.size() - m.inner_payload.size();
     return add_payload(m.inner, m.inner_payload, volume, scratch, r);
   }
@@ -56,11 +56,11 @@ void add_payload(store::PayloadKind kind, std::span<const std::byte> stored, con
     return;
   }
   if (kind == store::PayloadKind::tucker_coded) {
-    add_coded_parts(quant::deserialize_coded(stored, brick, c.path().string()), stored.size(), r);
+    add_coded_parts(quant::deserialize_coded(stored, brick, c.name()), stored.size(), r);
     return;
   }
-  const auto plain = plain_payload(kind, stored, volume.quant_scheme(), scratch, c.path().string());
-  const auto parts = payload_parts(plain, volume.quant_scheme(), c.path().string());
+  const auto plain = plain_payload(kind, stored, volume.quant_scheme(), scratch, c.name());
+  const auto parts = payload_parts(plain, volume.quant_scheme(), c.name());
   const double ratio = double(stored.size()) / double(plain.size());
   const auto core = std::uint64_t(double(parts.core_bytes) * ratio);
   const auto factors = std::uint64_t(double(parts.factor_bytes) * ratio);

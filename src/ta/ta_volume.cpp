@@ -39,7 +39,7 @@ TaVolume::TaVolume(const std::filesystem::path& path) : TaVolume(std::make_uniqu
 // against the index, before any brick is decoded: a forged or damaged file fails with the file,
 // the field and what was expected instead of decoding with the wrong geometry.
 TaVolume::TaVolume(std::unique_ptr<store::ContainerReader> container) : container_(std::move(container)) {
-  const std::string file = container_->path().string();
+  const std::string file = container_->name();
   const nlohmann::json& m = container_->metadata();
   const MetadataField meta{file, "metadata"};
   const auto codec = m.find("codec");
@@ -138,7 +138,7 @@ TaVolume::TaVolume(std::unique_ptr<store::ContainerReader> container) : containe
 
 const store::BrickEntry& TaVolume::entry(const store::BrickKey& key) const {
   const store::BrickEntry* e = container_->find(key);
-  if (!e) throw FormatError(container_->path().string(), "index", store::brick_name(key) + " is missing");
+  if (!e) throw FormatError(container_->name(), "index", store::brick_name(key) + " is missing");
   return *e;
 }
 
@@ -146,7 +146,7 @@ void TaVolume::decode_brick(const store::BrickKey& key, int k, std::span<float> 
                             DecodeScratch& scratch) const {
   const store::BrickEntry& e = entry(key);
   const std::span<const std::byte> payload = container_->payload(e);  // its errors name the file and the brick
-  const std::string file = container_->path().string();
+  const std::string file = container_->name();
   try {
     ta::decode_brick(e.kind, payload, e.min, scheme_, geometry_->layout().brick, std::clamp(k, 1, rank_), reconstructor,
                      scratch, out, file);
@@ -163,7 +163,7 @@ void TaVolume::decode_brick(const store::BrickKey& key, int k, std::span<float> 
 void TaVolume::check_level(int level) const {
   if (level < 0 || level >= geometry_->level_count())
     throw ParameterError("level", std::to_string(level) + " is not in 0.." + std::to_string(geometry_->level_count() - 1) +
-                                      " for " + container_->path().string());
+                                      " for " + container_->name());
 }
 
 Volume TaVolume::decode_box(int level, const Box& box, int k) const {

@@ -1,6 +1,8 @@
 // Files of several 3D volumes (a NIfTI time series) through the `strata` program: `info`
 // describes volume 0 and counts them, --volume T picks one for every command that reads a
-// volume, and a command without a choice is told how to make one.
+// volume, and a command without a choice is told how to make one. `compress` and `labels
+// encode` store every volume with --all-volumes, as one .strata volume set that the same
+// --volume T opens.
 #include <gtest/gtest.h>
 
 #include <cstring>
@@ -79,6 +81,93 @@ TEST(CliVolumeChoice, InfoConvertAndCompressTakeTheChosenVolume) {
   const Volume back_u16 = back.dtype() == DType::u16 ? back : back.converted(DType::u16);
   const auto a = back_u16.samples<std::uint16_t>(), b = second.samples<std::uint16_t>();
   for (std::size_t i = 0; i < a.size(); ++i) EXPECT_LE(std::abs(int(a[i]) - int(b[i])), 1) << i;
+}
+
+void expect_within(const Volume& decoded, const Volume& original, int bound) {
+  ASSERT_EQ(decoded.dims(), original.dims());
+  const Volume as_u16 = decoded.dtype() == DType::u16 ? decoded : decoded.converted(DType::u16);
+  const auto a = as_u16.samples<std::uint16_t>(), b = original.samples<std::uint16_t>();
+  for (std::size_t i = 0; i < a.size(); ++i) ASSERT_LE(std::abs(int(a[i]) - int(b[i])), bound) << i;
+}
+
+TEST(CliVolumeChoice, AllVolumesMakeOneSetThatVolumeOpens) {
+  test::TempDir dir;
+  const Volume first = ramp(100), second = ramp(5000);
+  write_time_series(dir / "series.nii", first, second);
+  const auto q = [&](const std::string& name) { return shell_quoted(dir / name); };
+  std::string out;
+  ASSERT_EQ(run_command(strata_cmd("compress " + q("series.nii") + " -o " + q("set.strata") + " --all-volumes --max-error 1"),
+                        &out),
+            0)
+      << out;
+  EXPECT_NE(out.find("set.strata (volume 1): "), std::string::npos) << out;
+  EXPECT_NE(out.find("a volume set of 2 volumes"), std::string::npos) << out;
+  for (const auto& e : fs::directory_iterator(dir.path()))  // the members' temporaries are gone
+    EXPECT_EQ(e.path().extension(), e.path().filename() == "series.nii" ? ".nii" : ".strata") << e.path();
+
+  ASSERT_EQ(run_command(strata_cmd("info " + q("set.strata")), &out), 0) << out;
+  EXPECT_NE(out.find(".strata volume set of 2 volumes"), std::string::npos) << out;
+  EXPECT_NE(out.find("(volume 1)"), std::string::npos) << out;
+  EXPECT_NE(out.find("value range [5000.0,5357.0]"), std::string::npos) << out;  // 5000 + 3 * 119
+  ASSERT_EQ(run_command(strata_cmd("info " + q("set.strata") + " --volume 0 --json"), &out), 0) << out;
+  EXPECT_NE(out.find("\"value_range\": [\n      100.0,\n      457.0"), std::string::npos) << out;
+
+  for (int t : {0, 1}) {
+    const std::string back = "back" + std::to_string(t) + ".nrrd";
+    ASSERT_EQ(run_command(strata_cmd("decompress " + q("set.strata") + " --volume " + std::to_string(t) + " -o " + q(back)),
+                          &out),
+              0)
+        << out;
+    expect_within(io::read_volume(dir / back), t == 0 ? first : second, 1);
+  }
+  ASSERT_EQ(run_command(strata_cmd("eval " + q("series.nii") + " " + q("set.strata") + " --volume 1 --json"), &out), 0) << out;
+  EXPECT_NE(out.find("\"max_abs_error\""), std::string::npos) << out;
+  ASSERT_EQ(run_command(strata_cmd("render " + q("set.strata") + " --volume 1 --size 32x24 -o " + q("v1.png")), &out), 0)
+      << out;
+  EXPECT_TRUE(fs::exists(dir / "v1.png"));
+
+  // Without a choice, or past the last volume, commands say what to do.
+  EXPECT_EQ(run_command(strata_cmd("decompress " + q("set.strata") + " -o " + q("x.nrrd")), &out), 1);
+  EXPECT_NE(out.find("holds 2 volumes; choose one with --volume T (0..1)"), std::string::npos) << out;
+  EXPECT_EQ(run_command(strata_cmd("render " + q("set.strata") + " --volume 2 --size 32x24 -o " + q("x.png")), &out), 1);
+  EXPECT_NE(out.find("error: --volume: "), std::string::npos) << out;
+  EXPECT_NE(out.find("volume 2 does not exist"), std::string::npos) << out;
+  EXPECT_EQ(run_command(strata_cmd("compress " + q("series.nii") + " -o " + q("y.strata") + " --all-volumes --volume 1"),
+                        &out),
+            2);
+  EXPECT_FALSE(fs::exists(dir / "y.strata"));
+}
+
+TEST(CliVolumeChoice, LabelSeriesEncodeIntoOneSetDecodedExactly) {
+  test::TempDir dir;
+  Volume first(Extent{6, 5, 4}, DType::u16), second(Extent{6, 5, 4}, DType::u16);
+  auto a = first.samples<std::uint16_t>(), b = second.samples<std::uint16_t>();
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    a[i] = std::uint16_t(i % 7 < 3 ? 1 : 2);
+    b[i] = std::uint16_t(10 + i / 40);
+  }
+  write_time_series(dir / "labels.nii", first, second);
+  const auto q = [&](const std::string& name) { return shell_quoted(dir / name); };
+  std::string out;
+  ASSERT_EQ(run_command(strata_cmd("labels encode " + q("labels.nii") + " -o " + q("l.strata") + " --all-volumes"), &out), 0)
+      << out;
+  for (int t : {0, 1}) {
+    const std::string back = "l" + std::to_string(t) + ".nrrd";
+    ASSERT_EQ(run_command(strata_cmd("labels decode " + q("l.strata") + " --volume " + std::to_string(t) + " --level 0 -o " +
+                                     q(back)),
+                          &out),
+              0)
+        << out;
+    EXPECT_EQ(io::read_volume(dir / back), t == 0 ? first : second);
+  }
+  // A volume that cannot be encoded leaves no set and no temporaries behind.
+  const Volume real(Extent{6, 5, 4}, DType::f32);
+  write_time_series(dir / "real.nii", real, real);
+  ASSERT_EQ(run_command(strata_cmd("labels encode " + q("real.nii") + " -o " + q("r.strata") + " --all-volumes"), &out), 1);
+  EXPECT_NE(out.find("a label volume needs integer samples"), std::string::npos) << out;
+  for (const auto& e : fs::directory_iterator(dir.path()))
+    EXPECT_EQ(e.path().filename().string().find(".part"), std::string::npos) << e.path();
+  EXPECT_FALSE(fs::exists(dir / "r.strata"));
 }
 
 }  // namespace

@@ -372,6 +372,38 @@ TEST(IoTiffErrors, ChannelsNeedAChoiceAndUnsupportedSampleTypes) {
   expect_error([&] { io::open_volume(dir / "u64.tif"); }, {"u64.tif", "BitsPerSample"});
 }
 
+// Sets the value of `tag` (a SHORT stored in its directory entry) in the first page of a
+// little-endian classic TIFF, as a damaged or hand-written file would have it.
+void patch_short_tag(const fs::path& path, std::uint16_t tag, std::uint16_t value) {
+  auto bytes = test::io::read_bytes(path);
+  ASSERT_EQ(char(bytes[0]), 'I');
+  std::uint32_t ifd = 0;
+  std::uint16_t entries = 0;
+  std::memcpy(&ifd, bytes.data() + 4, 4);
+  std::memcpy(&entries, bytes.data() + ifd, 2);
+  for (std::uint16_t i = 0; i < entries; ++i) {
+    std::byte* entry = bytes.data() + ifd + 2 + 12 * i;
+    std::uint16_t id = 0;
+    std::memcpy(&id, entry, 2);
+    if (id != tag) continue;
+    std::memcpy(entry + 8, &value, 2);
+    test::io::write_bytes(path, bytes);
+    return;
+  }
+  FAIL() << "no tag " << tag << " in " << path;
+}
+
+TEST(IoTiffErrors, ImpossibleChannelLayoutsAreNamed) {
+  TempDir dir;
+  PageSpec page = page_of(8, 6, 8, SAMPLEFORMAT_UINT, 1);
+  write_pages(dir / "planar.tif", {page});
+  patch_short_tag(dir / "planar.tif", TIFFTAG_PLANARCONFIG, 3);
+  expect_error([&] { io::open_volume(dir / "planar.tif"); }, {"planar.tif", "PlanarConfiguration"});
+  write_pages(dir / "none.tif", {page});
+  patch_short_tag(dir / "none.tif", TIFFTAG_SAMPLESPERPIXEL, 0);
+  expect_error([&] { io::open_volume(dir / "none.tif"); }, {"none.tif", "SamplesPerPixel"});
+}
+
 // Multi-channel microscopy: every channel of chunky strips, chunky tiles and planar strips reads
 // as a volume of its own, whole and in boxes.
 TEST(IoTiff, EveryChannelReadsAsAVolume) {

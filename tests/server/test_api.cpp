@@ -15,6 +15,7 @@
 #include "server/static_files.hpp"
 #include "support/test_support.hpp"
 #include "strata/server/render_queue.hpp"
+#include "strata/store/volume_set.hpp"
 
 namespace strata::server {
 namespace {
@@ -104,6 +105,29 @@ TEST_F(ServerApi, DatasetsDescribeEveryFileInOrder) {
   std::uint64_t voxels = 0;
   for (const auto& c : plain["histogram"]) voxels += c.get<std::uint64_t>();
   EXPECT_EQ(voxels, 24u * 20u * 16u) << "plain histograms count every voxel once";
+}
+
+// A .strata volume set serves the member --volume names (its members may even use different
+// codecs: they share nothing), under "<file> (volume N)"; without a choice it is refused.
+TEST(ServerApiVolumeSet, TheChosenMemberIsServed) {
+  const ServerData& d = ServerData::get();
+  const test::TempDir dir;
+  const std::vector<std::filesystem::path> files = d.files();
+  const std::filesystem::path set = dir / "set.strata";
+  store::write_volume_set(set, {files[kScalar], files[kLabels]}, {});
+  for (int member : {0, 1}) {
+    ApiOptions options;
+    options.volume = member;
+    Api api({set}, options);
+    const nlohmann::json list = json_of(get(api, "/api/datasets"));
+    ASSERT_EQ(list.size(), 1u);
+    EXPECT_EQ(list[0]["name"], "set.strata (volume " + std::to_string(member) + ")");
+    EXPECT_EQ(list[0]["kind"], member == 0 ? "scalar" : "labels");
+    EXPECT_EQ(list[0]["dims"], member == 0 ? nlohmann::json({48, 40, 36}) : nlohmann::json({40, 36, 32}));
+    EXPECT_EQ(get(api, dataset(0, "slice?axis=z&index=3")).status, 200);
+  }
+  const std::string refused = test::error_of([&] { Api api({set}); });
+  EXPECT_NE(refused.find("holds 2 volumes; choose one with --volume T (0..1)"), std::string::npos) << refused;
 }
 
 TEST_F(ServerApi, ExactFramesArePngWithStatistics) {

@@ -55,10 +55,10 @@ TEST(StoreBoundChecksums, CheckValueIsThePayloadThenTheBindingRecord) {
   const auto path = dir / "a.strata";
   write_sample(path);
   const auto file = forge::file_bytes(path);
-  EXPECT_EQ(load_field<std::uint16_t>(file, forge::kMinorField), 4u);
+  EXPECT_EQ(load_field<std::uint16_t>(file, forge::kMinorField), store::kFormatVersionMinor);
   const auto metadata_crc = load_field<std::uint32_t>(file, forge::kMetadataCrcField);
   const ContainerReader r(path);
-  EXPECT_EQ(r.version_minor(), 4u);
+  EXPECT_EQ(r.version_minor(), store::kFormatVersionMinor);
   for (const BrickEntry& e : r.bricks()) {
     if (e.size == 0) {
       EXPECT_EQ(e.crc32c, 0u);

@@ -93,7 +93,9 @@ class EncodedLabels final : public NodeGrid {
   std::uint32_t node_at(int level, std::int64_t x, std::int64_t y, std::int64_t z) const override;
   void decode_box(int level, const Box& box, std::span<std::uint32_t> out) const override;
 
-  const std::filesystem::path& path() const { return path_; }
+  const std::filesystem::path& path() const;
+  /// @brief How messages name the file (for a member of a volume set, with its number).
+  const std::string& name() const;
   const MixtureGraph& graph() const { return graph_; }
   const LabelMap& label_map() const { return label_map_; }
   const Schedule& schedule() const { return schedule_; }
@@ -121,7 +123,6 @@ class EncodedLabels final : public NodeGrid {
   std::vector<std::uint32_t> level_ids(int level) const;
   Spacing level_spacing(int level) const;
 
-  std::filesystem::path path_;
   std::unique_ptr<store::ContainerReader> reader_;
   GraphHeader header_;
   MixtureGraph graph_;

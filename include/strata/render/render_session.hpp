@@ -17,6 +17,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string_view>
 #include <utility>
 
@@ -59,6 +60,9 @@ struct SessionOptions {
   std::array<float, 4> background{0, 0, 0, 1};     ///< straight RGBA in [0, 1]
   double target_fps = 0;                           ///< interactive frames' rate; 0 = full resolution
   double min_interactive_scale = 1;                ///< interactive frames cast at most 1/this rays per edge
+  /// Which volume of a file that holds several (a 4-D NIfTI or NRRD, a multi-channel TIFF, a
+  /// .strata volume set); such a file is refused without it. Files of one volume take 0 or none.
+  std::optional<std::int64_t> volume;
 };
 
 /// @brief Everything that may change from one frame to the next.

@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -34,6 +35,8 @@ struct ApiOptions {
   double coarse_fps = 15;          ///< quality=coarse frames aim at this rate (rendering; encoding and HTTP add ~10 ms)
   double coarse_min_scale = 2;     ///< quality=coarse casts at most 1/this rays per image edge
   int loader_threads = 0;          ///< per TA dataset; 0 = lod::default_loader_threads()
+  /// Which volume of every file that holds several (render::SessionOptions::volume; `--volume`).
+  std::optional<std::int64_t> volume;
 };
 
 class Api {

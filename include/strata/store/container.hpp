@@ -23,7 +23,7 @@
 namespace strata::store {
 
 inline constexpr std::uint16_t kFormatVersionMajor = 1;
-inline constexpr std::uint16_t kFormatVersionMinor = 4;
+inline constexpr std::uint16_t kFormatVersionMinor = 5;
 /// The first minor version whose checksums are bound to keys, kinds and names.
 inline constexpr std::uint16_t kBoundChecksumsMinor = 3;
 inline constexpr std::size_t kHeaderSize = 64;
@@ -131,15 +131,27 @@ class ContainerWriter {
 class ContainerReader {
  public:
   explicit ContainerReader(const std::filesystem::path& path);
+  /// @brief Opens the container stored in section `section` of `outer` (a member of a volume
+  /// set, store/volume_set.hpp), sharing its mapping; offsets are relative to the section's
+  /// start. Every check of the path constructor applies, within the section's bytes. The
+  /// section's own check value is not computed (it would read every byte of the member; the
+  /// member's header, metadata, index and payloads carry their own). Messages name the file as
+  /// `name`.
+  ContainerReader(const ContainerReader& outer, const std::string& section, std::string name);
   ~ContainerReader();
 
+  /// @brief The file on disk (for a member of a volume set, the set's file).
   const std::filesystem::path& path() const { return path_; }
+  /// @brief How messages name this container: the path, or "<path> (volume N)" for a member of
+  /// a volume set.
+  const std::string& name() const { return name_; }
   const nlohmann::json& metadata() const { return metadata_; }
   const std::vector<BrickEntry>& bricks() const { return entries_; }
   const BrickEntry* find(const BrickKey& key) const;  // nullptr when absent
   std::span<const std::byte> payload(const BrickEntry& entry) const;
   bool has_section(const std::string& name) const;
   std::span<const std::byte> section(const std::string& name) const;
+  /// @brief Bytes of this container: the file, or the member's section.
   std::uint64_t file_size() const;
   std::uint64_t metadata_bytes() const { return metadata_size_; }
   /// @brief Bytes the brick index occupies in the file as stored: count × 64 for a 1.0/1.1
@@ -157,8 +169,11 @@ class ContainerReader {
   void check_index_fits_memory(std::uint64_t count) const;
   std::vector<BrickEntry> read_plain_index(std::uint64_t offset, std::uint64_t count, std::uint32_t crc);
   std::vector<BrickEntry> read_compressed_index(std::uint64_t offset, std::uint64_t count, std::uint32_t crc);
+  void open();
   std::filesystem::path path_;
+  std::string name_;
   std::shared_ptr<io::MappedFile> file_;
+  std::span<const std::byte> bytes_;  // the whole file, or a volume set member's section
   nlohmann::json metadata_;
   std::uint64_t metadata_size_ = 0;
   std::uint64_t index_size_ = 0;
