@@ -50,6 +50,39 @@ nlohmann::json volume_report(const io::VolumeSource& source, const VolumeStatist
   return j;
 }
 
+VolumeStatistics statistics_of(io::VolumeSource& source, ProgressSink& progress) {
+  StatisticsAccumulator stats;
+  io::for_each_slab(source, [&](const Volume& slab, std::int64_t) { stats.add(slab); }, progress, "info");
+  return stats.result();
+}
+
+// Range, mean and non-finite voxels of every volume of a file that holds several (the time
+// points of a series drift, a channel may be empty): what to pick with --volume.
+nlohmann::json each_volume_summary(const std::string& file, io::ReadOptions options, std::int64_t count,
+                                   ProgressSink& progress) {
+  nlohmann::json each = nlohmann::json::array();
+  for (std::int64_t t = 0; t < count; ++t) {
+    options.volume = t;
+    const auto source = io::open_volume(file, options);
+    const VolumeStatistics st = statistics_of(*source, progress);
+    each.push_back({{"volume", t},
+                    {"min", st.min},
+                    {"max", st.max},
+                    {"mean", st.mean},
+                    {"stddev", st.stddev},
+                    {"non_finite", st.voxel_count - st.finite_count()}});
+  }
+  return each;
+}
+
+void print_each_volume(const nlohmann::json& each) {
+  const auto number = [](const nlohmann::json& v) { return v.is_number() ? v.get<double>() : std::nan(""); };
+  std::printf("each volume: %6s %12s %12s %12s %12s %10s\n", "T", "min", "max", "mean", "stddev", "non-finite");
+  for (const auto& v : each)
+    std::printf("             %6lld %12g %12g %12g %12g %10llu\n", v["volume"].get<long long>(), number(v["min"]),
+                number(v["max"]), number(v["mean"]), number(v["stddev"]), v["non_finite"].get<unsigned long long>());
+}
+
 void print_volume_report(const nlohmann::json& j) {
   std::printf("file:        %s\n", j["file"].get<std::string>().c_str());
   std::printf("format:      %s\n", j["format"].get<std::string>().c_str());
@@ -78,6 +111,7 @@ void print_volume_report(const nlohmann::json& j) {
     std::printf("distinct:    %llu values\n", j["distinct_values"].get<unsigned long long>());
   if (j.contains("background_fraction"))
     std::printf("background:  %.4f of voxels are 0\n", j["background_fraction"].get<double>());
+  if (j.contains("volumes") && j["volumes"].contains("each")) print_each_volume(j["volumes"]["each"]);
 }
 
 // Opens a container (from `open`, which gives a fresh reader of the same bytes each call) with
@@ -224,13 +258,17 @@ void run_info(const InfoArgs& args, const GlobalOptions& global) {
   auto progress = global.make_progress();
   io::ReadOptions options = args.raw.to_read_options();
   options.progress = progress.get();
-  // A file of several volumes is described by its first unless --volume names another.
+  // A file of several volumes is described by its first unless --volume names another; without
+  // --volume every volume also gets a line of its own.
+  const bool every_volume = !options.volume;
   if (!options.volume) options.volume = 0;
   auto source = io::open_volume(args.file, options);
-  StatisticsAccumulator stats;
-  io::for_each_slab(*source, [&](const Volume& slab, std::int64_t) { stats.add(slab); }, *progress, "info");
-  nlohmann::json report = volume_report(*source, stats.result());
-  if (source->info().volumes > 1) report["volumes"] = {{"count", source->info().volumes}, {"described", *options.volume}};
+  nlohmann::json report = volume_report(*source, statistics_of(*source, *progress));
+  const std::int64_t count = source->info().volumes;
+  if (count > 1) {
+    report["volumes"] = {{"count", count}, {"described", *options.volume}};
+    if (every_volume) report["volumes"]["each"] = each_volume_summary(args.file, options, count, *progress);
+  }
   if (args.json) std::printf("%s\n", report.dump(2).c_str());
   else print_volume_report(report);
 }

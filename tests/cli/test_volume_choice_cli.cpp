@@ -53,6 +53,8 @@ TEST(CliVolumeChoice, InfoConvertAndCompressTakeTheChosenVolume) {
   ASSERT_EQ(run_command(strata_cmd("info " + q("series.nii")), &out), 0) << out;
   EXPECT_NE(out.find("volumes:     2 of these dims; the statistics below are of volume 0"), std::string::npos) << out;
   EXPECT_NE(out.find("range:       [100, 457]"), std::string::npos) << out;  // 100 + 3 * 119
+  // Every volume gets a line: T, min, max, mean (the ramp's midpoint), stddev, non-finite.
+  EXPECT_NE(out.find("      1         5000         5357       5178.5"), std::string::npos) << out;
   ASSERT_EQ(run_command(strata_cmd("info " + q("series.nii") + " --volume 1 --json"), &out), 0) << out;
   EXPECT_NE(out.find("\"min\": 5000.0"), std::string::npos) << out;
 
