@@ -1,0 +1,61 @@
+#pragma once
+/// @file
+/// @brief Global Tucker bases of a whole volume (paper 2, TAMRESH §3–4.1): one set of factor
+/// matrices U(n) (I_n × R) for the volume, fitted by HOOI streaming the volume slab by slab
+/// (never loaded whole), their mipmaps (pairwise row averages, one per octree level), and the
+/// orthonormal row-block bases a brick of a level is projected onto (Fig. 10). The global-basis
+/// codec builds its per-brick cores on these.
+#include <cstdint>
+#include <vector>
+
+#include "strata/core/progress.hpp"
+#include "strata/io/volume_io.hpp"
+#include "strata/tensor/tensor3.hpp"
+
+namespace strata::ta {
+
+/// How the HOOI starts. The paper starts from random matrices; the leading DCT-II vectors
+/// (smooth cosines, what the leading singular vectors of a smooth volume resemble) need no
+/// pass over the data and are deterministic without a seed.
+enum class GlobalInit { dct, random };
+
+struct GlobalFitOptions {
+  int rank = 16;                               ///< R per mode (clamped to each extent); paper: half the brick width
+  int max_sweeps = 3;                          ///< HOOI sweeps (three passes over the volume each)
+  double tolerance = 1e-4;                     ///< stop once a sweep improves the fit by less
+  std::uint64_t slab_bytes = 64ull << 20;      ///< float samples read per step (at least one slice)
+  GlobalInit init = GlobalInit::dct;
+  std::uint64_t seed = 1;                      ///< for GlobalInit::random
+};
+
+struct GlobalFit {
+  tensor::Factors<double> factors;   ///< U(n), I_n × R_n, orthonormal columns
+  std::vector<double> fit_per_sweep;  ///< 1 − ‖A − Ã‖F / ‖A‖F after each sweep (never decreases)
+  std::int64_t passes = 0;            ///< reads of the whole volume
+  double seconds = 0;
+  double fit() const { return fit_per_sweep.empty() ? 0.0 : fit_per_sweep.back(); }
+};
+
+/// @brief Fits global factor matrices to `source` by HOOI (Alg. 1): each mode's update projects
+/// the volume on the other two factors, accumulating slab by slab, and takes the leading
+/// eigenvectors of the projection's Gram matrix. Non-finite voxels count as 0. Memory: one
+/// slab of options.slab_bytes plus O(I_n · R²) per mode. Throws ParameterError("GlobalFitOptions::…")
+/// for a rank < 1, max_sweeps < 1 or a negative tolerance.
+GlobalFit fit_global_factors(io::VolumeSource& source, const GlobalFitOptions& options, ProgressSink& progress);
+
+/// @brief The next coarser level's factor (§3.1.2): row i is the mean of rows 2i and 2i+1; an
+/// odd last row is kept alone (the octree's odd extents round up, repeating the edge voxel).
+/// A model reconstructed with halved factors is exactly the 2×2×2 average of the original's.
+tensor::Matrix<double> halve_rows(const tensor::Matrix<double>& factor);
+
+/// @brief Factor `factor` halved `levels − 1` times: element l belongs to octree level l.
+std::vector<tensor::Matrix<double>> mipmap_factor(const tensor::Matrix<double>& factor, int levels);
+
+/// @brief The orthonormal basis of a brick's rows (Fig. 10): rows first_row … first_row +
+/// rows − 1 of a level's factor (rows outside the level clamped to its edge, as the octree
+/// clamps samples), re-spanned by a thin SVD. Its min(rows, R) columns span the same space as
+/// the row block, ordered by decreasing singular value so that leading-rank truncation keeps
+/// the strongest directions; each column's largest-magnitude entry is positive.
+tensor::Matrix<double> row_block_basis(const tensor::Matrix<double>& level_factor, std::int64_t first_row, int rows);
+
+}  // namespace strata::ta

@@ -1,0 +1,241 @@
+#include "strata/ta/global_basis.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <random>
+
+#include <Eigen/Dense>
+#include <fmt/format.h>
+
+#include "strata/core/error.hpp"
+#include "strata/core/stopwatch.hpp"
+#include "strata/core/threads.hpp"
+
+namespace strata::ta {
+
+namespace {
+
+using tensor::Matrix;
+using MatrixF = Eigen::MatrixXf;
+using MatrixD = Eigen::MatrixXd;
+using SliceMap = Eigen::Map<const MatrixF>;  // one z slice, I1 × I2, x fastest (column-major)
+
+void check(const GlobalFitOptions& o) {
+  if (o.rank < 1) throw ParameterError("GlobalFitOptions::rank", fmt::format("must be at least 1, got {}", o.rank));
+  if (o.max_sweeps < 1)
+    throw ParameterError("GlobalFitOptions::max_sweeps", fmt::format("must be at least 1, got {}", o.max_sweeps));
+  if (!(o.tolerance >= 0)) throw ParameterError("GlobalFitOptions::tolerance", fmt::format("must be >= 0, got {}", o.tolerance));
+}
+
+// Column j of the orthonormal DCT-II basis of length n: the j-th smoothest cosine.
+MatrixD dct_basis(std::int64_t n, int r) {
+  MatrixD u(n, r);
+  for (int j = 0; j < r; ++j) {
+    const double scale = std::sqrt((j == 0 ? 1.0 : 2.0) / double(n));
+    for (std::int64_t i = 0; i < n; ++i) u(i, j) = scale * std::cos(std::numbers::pi * (double(i) + 0.5) * j / double(n));
+  }
+  return u;
+}
+
+MatrixD random_basis(std::int64_t n, int r, std::mt19937_64& rng) {
+  std::normal_distribution<double> normal;
+  MatrixD g(n, r);
+  for (std::int64_t i = 0; i < g.size(); ++i) g.data()[i] = normal(rng);
+  Eigen::HouseholderQR<MatrixD> qr(g);
+  return qr.householderQ() * MatrixD::Identity(n, r);
+}
+
+// A column's sign is arbitrary; fix it so its largest-magnitude entry is positive (the same
+// rule as tensor::hosvd), so fits and bases are reproducible.
+void fix_signs(MatrixD& u) {
+  for (Eigen::Index j = 0; j < u.cols(); ++j) {
+    Eigen::Index at = 0;
+    u.col(j).cwiseAbs().maxCoeff(&at);
+    if (u(at, j) < 0) u.col(j) = -u.col(j);
+  }
+}
+
+// The r eigenvectors of the symmetric `gram` with the largest eigenvalues, largest first.
+MatrixD leading_eigenvectors(const MatrixD& gram, int r) {
+  Eigen::SelfAdjointEigenSolver<MatrixD> eig(gram);
+  if (eig.info() != Eigen::Success) throw Error("global basis: the eigen-decomposition of a Gram matrix failed");
+  const Eigen::Index n = gram.rows();
+  MatrixD u(n, r);
+  for (int j = 0; j < r; ++j) u.col(j) = eig.eigenvectors().col(n - 1 - j);  // ascending order
+  fix_signs(u);
+  return u;
+}
+
+// Streams the volume as float slabs of whole slices; visit(z0, slices, data) sees
+// `slices` slices from z0, non-finite samples as 0.
+class SlabReader {
+ public:
+  SlabReader(io::VolumeSource& source, std::uint64_t slab_bytes) : source_(source) {
+    const Extent d = source.info().dims;
+    const std::uint64_t slice = std::uint64_t(d.x) * std::uint64_t(d.y) * sizeof(float);
+    slices_ = std::int64_t(std::clamp<std::uint64_t>(slab_bytes / std::max<std::uint64_t>(slice, 1), 1, std::uint64_t(d.z)));
+  }
+  template <class Visit>
+  void pass(ProgressSink& progress, double& sum_squares, Visit&& visit) {
+    const Extent d = source_.info().dims;
+    sum_squares = 0;
+    for (std::int64_t z0 = 0; z0 < d.z; z0 += slices_) {
+      const std::int64_t z1 = std::min(d.z, z0 + slices_);
+      Volume slab = source_.read_slab(z0, z1);
+      if (slab.dtype() != DType::f32) slab = slab.converted(DType::f32);
+      auto s = slab.samples<float>();
+      double squares = 0;
+      for (float& v : s) {
+        if (!std::isfinite(v)) v = 0;
+        squares += double(v) * double(v);
+      }
+      sum_squares += squares;
+      visit(z0, z1 - z0, s.data());
+      progress.advance(std::uint64_t(z1 - z0));
+    }
+  }
+
+ private:
+  io::VolumeSource& source_;
+  std::int64_t slices_ = 1;
+};
+
+// Per-slice products of one pass, run in parallel over the slices of a slab: column k of the
+// result is slice z0 + k's product, unfolded.
+template <class SliceProduct>
+MatrixF per_slice(std::int64_t slices, std::int64_t rows, const float* data, std::int64_t slice_size,
+                  const SliceProduct& product) {
+  MatrixF out(rows, slices);
+#pragma omp parallel for schedule(static) num_threads(thread_count()) if (slices > 1)
+  for (std::int64_t k = 0; k < slices; ++k) out.col(k) = product(data + k * slice_size);
+  return out;
+}
+
+// The three HOOI updates. Shapes: U1 I1 × R1, U2 I2 × R2, U3 I3 × R3; a slice M is I1 × I2.
+struct Sweep {
+  SlabReader& reader;
+  ProgressSink& progress;
+  Extent dims;
+  std::int64_t slice_size() const { return dims.x * dims.y; }
+
+  // Y1 = A ×2 U2ᵀ ×3 U3ᵀ (I1 × R2R3): per slice M U2, combined over z by U3.
+  MatrixD mode1(const MatrixD& u2, const MatrixD& u3, double& norm2) {
+    const MatrixF u2f = u2.cast<float>();
+    const Eigen::Index r2 = u2.cols(), r3 = u3.cols();
+    MatrixD y(dims.x * r2, r3);
+    y.setZero();
+    reader.pass(progress, norm2, [&](std::int64_t z0, std::int64_t n, const float* data) {
+      const MatrixF t = per_slice(n, dims.x * r2, data, slice_size(), [&](const float* s) {
+        const MatrixF m = SliceMap(s, dims.x, dims.y) * u2f;
+        return Eigen::Map<const Eigen::VectorXf>(m.data(), m.size()).eval();
+      });
+      y.noalias() += t.cast<double>() * u3.middleRows(z0, n);
+    });
+    return Eigen::Map<const MatrixD>(y.data(), dims.x, r2 * r3);  // Y1 unfolded along mode 1
+  }
+
+  // Y2 = A ×1 U1ᵀ ×3 U3ᵀ (R1 × I2 × R3); returns its mode-2 unfolding (I2 × R1R3).
+  MatrixD mode2(const MatrixD& u1, const MatrixD& u3, double& norm2) {
+    const MatrixF u1t = u1.transpose().cast<float>();
+    const Eigen::Index r1 = u1.cols(), r3 = u3.cols();
+    MatrixD y(r1 * dims.y, r3);
+    y.setZero();
+    reader.pass(progress, norm2, [&](std::int64_t z0, std::int64_t n, const float* data) {
+      const MatrixF w = per_slice(n, r1 * dims.y, data, slice_size(), [&](const float* s) {
+        const MatrixF m = u1t * SliceMap(s, dims.x, dims.y);
+        return Eigen::Map<const Eigen::VectorXf>(m.data(), m.size()).eval();
+      });
+      y.noalias() += w.cast<double>() * u3.middleRows(z0, n);
+    });
+    MatrixD unfolded(dims.y, r1 * r3);
+    for (Eigen::Index k = 0; k < r3; ++k)
+      unfolded.middleCols(k * r1, r1) = Eigen::Map<const MatrixD>(y.col(k).data(), r1, dims.y).transpose();
+    return unfolded;
+  }
+
+  // Y3 = A ×1 U1ᵀ ×2 U2ᵀ (R1R2 × I3, one column per slice); returns its mode-3 unfolding
+  // (I3 × R1R2).
+  MatrixD mode3(const MatrixD& u1, const MatrixD& u2, double& norm2) {
+    const MatrixF u1t = u1.transpose().cast<float>(), u2f = u2.cast<float>();
+    MatrixD y(u1.cols() * u2.cols(), dims.z);
+    reader.pass(progress, norm2, [&](std::int64_t z0, std::int64_t n, const float* data) {
+      const MatrixF v = per_slice(n, y.rows(), data, slice_size(), [&](const float* s) {
+        const MatrixF m = (u1t * SliceMap(s, dims.x, dims.y)) * u2f;
+        return Eigen::Map<const Eigen::VectorXf>(m.data(), m.size()).eval();
+      });
+      y.middleCols(z0, n) = v.cast<double>();
+    });
+    return y.transpose();
+  }
+};
+
+}  // namespace
+
+GlobalFit fit_global_factors(io::VolumeSource& source, const GlobalFitOptions& options, ProgressSink& progress) {
+  check(options);
+  const auto start = SteadyClock::now();
+  const Extent d = source.info().dims;
+  const std::array<std::int64_t, 3> extent{d.x, d.y, d.z};
+  std::array<int, 3> rank{};
+  for (int n = 0; n < 3; ++n) rank[std::size_t(n)] = int(std::min<std::int64_t>(options.rank, extent[std::size_t(n)]));
+
+  GlobalFit fit;
+  std::mt19937_64 rng(options.seed);
+  for (int n = 0; n < 3; ++n) {
+    const auto i = std::size_t(n);
+    fit.factors[i] = options.init == GlobalInit::dct ? dct_basis(extent[i], rank[i]) : random_basis(extent[i], rank[i], rng);
+  }
+  SlabReader reader(source, options.slab_bytes);
+  Sweep sweep{reader, progress, d};
+  progress.begin("global basis", std::uint64_t(d.z) * 3u * std::uint64_t(options.max_sweeps), "slices");
+  auto& [u1, u2, u3] = fit.factors;
+  for (int s = 0; s < options.max_sweeps; ++s) {
+    double norm2 = 0;
+    const MatrixD y1 = sweep.mode1(u2, u3, norm2);
+    u1 = leading_eigenvectors(y1 * y1.transpose(), rank[0]);
+    const MatrixD y2 = sweep.mode2(u1, u3, norm2);
+    u2 = leading_eigenvectors(y2 * y2.transpose(), rank[1]);
+    const MatrixD y3 = sweep.mode3(u1, u2, norm2);
+    u3 = leading_eigenvectors(y3 * y3.transpose(), rank[2]);
+    fit.passes += 3;
+    // With orthonormal factors ‖A − Ã‖² = ‖A‖² − ‖core‖², and the core is Y3 ×3 U3ᵀ.
+    const double core2 = (u3.transpose() * y3).squaredNorm();
+    const double error = std::sqrt(std::max(0.0, norm2 - core2));
+    fit.fit_per_sweep.push_back(norm2 > 0 ? 1.0 - error / std::sqrt(norm2) : 1.0);
+    if (s > 0 && fit.fit_per_sweep[std::size_t(s)] - fit.fit_per_sweep[std::size_t(s - 1)] < options.tolerance) break;
+  }
+  progress.end();
+  fit.seconds = seconds_since(start);
+  return fit;
+}
+
+Matrix<double> halve_rows(const Matrix<double>& factor) {
+  const Eigen::Index rows = (factor.rows() + 1) / 2;
+  Matrix<double> half(rows, factor.cols());
+  for (Eigen::Index i = 0; i < rows; ++i) {
+    const Eigen::Index a = 2 * i, b = std::min(2 * i + 1, factor.rows() - 1);
+    half.row(i) = 0.5 * (factor.row(a) + factor.row(b));
+  }
+  return half;
+}
+
+std::vector<Matrix<double>> mipmap_factor(const Matrix<double>& factor, int levels) {
+  if (levels < 1) throw ParameterError("levels", fmt::format("must be at least 1, got {}", levels));
+  std::vector<Matrix<double>> mip{factor};
+  for (int l = 1; l < levels; ++l) mip.push_back(halve_rows(mip.back()));
+  return mip;
+}
+
+Matrix<double> row_block_basis(const Matrix<double>& level_factor, std::int64_t first_row, int rows) {
+  if (rows < 1) throw ParameterError("rows", fmt::format("must be at least 1, got {}", rows));
+  const Eigen::Index last = level_factor.rows() - 1;
+  MatrixD block(rows, level_factor.cols());
+  for (int j = 0; j < rows; ++j) block.row(j) = level_factor.row(std::clamp<Eigen::Index>(first_row + j, 0, last));
+  Eigen::BDCSVD<MatrixD> svd(block, Eigen::ComputeThinU);
+  MatrixD u = svd.matrixU();  // singular values in decreasing order
+  fix_signs(u);
+  return u;
+}
+
+}  // namespace strata::ta
