@@ -11,6 +11,7 @@
 #include "strata/core/error.hpp"
 #include "strata/core/stopwatch.hpp"
 #include "strata/core/threads.hpp"
+#include "strata/tensor/ttm.hpp"
 
 namespace strata::ta {
 
@@ -236,6 +237,73 @@ Matrix<double> row_block_basis(const Matrix<double>& level_factor, std::int64_t 
   MatrixD u = svd.matrixU();  // singular values in decreasing order
   fix_signs(u);
   return u;
+}
+
+GlobalBases::GlobalBases(const tensor::Factors<double>& factors, const OctreeGeometry& geometry) {
+  const BrickLayout& layout = geometry.layout();
+  for (int n = 0; n < 3; ++n) ranks_[std::size_t(n)] = int(std::min<Eigen::Index>(factors[std::size_t(n)].cols(), layout.brick));
+  std::array<std::vector<Matrix<double>>, 3> mip;
+  for (int n = 0; n < 3; ++n) mip[std::size_t(n)] = mipmap_factor(factors[std::size_t(n)], geometry.level_count());
+  bases_.resize(std::size_t(geometry.level_count()));
+  for (int l = 0; l < geometry.level_count(); ++l) {
+    const Extent& grid = geometry.level(l).bricks;
+    const std::array<std::int64_t, 3> count{grid.x, grid.y, grid.z};
+    for (int n = 0; n < 3; ++n) {
+      auto& list = bases_[std::size_t(l)][std::size_t(n)];
+      for (std::int64_t b = 0; b < count[std::size_t(n)]; ++b) {
+        const std::int64_t first = b * layout.core() - layout.overlap;  // the brick's sample rows
+        list.push_back(row_block_basis(mip[std::size_t(n)][std::size_t(l)], first, layout.brick).cast<float>());
+      }
+    }
+  }
+}
+
+const Matrix<float>& GlobalBases::basis(int level, int mode, std::int64_t index) const {
+  if (level < 0 || level >= int(bases_.size()) || mode < 1 || mode > 3)
+    throw ParameterError("level", fmt::format("level {} mode {} has no bases ({} levels)", level, mode, bases_.size()));
+  const auto& list = bases_[std::size_t(level)][std::size_t(mode - 1)];
+  if (index < 0 || index >= std::int64_t(list.size()))
+    throw ParameterError("index", fmt::format("brick index {} along mode {} is not in 0..{}", index, mode, list.size() - 1));
+  return list[std::size_t(index)];
+}
+
+std::array<const Matrix<float>*, 3> GlobalBases::brick_bases(int level, std::int64_t bx, std::int64_t by,
+                                                             std::int64_t bz) const {
+  return {&basis(level, 1, bx), &basis(level, 2, by), &basis(level, 3, bz)};
+}
+
+tensor::Tensor3 project_brick(const tensor::Tensor3& samples, const std::array<const Matrix<float>*, 3>& bases) {
+  return tensor::project(samples, tensor::Factors<float>{*bases[0], *bases[1], *bases[2]});
+}
+
+std::vector<double> rank_ladder_rmse(const tensor::Tensor3& samples, const tensor::Tensor3& core,
+                                     const std::array<const Matrix<float>*, 3>& bases, const Box& region,
+                                     const std::vector<int>& ladder) {
+  if (region.empty()) throw ParameterError("region", "is empty");
+  std::vector<double> rmse;
+  for (int k : ladder) {
+    if (k < 1) throw ParameterError("ladder", fmt::format("ranks must be at least 1, got {}", k));
+    tensor::Ranks3 r{};
+    for (int n = 0; n < 3; ++n) r[std::size_t(n)] = int(std::min<std::int64_t>(k, core.dim(n + 1)));
+    tensor::Tensor3 leading(r[0], r[1], r[2]);
+    for (int c = 0; c < r[2]; ++c)
+      for (int b = 0; b < r[1]; ++b)
+        for (int a = 0; a < r[0]; ++a) leading(a, b, c) = core(a, b, c);
+    tensor::Factors<float> u;
+    for (int n = 0; n < 3; ++n) u[std::size_t(n)] = bases[std::size_t(n)]->leftCols(r[std::size_t(n)]);
+    const tensor::Tensor3 rebuilt = tensor::reconstruct(leading, u);
+    double sum = 0;
+    for (std::int64_t z = region.lo.z; z < region.hi.z; ++z)
+      for (std::int64_t y = region.lo.y; y < region.hi.y; ++y)
+        for (std::int64_t x = region.lo.x; x < region.hi.x; ++x) {
+          const double d = double(rebuilt(x, y, z)) - double(samples(x, y, z));
+          sum += d * d;
+        }
+    rmse.push_back(std::sqrt(sum / double(region.size().voxel_count())));
+  }
+  // Conservative: no entry below that of a higher rank (see the header).
+  for (std::size_t i = rmse.size(); i-- > 1;) rmse[i - 1] = std::max(rmse[i - 1], rmse[i]);
+  return rmse;
 }
 
 }  // namespace strata::ta

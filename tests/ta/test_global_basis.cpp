@@ -1,7 +1,9 @@
 // Global bases (ta/global_basis.hpp, paper 2): the streamed HOOI recovers an exactly low-rank
 // volume, does not depend on how the volume is cut into slabs, never loses fit from sweep to
 // sweep and fits at least as well as the in-memory truncated HOSVD; halved factors reconstruct
-// the 2×2×2 average; row-block bases are orthonormal and span their row block.
+// the 2×2×2 average; row-block bases are orthonormal and span their row block; a brick of any
+// level projected on its bases keeps what the global model holds, and the feature-scale table
+// never claims less error than a rank has.
 #include <gtest/gtest.h>
 
 #include <random>
@@ -153,6 +155,96 @@ TEST(TaGlobalBasis, RowBlocksAreOrthonormalAndSpanTheirRows) {
   }
   // Fewer rows than columns: the basis has as many columns as rows.
   EXPECT_EQ(row_block_basis(u, 0, 4).cols(), 4);
+}
+
+// The brick's samples (B³, overlap included, clamped at the edges) of `level` volume `v`.
+tensor::Tensor3 brick_samples(const tensor::Tensor3d& v, const OctreeGeometry& g, int level, std::int64_t bx,
+                              std::int64_t by, std::int64_t bz) {
+  const Box box = g.brick_sample_box(level, bx, by, bz);
+  const int b = g.layout().brick;
+  tensor::Tensor3 out(b, b, b);
+  for (int z = 0; z < b; ++z)
+    for (int y = 0; y < b; ++y)
+      for (int x = 0; x < b; ++x)
+        out(x, y, z) = float(v(std::clamp<std::int64_t>(box.lo.x + x, 0, v.dim(1) - 1),
+                               std::clamp<std::int64_t>(box.lo.y + y, 0, v.dim(2) - 1),
+                               std::clamp<std::int64_t>(box.lo.z + z, 0, v.dim(3) - 1)));
+  return out;
+}
+
+// Every brick of every level of an exactly rank-(4,4,4) volume is rebuilt from its core: level
+// l's samples are the model with factors halved l times, whose rows (clamped) are what the
+// brick's bases span.
+TEST(TaGlobalBasis, BricksOfEveryLevelProjectOntoTheirBasesExactly) {
+  std::mt19937_64 rng(21);
+  const int r = 4;
+  const tensor::Factors<double> truth{random_orthonormal(40, r, rng), random_orthonormal(36, r, rng),
+                                      random_orthonormal(28, r, rng)};
+  const tensor::Tensor3d core = random_core(r, rng);
+  const OctreeGeometry geometry({40, 36, 28}, {16, 2});
+  ASSERT_EQ(geometry.level_count(), 3);
+  const GlobalBases bases(truth, geometry);
+  tensor::Factors<double> level_factors = truth;
+  for (int l = 0; l < geometry.level_count(); ++l) {
+    const tensor::Tensor3d level = tensor::reconstruct(core, level_factors);
+    const Extent& grid = geometry.level(l).bricks;
+    for (std::int64_t bz = 0; bz < grid.z; ++bz)
+      for (std::int64_t by = 0; by < grid.y; ++by)
+        for (std::int64_t bx = 0; bx < grid.x; ++bx) {
+          const auto q = bases.brick_bases(l, bx, by, bz);
+          for (const auto* m : q) {
+            ASSERT_EQ(m->rows(), 16);
+            ASSERT_EQ(m->cols(), r);
+            EXPECT_LT(orthonormality_error(m->cast<double>()), 1e-6);  // float storage
+          }
+          const tensor::Tensor3 samples = brick_samples(level, geometry, l, bx, by, bz);
+          const tensor::Tensor3 rebuilt =
+              tensor::reconstruct(project_brick(samples, q), tensor::Factors<float>{*q[0], *q[1], *q[2]});
+          double worst = 0;
+          for (std::int64_t i = 0; i < samples.size(); ++i)
+            worst = std::max(worst, double(std::abs(rebuilt.data()[i] - samples.data()[i])));
+          EXPECT_LT(worst, 1e-4 * (1 + samples.norm() / std::sqrt(double(samples.size()))))
+              << "level " << l << " brick " << bx << "," << by << "," << bz;
+        }
+    for (auto& u : level_factors) u = halve_rows(u);
+  }
+  EXPECT_EQ(test::parameter_of([&] { bases.basis(3, 1, 0); }), "level");
+  EXPECT_EQ(test::parameter_of([&] { bases.basis(0, 1, 4); }), "index");  // 40 voxels: 4 bricks of 12
+}
+
+TEST(TaGlobalBasis, FeatureScaleTableNeverClaimsLessErrorThanARankHas) {
+  const Volume v = testing::prisms({40, 36, 30}, 4);
+  MemorySource source(v);
+  GlobalFitOptions o;
+  o.rank = 12;
+  const GlobalFit fit = fit_global_factors(source, o, silent_progress());
+  const OctreeGeometry geometry({40, 36, 30}, {16, 2});
+  const GlobalBases bases(fit.factors, geometry);
+  tensor::Tensor3d level0(40, 36, 30);
+  std::copy(v.samples<std::uint16_t>().begin(), v.samples<std::uint16_t>().end(), level0.data());
+  const std::vector<int> ladder{2, 4, 8, 12};
+  const Box whole{{0, 0, 0}, {16, 16, 16}};
+  for (std::int64_t bx = 0; bx < 3; ++bx) {
+    const auto q = bases.brick_bases(0, bx, 1, 1);
+    const tensor::Tensor3 samples = brick_samples(level0, geometry, 0, bx, 1, 1);
+    const tensor::Tensor3 core = project_brick(samples, q);
+    const Box inner = geometry.brick_core_box(0, bx, 1, 1);
+    const Box region{{2, 2, 2}, {2 + inner.size().x, 2 + inner.size().y, 2 + inner.size().z}};
+    const auto table = rank_ladder_rmse(samples, core, q, region, ladder);
+    ASSERT_EQ(table.size(), ladder.size());
+    for (std::size_t i = 0; i < ladder.size(); ++i) {
+      // The RMSE of rank ladder[i] alone, computed here without the table's rule.
+      const auto alone = rank_ladder_rmse(samples, core, q, region, {ladder[i]});
+      EXPECT_GE(table[i], alone[0] - 1e-9) << i;
+      if (i + 1 < ladder.size()) EXPECT_GE(table[i], table[i + 1]) << i;
+    }
+    EXPECT_EQ(table.back(), rank_ladder_rmse(samples, core, q, region, {12})[0]);
+    EXPECT_GT(table.front(), table.back());  // rank 2 of a prisms brick loses detail
+    // Over the whole brick, nested projections never lose accuracy: the rule changes nothing.
+    const auto full = rank_ladder_rmse(samples, core, q, whole, ladder);
+    for (std::size_t i = 0; i < ladder.size(); ++i)
+      EXPECT_NEAR(full[i], rank_ladder_rmse(samples, core, q, whole, {ladder[i]})[0], 1e-3 * full[i] + 1e-6) << i;
+  }
 }
 
 TEST(TaGlobalBasis, BadOptionsAreNamed) {

@@ -8,8 +8,10 @@
 #include <cstdint>
 #include <vector>
 
+#include "strata/core/extent.hpp"
 #include "strata/core/progress.hpp"
 #include "strata/io/volume_io.hpp"
+#include "strata/ta/octree.hpp"
 #include "strata/tensor/tensor3.hpp"
 
 namespace strata::ta {
@@ -57,5 +59,40 @@ std::vector<tensor::Matrix<double>> mipmap_factor(const tensor::Matrix<double>& 
 /// the row block, ordered by decreasing singular value so that leading-rank truncation keeps
 /// the strongest directions; each column's largest-magnitude entry is positive.
 tensor::Matrix<double> row_block_basis(const tensor::Matrix<double>& level_factor, std::int64_t first_row, int rows);
+
+/// @brief The row-block bases of every brick position of every octree level (Fig. 10): for
+/// level l and mode n, one basis per brick index along that mode, from the factor mipmapped to
+/// level l, over the brick's sample rows (overlap included), B × min(B, R_n) floats.
+class GlobalBases {
+ public:
+  GlobalBases(const tensor::Factors<double>& factors, const OctreeGeometry& geometry);
+
+  /// @brief The basis of mode `mode` (1..3) for bricks at index `index` along it on `level`.
+  const tensor::Matrix<float>& basis(int level, int mode, std::int64_t index) const;
+  /// @brief The three bases of brick (bx, by, bz) of `level`, for modes 1, 2, 3.
+  std::array<const tensor::Matrix<float>*, 3> brick_bases(int level, std::int64_t bx, std::int64_t by, std::int64_t bz) const;
+  /// @brief Columns per basis of mode `mode` (1..3) where no brick is narrower than the rank.
+  int rank(int mode) const { return ranks_[std::size_t(mode - 1)]; }
+
+ private:
+  std::array<int, 3> ranks_{};
+  // bases_[level][mode - 1][index]
+  std::vector<std::array<std::vector<tensor::Matrix<float>>, 3>> bases_;
+};
+
+/// @brief A brick's core tensor (§4.2): its samples (B × B × B, overlap included) projected on
+/// its three row-block bases, samples ×1 Q1ᵀ ×2 Q2ᵀ ×3 Q3ᵀ.
+tensor::Tensor3 project_brick(const tensor::Tensor3& samples, const std::array<const tensor::Matrix<float>*, 3>& bases);
+
+/// @brief A brick's row of the feature-scale table (§4.2): for each rank K of `ladder`
+/// (increasing, each ≥ 1), the RMSE over `region` (brick-local voxels: the brick's core, the
+/// borders excluded) of the brick rebuilt from the leading K × K × K block of `core` (ranks
+/// clamped to the core's). The projections on nested subspaces never lose accuracy over the
+/// whole brick, but over a part of it a higher rank may be slightly worse; each entry is
+/// therefore the largest RMSE of its rank and every higher one, so a renderer that picks the
+/// lowest rank meeting a target never gets more error than the table says.
+std::vector<double> rank_ladder_rmse(const tensor::Tensor3& samples, const tensor::Tensor3& core,
+                                     const std::array<const tensor::Matrix<float>*, 3>& bases, const Box& region,
+                                     const std::vector<int>& ladder);
 
 }  // namespace strata::ta
