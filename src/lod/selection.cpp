@@ -77,12 +77,14 @@ class CutBuilder {
       ++culled.frustum;
       return;
     }
-    if (!brick_visible(*entry, bins_, volume_.value_min(), volume_.value_max())) {
+    // A brick is culled only when neither it nor any finer brick it covers can be visible.
+    if ((volume_.subtree_histogram(key) & bins_) == 0) {
       ++culled.empty;
       return;
     }
     const double depth = view_depth(view_, box, near_);
-    out.push_back({key, entry, depth, voxel_edge(volume_.source_info().spacing, key.level) / view_.pixel_size_at(depth)});
+    out.push_back({key, entry, depth, voxel_edge(volume_.source_info().spacing, key.level) / view_.pixel_size_at(depth),
+                   brick_visible(*entry, bins_, volume_.value_min(), volume_.value_max())});
   }
 
   void admit(const std::vector<CutBrick>& bricks, const Culled& culled) {
@@ -99,7 +101,18 @@ class CutBuilder {
     while (!queue_.empty()) {
       const CutBrick brick = queue_.top();
       queue_.pop();
-      if (brick.key.level == 0 || brick.pixels_per_voxel <= options_.lod || !try_split(brick)) keep(brick);
+      // A brick whose own samples are invisible is refined whatever its size on screen (its
+      // children hold what its averages lost); if the budgets forbid that, it is dropped.
+      const bool fine_enough = brick.pixels_per_voxel <= options_.lod && brick.content_visible;
+      if (brick.key.level == 0 || fine_enough || !try_split(brick)) {
+        if (brick.content_visible) {
+          keep(brick);
+        } else {
+          --count_;
+          bytes_ -= reconstructed_bytes(*brick.entry, width_);
+          ++cut_.culled_empty;
+        }
+      }
     }
   }
 

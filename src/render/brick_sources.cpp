@@ -5,6 +5,7 @@
 
 #include "strata/core/error.hpp"
 #include "strata/core/threads.hpp"
+#include "strata/lod/histogram_bins.hpp"
 #include "strata/render/raycaster.hpp"
 #include "strata/ta/ta_volume.hpp"
 
@@ -29,7 +30,7 @@ lod::FrameBricks level_bricks(const ta::TaVolume& volume, int level, int rank, s
         const store::BrickKey key{std::uint8_t(level), std::int32_t(i % grid.x), std::int32_t((i / grid.x) % grid.y),
                                   std::int32_t(i / (grid.x * grid.y))};
         const store::BrickEntry* entry = &volume.entry(key);
-        if ((entry->histogram & visible_mask) == 0) continue;
+        if (!lod::brick_visible(*entry, visible_mask, volume.value_min(), volume.value_max())) continue;
         lod::ResidentBrick& b = slots[std::size_t(i)];
         b.key = key;
         b.rank = std::clamp(rank, 1, volume.rank());

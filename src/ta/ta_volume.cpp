@@ -7,6 +7,7 @@
 
 #include "strata/core/error.hpp"
 #include "strata/core/threads.hpp"
+#include "strata/store/brick_histogram.hpp"
 #include "strata/store/metadata_json.hpp"
 #include "strata/ta/target_codec.hpp"
 
@@ -134,6 +135,44 @@ TaVolume::TaVolume(std::unique_ptr<store::ContainerReader> container) : containe
                       missing + "level " + std::to_string(l) + " has " + std::to_string(bricks_per_level[l]) + " bricks, its grid " +
                           extent_text(grid) + " needs " + (want ? std::to_string(*want) : std::string("more than 2^63")));
   }
+  build_subtree_histograms();
+}
+
+namespace {
+
+std::size_t brick_index(const Extent& grid, std::int64_t x, std::int64_t y, std::int64_t z) {
+  return std::size_t(x + grid.x * (y + grid.y * z));
+}
+
+}  // namespace
+
+void TaVolume::build_subtree_histograms() {
+  const store::HistogramBinning binning(value_lo_, value_hi_);
+  subtree_histograms_.resize(std::size_t(geometry_->level_count()));
+  for (int l = 0; l < geometry_->level_count(); ++l)
+    subtree_histograms_[std::size_t(l)].assign(std::size_t(geometry_->level(l).bricks.voxel_count()), 0);
+  for (const store::BrickEntry& e : container_->bricks()) {
+    std::uint64_t own = e.histogram;
+    if (e.kind == store::PayloadKind::constant)
+      own = std::isfinite(e.min) ? std::uint64_t(1) << binning.bin(e.min) : 0;
+    subtree_histograms_[e.key.level][brick_index(geometry_->level(e.key.level).bricks, e.key.x, e.key.y, e.key.z)] = own;
+  }
+  // Level l + 1's brick (x, y, z) covers level l's bricks 2x .. 2x + 1 (and so on): the core
+  // width is the same on every level and each level halves the one below.
+  for (int l = 0; l + 1 < geometry_->level_count(); ++l) {
+    const Extent& grid = geometry_->level(l).bricks;
+    const Extent& parents = geometry_->level(l + 1).bricks;
+    for (std::int64_t z = 0; z < grid.z; ++z)
+      for (std::int64_t y = 0; y < grid.y; ++y)
+        for (std::int64_t x = 0; x < grid.x; ++x)
+          subtree_histograms_[std::size_t(l + 1)][brick_index(parents, x / 2, y / 2, z / 2)] |=
+              subtree_histograms_[std::size_t(l)][brick_index(grid, x, y, z)];
+  }
+}
+
+std::uint64_t TaVolume::subtree_histogram(const store::BrickKey& key) const {
+  entry(key);  // a key outside the octree is refused by name
+  return subtree_histograms_[key.level][brick_index(geometry_->level(key.level).bricks, key.x, key.y, key.z)];
 }
 
 const store::BrickEntry& TaVolume::entry(const store::BrickKey& key) const {

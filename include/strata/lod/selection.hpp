@@ -26,6 +26,9 @@ struct CutBrick {
   const store::BrickEntry* entry = nullptr;  // into the volume's index (lives as long as the TaVolume)
   double depth = 0;                          // nearest point along the view direction (view_depth)
   double pixels_per_voxel = 0;               // projected voxel edge at `depth`
+  // False when the brick's own samples are all invisible under the transfer function while
+  // finer bricks below it are not (thin structures averaged away): it is refined, never drawn.
+  bool content_visible = true;
 };
 
 struct Selection {

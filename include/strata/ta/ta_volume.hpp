@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <memory>
 #include <span>
+#include <vector>
 
 #include "strata/core/volume.hpp"
 #include "strata/store/container.hpp"
@@ -30,6 +31,12 @@ class TaVolume {
   // The index entry of `key`; throws FormatError ("brick (level l, x,y,z) is missing") when
   // the index lacks it.
   const store::BrickEntry& entry(const store::BrickKey& key) const;
+  /// @brief The 64-bin histogram (store/brick_histogram.hpp) of the brick `key` and of every finer
+  /// brick it covers: a coarse brick holds 2×2×2 averages, which can wash thin bright structures
+  /// below a transfer function's threshold while its children keep them, so culling a subtree
+  /// needs their union. Constant bricks count their value's bin (none for NaN or infinity).
+  /// Throws like entry() for a key outside the octree.
+  std::uint64_t subtree_histogram(const store::BrickKey& key) const;
   // Throws ParameterError("level"), naming the file, unless 0 <= level < geometry().level_count().
   void check_level(int level) const;
 
@@ -49,6 +56,8 @@ class TaVolume {
   std::string quant_;
   quant::QuantScheme scheme_;
   double value_lo_ = 0, value_hi_ = 0;
+  std::vector<std::vector<std::uint64_t>> subtree_histograms_;  // [level][brick index, x fastest]
+  void build_subtree_histograms();
 };
 
 }  // namespace strata::ta
