@@ -28,6 +28,7 @@ struct CompressArgs {
   double coarse_growth = 2.0;
   RawInputArgs raw;
   bool all_volumes = false;
+  std::string codec = "ta-bricked";
 };
 
 // The error target the flags ask for, checked here so a bad value names its own flag.
@@ -66,6 +67,11 @@ ta::CompressParams to_params(const CompressArgs& args) {
   p.codec.hooi_iterations = args.hooi;
   p.codec.zstd_level = args.zstd;
   if (!args.memory_limit.empty()) p.memory_limit = parse_byte_size(args.memory_limit, "--memory-limit");
+  if (args.codec == "ta-global") {
+    if (p.codec.target.kind != ta::TargetKind::none)
+      throw UsageError("--codec", "ta-global stores fixed-rank cores; --psnr, --rmse and --max-error need ta-bricked");
+    p.kind = ta::CodecKind::global;
+  }
   return p;
 }
 
@@ -80,6 +86,9 @@ void print_compress_report(const std::string& name, const ta::CompressParams& pa
               name.c_str(), (long long)bricks, r.levels.size(), (long long)constant,
               human_bytes(r.file_bytes).c_str(), 8.0 * double(r.file_bytes) / double(r.input_voxels), r.seconds,
               double(r.input_voxels) / r.seconds / 1e6);
+  if (!r.global_fit.empty())
+    std::printf("global bases: fit %.5f after %zu sweep%s (%.2f s)\n", r.global_fit.back(), r.global_fit.size(),
+                r.global_fit.size() == 1 ? "" : "s", r.global_seconds);
   if (params.codec.target.kind != ta::TargetKind::none && !r.levels.empty())
   {
     std::printf("level 0: RMSE %.6g, max error %.6g (measured; %d encoding pass%s after a %.2f s pre-pass)\n",
@@ -142,6 +151,11 @@ void register_compress(CLI::App& app, const GlobalOptions& global) {
   rmse->excludes(max_error)->excludes(quant)->excludes(hooi);
   max_error->excludes(quant)->excludes(hooi);
   (void)growth;
+  cmd->add_option("--codec", args->codec,
+                  "ta-bricked: bases per brick (paper 1); ta-global: one set of global bases for the volume, a core per "
+                  "brick and a feature-scale table (paper 2; fixed rank, --quant applies to the cores)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"ta-bricked", "ta-global"}));
   cmd->add_option("--memory-limit", args->memory_limit,
                   "Bound the working memory, e.g. 512M or 2G (input slabs shrink to fit; default: 64 MiB slabs)");
   args->raw.add_to(*cmd);

@@ -46,6 +46,7 @@ nlohmann::json eval_json(const ta::TaVolume& volume, const ta::StorageReport& s,
             {"bits_per_voxel_lossless_bricks", s.bits_per_voxel(s.lossless_bytes, src)},
             {"bits_per_voxel_non_finite_masks", s.bits_per_voxel(s.mask_bytes, src)},
             {"bits_per_voxel_container", s.bits_per_voxel(s.container_bytes, src)},
+            {"bits_per_voxel_feature_scale", s.bits_per_voxel(s.feature_scale_bytes, src)},
             {"levels", levels}}},
           {"error",
            {{"rank", e.rank}, {"snr_db", m.snr_db}, {"psnr_db", m.psnr_db}, {"nrmse", m.nrmse}, {"rmse", m.rmse},
@@ -62,6 +63,9 @@ void print_report(const nlohmann::json& r) {
               s["bits_per_voxel"].get<double>(), s["bits_per_voxel_cores"].get<double>(),
               s["bits_per_voxel_factors"].get<double>(), s["bits_per_voxel_brick_headers"].get<double>(),
               s["bits_per_voxel_container"].get<double>());
+  if (s["bits_per_voxel_feature_scale"].get<double>() > 0)
+    std::printf("                 (global bases counted as factors; feature-scale table %.3f)\n",
+                s["bits_per_voxel_feature_scale"].get<double>());
   if (s["bits_per_voxel_corrections"].get<double>() > 0 || s["bits_per_voxel_lossless_bricks"].get<double>() > 0)
     std::printf("                 (max-error corrections %.3f, lossless bricks %.3f)\n",
                 s["bits_per_voxel_corrections"].get<double>(), s["bits_per_voxel_lossless_bricks"].get<double>());

@@ -125,8 +125,8 @@ std::unique_ptr<store::ContainerReader> open_validated(const OpenContainer& open
   const nlohmann::json& m = reader->metadata();
   const auto codec = m.find("codec");
   if (codec == m.end())
-    throw FormatError(file, "metadata.codec", "missing (expected \"ta-bricked\" or \"mixture-graph\")");
-  if (*codec == "ta-bricked") {
+    throw FormatError(file, "metadata.codec", "missing (expected \"ta-bricked\", \"ta-global\" or \"mixture-graph\")");
+  if (*codec == "ta-bricked" || *codec == ta::kGlobalCodecName) {
     volume = std::make_unique<ta::TaVolume>(std::move(reader));
     return nullptr;
   }
@@ -135,7 +135,7 @@ std::unique_ptr<store::ContainerReader> open_validated(const OpenContainer& open
     return reader;
   }
   throw FormatError(file, "metadata.codec",
-                    "expected \"ta-bricked\" or \"mixture-graph\", got " + store::json_excerpt(*codec));
+                    "expected \"ta-bricked\", \"ta-global\" or \"mixture-graph\", got " + store::json_excerpt(*codec));
 }
 
 // A .strata file: container header, codec parameters, levels and brick counts, sizes.
@@ -146,7 +146,7 @@ nlohmann::json container_report(const OpenContainer& open) {
   const nlohmann::json& m = reader.metadata();
   nlohmann::json j{{"file", reader.name()}, {"format", "strata"}, {"file_bytes", reader.file_size()},
                    {"metadata_bytes", reader.metadata_bytes()}, {"index_bytes", reader.index_bytes()}};
-  for (const char* key : {"codec", "source", "brick", "overlap", "rank", "quant", "hooi_iterations", "zstd_level"})
+  for (const char* key : {"codec", "source", "brick", "overlap", "rank", "quant", "hooi_iterations", "zstd_level", "global"})
     if (m.contains(key)) j[key] = m[key];
   std::vector<nlohmann::json> levels;
   if (m.contains("levels") && m["levels"].is_array())
@@ -195,6 +195,9 @@ void print_container_report(const nlohmann::json& j) {
   if (j.contains("brick"))
     std::printf("bricks:      width %d, overlap %d, rank %d, quant %s, zstd %d\n", j["brick"].get<int>(), j["overlap"].get<int>(),
                 j.value("rank", 0), j.value("quant", std::string("?")).c_str(), j.value("zstd_level", 0));
+  if (j.contains("global"))
+    std::printf("global:      bases of ranks %s (fit %.5f), feature-scale ranks %s\n", j["global"].value("ranks", nlohmann::json()).dump().c_str(),
+                j["global"].value("fit", 0.0), j["global"].value("ladder", nlohmann::json()).dump().c_str());
   if (j.contains("bits_per_voxel")) std::printf("size:        %.3f bits per source voxel\n", j["bits_per_voxel"].get<double>());
   if (j.contains("mixture_graph")) {  // label volume: graph statistics instead of bricks
     const auto& g = j["mixture_graph"];

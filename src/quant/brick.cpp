@@ -69,7 +69,17 @@ std::size_t factor_offset(const tensor::Dims3& d, const tensor::Ranks3& r, int m
   return offset;
 }
 
+// Extents {0, 0, 0} mark a core-only brick (the global-basis codec keeps its bases elsewhere).
+bool core_only(const tensor::Dims3& d) { return d[0] == 0 && d[1] == 0 && d[2] == 0; }
+
 void check_shape(const tensor::Dims3& d, const tensor::Ranks3& r, const char* context) {
+  if (core_only(d)) {
+    for (std::size_t n = 0; n < 3; ++n)
+      if (r[n] < 1 || r[n] > kMaxExtent)
+        throw Error(std::string(context) + ": a core-only brick needs ranks in [1, 65535], got " + std::to_string(r[0]) +
+                    "," + std::to_string(r[1]) + "," + std::to_string(r[2]));
+    return;
+  }
   for (std::size_t n = 0; n < 3; ++n) {
     if (d[n] < 1 || d[n] > kMaxExtent || r[n] < 1 || r[n] > d[n]) {
       throw Error(std::string(context) + ": extents must be in [1, 65535] and ranks in [1, extent], got " +
@@ -187,6 +197,17 @@ QuantizedBrick quantize(const tensor::Tucker& model, const QuantScheme& scheme) 
   return q;
 }
 
+QuantizedBrick quantize_core_only(const tensor::Tensor3& core, const QuantScheme& scheme) {
+  check_scheme(scheme);
+  QuantizedBrick q;
+  q.ranks = {int(core.dim(1)), int(core.dim(2)), int(core.dim(3))};
+  check_shape(q.dims, q.ranks, "quantize_core_only");
+  tensor::Tucker model;
+  model.core = core;
+  quantize_core(model, scheme, q);
+  return q;
+}
+
 std::size_t serialized_size(const QuantScheme& scheme, const tensor::Dims3& dims, const tensor::Ranks3& ranks) {
   check_scheme(scheme);
   return kHeaderBytes + stored_params(scheme).size() * sizeof(float) + packed_size(core_count(ranks), scheme.core_bits) +
@@ -255,6 +276,7 @@ void BrickView::dequantize_core(const tensor::Ranks3& k, std::span<float> out) c
 
 void BrickView::dequantize_factor(int mode, int leading, std::span<float> out) const {
   tensor::check_mode(mode, "dequantize_factor");
+  if (core_only(dims_)) throw Error("dequantize_factor: a core-only brick has no factors");
   const std::size_t n = std::size_t(mode - 1);
   if (leading < 1 || leading > ranks_[n]) throw Error("dequantize_factor: leading rank must be in [1, R]");
   const std::size_t count = std::size_t(dims_[n]) * std::size_t(leading);  // the first columns are contiguous
@@ -288,6 +310,7 @@ void dequantize(const BrickView& brick, const tensor::Ranks3& leading, Dequantiz
   out.samples.clear();
   out.core.resize(core_count(leading));
   brick.dequantize_core(leading, out.core);
+  if (core_only(out.dims)) return;  // the caller supplies the factors
   for (int mode = 1; mode <= 3; ++mode) {
     auto& f = out.factors[std::size_t(mode - 1)];
     f.resize(std::size_t(out.dims[std::size_t(mode - 1)]) * std::size_t(leading[std::size_t(mode - 1)]));

@@ -110,7 +110,7 @@ BrickEntry decode_entry(std::span<const std::byte, kIndexEntrySize> b) {
 bool known_kind(PayloadKind k) {
   return k == PayloadKind::constant || k == PayloadKind::tucker || k == PayloadKind::tucker_zstd ||
          k == PayloadKind::tucker_coded || k == PayloadKind::raw_zstd || k == PayloadKind::raw_packed ||
-         k == PayloadKind::masked;
+         k == PayloadKind::masked || k == PayloadKind::global_core;
 }
 
 // Appends value(e) of the entries (with payload_only, of those with payload bytes) as one column
@@ -228,6 +228,7 @@ const char* payload_kind_name(PayloadKind k) {
     case PayloadKind::raw_zstd: return "raw_zstd";
     case PayloadKind::raw_packed: return "raw_packed";
     case PayloadKind::masked: return "masked";
+    case PayloadKind::global_core: return "global_core";
   }
   return "unknown";
 }

@@ -9,6 +9,7 @@
 #include "strata/store/byte_planes.hpp"
 #include "strata/store/zstd_frame.hpp"
 #include "strata/quant/coded_brick.hpp"
+#include "strata/tensor/ttm.hpp"
 #include "strata/tensor/tucker.hpp"
 #include "ta/raw_brick.hpp"
 
@@ -76,6 +77,28 @@ std::span<const std::byte> plain_payload(store::PayloadKind kind, std::span<cons
   store::merge_byte_planes(std::span<const std::byte>(scratch.inflated).subspan(f0, f1 - f0),
                     std::span(scratch.unshuffled).subspan(f0, f1 - f0), kFactorPlanes);
   return scratch.unshuffled;
+}
+
+EncodedBrick encode_global_brick(const tensor::Tensor3& samples, const BrickBases& bases, const quant::QuantScheme& scheme,
+                                 tensor::Tensor3& core) {
+  EncodedBrick out;
+  core = tensor::Tensor3();
+  if (is_constant(samples)) {
+    out.kind = store::PayloadKind::constant;
+    out.constant_value = samples.values()[0];
+    return out;
+  }
+  const tensor::Tensor3 projected =
+      tensor::project(samples, tensor::Factors<float>{*bases[0], *bases[1], *bases[2]});
+  out.kind = store::PayloadKind::global_core;
+  out.payload = quant::serialize(quant::quantize_core_only(projected, scheme), scheme);
+  const quant::BrickView view(out.payload, scheme);
+  core = tensor::Tensor3(projected.dims());
+  view.dequantize_core(view.ranks(), core.values());
+  const PayloadParts parts = payload_parts(out.payload, scheme, "encode");
+  out.core_bytes = parts.core_bytes;
+  out.header_bytes = parts.header_bytes;
+  return out;
 }
 
 EncodedBrick encode_brick(const tensor::Tensor3& samples, const CodecParams& params) {
@@ -158,10 +181,37 @@ PayloadParts payload_parts(std::span<const std::byte> payload, const quant::Quan
 
 namespace {
 
+// A global_core payload: its core at the leading ranks, and the first columns of the brick's
+// row-block bases as the factors.
+void dequantize_global_core(std::span<const std::byte> payload, const quant::QuantScheme& scheme, int brick_width,
+                            int rank, const BrickBases* bases, quant::DequantizedModel& model) {
+  if (!bases) throw Error("a global_core brick needs the volume's global bases");
+  const quant::BrickView view(payload, scheme);
+  if (view.dims() != tensor::Dims3{0, 0, 0}) throw Error("a global_core brick must be core-only (extents 0, 0, 0)");
+  tensor::Ranks3 leading{};
+  for (std::size_t n = 0; n < 3; ++n) {
+    const tensor::Matrix<float>& q = *(*bases)[n];
+    if (q.rows() != brick_width || view.ranks()[n] > q.cols())
+      throw Error("core ranks " + tensor::to_string(tensor::Dims3{view.ranks()[0], view.ranks()[1], view.ranks()[2]}) +
+                  " exceed the brick's bases (" + std::to_string(q.cols()) + " columns of " + std::to_string(q.rows()) + " rows)");
+    leading[n] = std::min(rank, view.ranks()[n]);
+  }
+  quant::dequantize(view, leading, model);
+  model.dims = {brick_width, brick_width, brick_width};
+  for (std::size_t n = 0; n < 3; ++n) {
+    const float* q = (*bases)[n]->data();  // column-major: the leading columns are contiguous
+    model.factors[n].assign(q, q + std::size_t(brick_width) * std::size_t(leading[n]));
+  }
+}
+
 // dequantize_brick for every kind but `masked`.
 void dequantize_unmasked(store::PayloadKind kind, std::span<const std::byte> payload, const quant::QuantScheme& scheme,
                          int brick_width, int rank, DecodeScratch& scratch, quant::DequantizedModel& model,
-                         const std::string& context) {
+                         const std::string& context, const BrickBases* bases) {
+  if (kind == store::PayloadKind::global_core) {
+    in_context(context, [&] { dequantize_global_core(payload, scheme, brick_width, rank, bases, model); });
+    return;
+  }
   if (kind == store::PayloadKind::tucker_coded) {
     // The rank slider truncates at reconstruction (reconstruct_model): the model stays whole.
     quant::dequantize(quant::deserialize_coded(payload, brick_width, context), model);
@@ -190,9 +240,9 @@ void dequantize_unmasked(store::PayloadKind kind, std::span<const std::byte> pay
 
 void dequantize_brick(store::PayloadKind kind, std::span<const std::byte> payload, const quant::QuantScheme& scheme,
                       int brick_width, int rank, DecodeScratch& scratch, quant::DequantizedModel& model,
-                      const std::string& context) {
+                      const std::string& context, const BrickBases* bases) {
   if (kind != store::PayloadKind::masked) {
-    dequantize_unmasked(kind, payload, scheme, brick_width, rank, scratch, model, context);
+    dequantize_unmasked(kind, payload, scheme, brick_width, rank, scratch, model, context, bases);
     model.non_finite_index.clear();
     model.non_finite_value.clear();
     return;
@@ -204,7 +254,7 @@ void dequantize_brick(store::PayloadKind kind, std::span<const std::byte> payloa
     model.dims = {brick_width, brick_width, brick_width};
     model.offset = masked.inner_constant;  // no Tucker part: the reconstruction is the offset
   } else {
-    dequantize_unmasked(masked.inner, masked.inner_payload, scheme, brick_width, rank, scratch, model, context);
+    dequantize_unmasked(masked.inner, masked.inner_payload, scheme, brick_width, rank, scratch, model, context, bases);
   }
   model.non_finite_index = std::move(masked.mask.index);
   model.non_finite_value = std::move(masked.mask.value);
@@ -212,14 +262,14 @@ void dequantize_brick(store::PayloadKind kind, std::span<const std::byte> payloa
 
 void decode_brick(store::PayloadKind kind, std::span<const std::byte> payload, float constant_value,
                   const quant::QuantScheme& scheme, int brick_width, int rank, tensor::BrickReconstructor& reconstructor,
-                  DecodeScratch& scratch, std::span<float> out, const std::string& context) {
+                  DecodeScratch& scratch, std::span<float> out, const std::string& context, const BrickBases* bases) {
   const std::size_t voxels = std::size_t(brick_width) * brick_width * brick_width;
   if (out.size() != voxels) throw Error(context + ": decode buffer holds " + std::to_string(out.size()) + " floats, brick needs " + std::to_string(voxels));
   if (kind == store::PayloadKind::constant) {
     std::fill(out.begin(), out.end(), constant_value);
     return;
   }
-  dequantize_brick(kind, payload, scheme, brick_width, rank, scratch, scratch.model, context);
+  dequantize_brick(kind, payload, scheme, brick_width, rank, scratch, scratch.model, context, bases);
   in_context(context, [&] { reconstruct_model(scratch.model, leading_ranks(scratch.model, rank), reconstructor, out); });
 }
 

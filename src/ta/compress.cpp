@@ -117,10 +117,24 @@ struct EncodedLevels {
   std::vector<std::unique_ptr<LevelPipeline>> levels;
 };
 
+// The ta-global codec's bases and, as bricks arrive, the rows of its feature-scale table.
+struct GlobalState {
+  GlobalFit fit;
+  std::unique_ptr<GlobalBases> bases;
+  GlobalCoding coding;
+  std::vector<float> table;  // rows of ladder.size() floats, in octree order (level, z, y, x)
+  std::vector<std::size_t> level_offset;  // first row of each level
+
+  std::size_t row(const OctreeGeometry& g, const store::BrickKey& k) const {
+    const Extent& grid = g.level(k.level).bricks;
+    return level_offset[k.level] + std::size_t(k.x + grid.x * (k.y + grid.y * std::int64_t(k.z)));
+  }
+};
+
 EncodedLevels encode_levels(io::VolumeSource& source, const std::filesystem::path& out, const CompressParams& params,
                             const OctreeGeometry& geometry, const HistogramRange& range,
                             const std::vector<BrickTarget>& targets, std::uint64_t slab_bytes, CompressReport& report,
-                            ProgressSink& progress) {
+                            ProgressSink& progress, GlobalState* global) {
   EncodedLevels result;
   result.writer = std::make_unique<store::ContainerWriter>(out);
   store::ContainerWriter& writer = *result.writer;
@@ -139,6 +153,9 @@ EncodedLevels encode_levels(io::VolumeSource& source, const std::filesystem::pat
       report.core_bytes += b.core_bytes;
       report.factor_bytes += b.factor_bytes;
       report.brick_header_bytes += b.header_bytes;
+      if (global && !b.rank_errors.empty())
+        std::copy(b.rank_errors.begin(), b.rank_errors.end(),
+                  global->table.begin() + std::ptrdiff_t(global->row(geometry, key) * global->coding.ladder.size()));
     }
     bricks_task.advance(1);
   };
@@ -150,6 +167,7 @@ EncodedLevels encode_levels(io::VolumeSource& source, const std::filesystem::pat
     const std::optional<BrickTarget> target =
         targets.empty() ? std::nullopt : std::optional<BrickTarget>(targets[std::size_t(l)]);
     result.levels[std::size_t(l)] = std::make_unique<LevelPipeline>(geometry, l, params.codec, target, range, sink, next);
+    if (global) result.levels[std::size_t(l)]->use_global_bases(&global->coding);
   }
   io::for_each_slab(source, [&](const Volume& slab, std::int64_t) { push_slab_to_level0(slab, *result.levels[0]); },
                     silent_progress(), "read", slab_bytes);
@@ -248,8 +266,61 @@ std::uint64_t input_slab_bytes(const OctreeGeometry& geometry, const VolumeInfo&
   return std::min<std::uint64_t>(io::kDefaultSlabBytes, std::max(budget, slice));
 }
 
+std::vector<int> feature_scale_ladder(int rank) {
+  const int step = std::max(1, (rank + 3) / 4);
+  std::vector<int> ladder;
+  for (int k = step; k < rank; k += step) ladder.push_back(k);
+  ladder.push_back(rank);
+  return ladder;
+}
+
+namespace {
+
+// ta-global: fits the global bases (paper 2 §4.1) and sizes the feature-scale table.
+std::unique_ptr<GlobalState> fit_global(io::VolumeSource& source, const CompressParams& params,
+                                        const OctreeGeometry& geometry, std::uint64_t slab_bytes, ProgressSink& progress) {
+  if (params.codec.target.kind != TargetKind::none)
+    throw ParameterError("CompressParams::kind", "the ta-global codec stores fixed-rank cores; error targets (--psnr, "
+                                                 "--rmse, --max-error) need the default codec, ta-bricked");
+  auto g = std::make_unique<GlobalState>();
+  GlobalFitOptions o = params.global;
+  o.rank = params.codec.rank;
+  o.slab_bytes = slab_bytes;
+  g->fit = fit_global_factors(source, o, progress);
+  g->bases = std::make_unique<GlobalBases>(g->fit.factors, geometry);
+  g->coding.bases = g->bases.get();
+  g->coding.ladder = feature_scale_ladder(std::min({g->bases->rank(1), g->bases->rank(2), g->bases->rank(3)}));
+  std::size_t rows = 0;
+  for (int l = 0; l < geometry.level_count(); ++l) {
+    g->level_offset.push_back(rows);
+    rows += std::size_t(geometry.level(l).bricks.voxel_count());
+  }
+  g->table.assign(rows * g->coding.ladder.size(), 0.0f);  // constant bricks are exact at every rank
+  return g;
+}
+
+nlohmann::json global_metadata(const GlobalState& g) {
+  return {{"ranks", {g.bases->rank(1), g.bases->rank(2), g.bases->rank(3)}},
+          {"ladder", g.coding.ladder},
+          {"fit", g.fit.fit()},
+          {"sweeps", g.fit.fit_per_sweep.size()}};
+}
+
+std::span<const std::byte> as_bytes(const std::vector<float>& v) {
+  return {reinterpret_cast<const std::byte*>(v.data()), v.size() * sizeof(float)};
+}
+
+}  // namespace
+
 CompressReport compress_volume(io::VolumeSource& source, const std::filesystem::path& out,
-                               const CompressParams& params, ProgressSink& progress) {
+                               const CompressParams& requested, ProgressSink& progress) {
+  // ta-global cores are core-only bricks: the scheme's factor part is unused (f32 stores no
+  // factor parameters).
+  CompressParams params = requested;
+  if (params.kind == CodecKind::global) {
+    params.codec.quant.factor_coding = quant::FactorCoding::f32;
+    params.codec.quant.factor_bits = 32;
+  }
   const auto start = Clock::now();
   const VolumeInfo& info = source.info();
   if (params.codec.rank < 1 || params.codec.rank > params.layout.brick)
@@ -261,6 +332,12 @@ CompressReport compress_volume(io::VolumeSource& source, const std::filesystem::
   report.input_voxels = std::uint64_t(info.dims.voxel_count());
 
   const std::uint64_t slab_bytes = input_slab_bytes(geometry, info, params);
+  std::unique_ptr<GlobalState> global;
+  if (params.kind == CodecKind::global) {
+    global = fit_global(source, params, geometry, slab_bytes, progress);
+    report.global_fit = global->fit.fit_per_sweep;
+    report.global_seconds = global->fit.seconds;
+  }
   const ErrorTarget& target = params.codec.target;
   const bool budget = target.kind == TargetKind::psnr || target.kind == TargetKind::rmse;
   std::optional<StepCalibrator> calibrator;
@@ -281,7 +358,8 @@ CompressReport compress_volume(io::VolumeSource& source, const std::filesystem::
                               params.codec.zstd_level, search.step());
     report.levels.assign(std::size_t(geometry.level_count()), LevelCounts{});
     report.core_bytes = report.factor_bytes = report.brick_header_bytes = 0;
-    EncodedLevels encoded = encode_levels(source, out, params, geometry, range, targets, slab_bytes, report, progress);
+    EncodedLevels encoded =
+        encode_levels(source, out, params, geometry, range, targets, slab_bytes, report, progress, global.get());
     // A pass not kept is abandoned here: the writer's temporary goes with it.
     if (!search.accept(attempt, encoded.levels[0]->measured_error().mse())) continue;
     report.attempts = attempt + 1;
@@ -290,7 +368,14 @@ CompressReport compress_volume(io::VolumeSource& source, const std::filesystem::
       report.levels[l].rmse = std::sqrt(e.mse());
       report.levels[l].max_error = e.max_abs;
     }
-    report.file_bytes = encoded.writer->finish(make_metadata(info, geometry, params, range, targets, report.levels));
+    nlohmann::json global_json;
+    if (global) {
+      encoded.writer->add_section("global_bases", global->bases->serialize());
+      encoded.writer->add_section("feature_scale", as_bytes(global->table));
+      global_json = global_metadata(*global);
+    }
+    report.file_bytes =
+        encoded.writer->finish(make_metadata(info, geometry, params, range, targets, report.levels, global_json));
     break;
   }
   report.container_bytes = report.file_bytes - report.core_bytes - report.factor_bytes - report.brick_header_bytes;

@@ -59,7 +59,9 @@ void add_payload(store::PayloadKind kind, std::span<const std::byte> stored, con
     add_coded_parts(quant::deserialize_coded(stored, brick, c.name()), stored.size(), r);
     return;
   }
-  const auto plain = plain_payload(kind, stored, volume.quant_scheme(), scratch, c.name());
+  // A global_core payload is a plain core-only brick; the others may be zstd-packed.
+  const auto plain = kind == store::PayloadKind::global_core ? stored
+                                                             : plain_payload(kind, stored, volume.quant_scheme(), scratch, c.name());
   const auto parts = payload_parts(plain, volume.quant_scheme(), c.name());
   const double ratio = double(stored.size()) / double(plain.size());
   const auto core = std::uint64_t(double(parts.core_bytes) * ratio);
@@ -90,7 +92,15 @@ StorageReport storage_report(const TaVolume& volume) {
     }
     add_payload(e.kind, c.payload(e), volume, scratch, r);
   }
-  r.container_bytes = r.file_bytes - payload_total;
+  std::uint64_t sections = 0;
+  if (volume.global()) {
+    // The global bases are this codec's factors; the table is what its LOD reads.
+    const std::uint64_t bases = c.section("global_bases").size();
+    r.feature_scale_bytes = c.section("feature_scale").size();
+    r.factor_bytes += bases;
+    sections = bases + r.feature_scale_bytes;
+  }
+  r.container_bytes = r.file_bytes - payload_total - sections;
   return r;
 }
 

@@ -1,6 +1,7 @@
 #include "strata/ta/global_basis.hpp"
 
 #include <algorithm>
+#include <cstring>
 #include <cmath>
 #include <numbers>
 #include <random>
@@ -270,6 +271,51 @@ const Matrix<float>& GlobalBases::basis(int level, int mode, std::int64_t index)
 std::array<const Matrix<float>*, 3> GlobalBases::brick_bases(int level, std::int64_t bx, std::int64_t by,
                                                              std::int64_t bz) const {
   return {&basis(level, 1, bx), &basis(level, 2, by), &basis(level, 3, bz)};
+}
+
+std::vector<std::byte> GlobalBases::serialize() const {
+  std::vector<std::byte> out;
+  for (const auto& level : bases_)
+    for (const auto& mode : level)
+      for (const Matrix<float>& q : mode) {
+        const auto* bytes = reinterpret_cast<const std::byte*>(q.data());
+        out.insert(out.end(), bytes, bytes + q.size() * sizeof(float));
+      }
+  return out;
+}
+
+GlobalBases GlobalBases::deserialize(std::span<const std::byte> bytes, const OctreeGeometry& geometry,
+                                     const std::array<int, 3>& ranks, const std::string& file) {
+  const int b = geometry.layout().brick;
+  std::uint64_t floats = 0;
+  for (int l = 0; l < geometry.level_count(); ++l) {
+    const Extent& grid = geometry.level(l).bricks;
+    floats += std::uint64_t(b) * std::uint64_t(grid.x * ranks[0] + grid.y * ranks[1] + grid.z * ranks[2]);
+  }
+  if (bytes.size() != floats * sizeof(float))
+    throw FormatError(file, "section global_bases",
+                      fmt::format("{} bytes, expected {} ({} floats: one {}-row basis of ranks {},{},{} per brick "
+                                  "position, mode and level)",
+                                  bytes.size(), floats * sizeof(float), floats, b, ranks[0], ranks[1], ranks[2]));
+  GlobalBases g;
+  g.ranks_ = ranks;
+  g.bases_.resize(std::size_t(geometry.level_count()));
+  std::size_t at = 0;
+  for (int l = 0; l < geometry.level_count(); ++l) {
+    const Extent& grid = geometry.level(l).bricks;
+    const std::array<std::int64_t, 3> count{grid.x, grid.y, grid.z};
+    for (int n = 0; n < 3; ++n)
+      for (std::int64_t i = 0; i < count[std::size_t(n)]; ++i) {
+        Matrix<float> q(b, ranks[std::size_t(n)]);
+        std::memcpy(q.data(), bytes.data() + at, std::size_t(q.size()) * sizeof(float));
+        at += std::size_t(q.size()) * sizeof(float);
+        if (!q.allFinite())
+          throw FormatError(file, "section global_bases",
+                            fmt::format("the basis of level {} mode {} brick index {} holds a non-finite value", l, n + 1, i));
+        g.bases_[std::size_t(l)][std::size_t(n)].push_back(std::move(q));
+      }
+  }
+  return g;
 }
 
 tensor::Tensor3 project_brick(const tensor::Tensor3& samples, const std::array<const Matrix<float>*, 3>& bases) {

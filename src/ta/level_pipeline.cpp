@@ -224,6 +224,21 @@ bool LevelPipeline::encode_and_decode(std::int64_t bx, std::int64_t by, std::int
                                       std::vector<float>& decoded, EncodedBrick& encoded,
                                       tensor::BrickReconstructor& reconstructor, DecodeScratch& scratch,
                                       bool try_hosvd) const {
+  if (global_) {
+    const BrickBases bases = global_->bases->brick_bases(level_, bx, by, bz);
+    tensor::Tensor3 core;
+    encoded = encode_global_brick(samples, bases, codec_.quant, core);
+    const bool constant = encoded.kind == store::PayloadKind::constant;
+    if (!constant) {
+      const CoreRegion c = core_region(bx, by, bz);
+      const Box region{{c.lo[0], c.lo[1], c.lo[2]}, {c.hi[0], c.hi[1], c.hi[2]}};
+      for (double e : rank_ladder_rmse(samples, core, bases, region, global_->ladder)) encoded.rank_errors.push_back(float(e));
+    }
+    if (!constant || next_)
+      decode_brick(encoded.kind, encoded.payload, encoded.constant_value, codec_.quant, geometry_.layout().brick,
+                   geometry_.layout().brick, reconstructor, scratch, decoded, "compress", &bases);
+    return constant;
+  }
   if (target_) {
     BrickTarget target = *target_;
     target.try_hosvd = try_hosvd;
@@ -274,6 +289,10 @@ void LevelPipeline::encode_row(std::int64_t row) {
         RowResult& r = results[std::size_t(i)];
         const NonFiniteMask mask = has_non_finite(samples.values()) ? take_non_finite(samples.values(), samples.dims())
                                                                   : NonFiniteMask{};
+        if (global_ && !mask.empty())
+          throw Error("the ta-global codec does not store NaN or infinite voxels yet (level " + std::to_string(level_) +
+                      " brick " + std::to_string(bx) + "," + std::to_string(by) + "," + std::to_string(row) +
+                      " has some); compress with the default codec, ta-bricked");
         if (uniform_non_finite(mask, decoded.size())) {
           // All NaN (outside a field of view) or all one infinity: a constant brick of it.
           r.encoded = EncodedBrick{};

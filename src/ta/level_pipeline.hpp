@@ -14,11 +14,19 @@
 
 #include "strata/store/container.hpp"
 #include "strata/ta/brick_codec.hpp"
+#include "strata/ta/global_basis.hpp"
 #include "strata/ta/octree.hpp"
 #include "strata/ta/target_codec.hpp"
 #include "ta/brick_stats.hpp"
 
 namespace strata::ta {
+
+// The global-basis codec's inputs (paper 2): every brick is projected on these bases, and its
+// feature-scale row is measured at the ladder's ranks.
+struct GlobalCoding {
+  const GlobalBases* bases = nullptr;
+  std::vector<int> ladder;
+};
 
 // Called for every encoded brick (from worker threads; must be thread-safe).
 using BrickSink = std::function<void(const store::BrickKey&, const EncodedBrick&, float min, float max,
@@ -29,6 +37,9 @@ class LevelPipeline {
   // `target`: this level's brick target in error-target mode (ta/target_codec.hpp), else empty.
   LevelPipeline(const OctreeGeometry& geometry, int level, const CodecParams& codec, std::optional<BrickTarget> target,
                 HistogramRange range, BrickSink sink, LevelPipeline* next);
+
+  // Makes this level a level of the global-basis codec (`coding` outlives the pipeline).
+  void use_global_bases(const GlobalCoding* coding) { global_ = coding; }
 
   // Appends the next slice (dims.x * dims.y floats) of this level.
   void push_slice(std::vector<float> slice);
@@ -72,6 +83,7 @@ class LevelPipeline {
   HistogramRange range_;
   BrickSink sink_;
   LevelPipeline* next_;
+  const GlobalCoding* global_ = nullptr;
 
   std::deque<std::vector<float>> window_;  // input slices [window_z0_, window_z0_ + size)
   std::int64_t window_z0_ = 0, slices_received_ = 0, next_row_ = 0;

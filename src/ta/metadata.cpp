@@ -33,7 +33,7 @@ nlohmann::json target_metadata(const ErrorTarget& target, const std::vector<Bric
 
 nlohmann::json make_metadata(const VolumeInfo& source, const OctreeGeometry& geometry, const CompressParams& params,
                              const HistogramRange& range, const std::vector<BrickTarget>& targets,
-                             const std::vector<LevelCounts>& measured) {
+                             const std::vector<LevelCounts>& measured, const nlohmann::json& global) {
   nlohmann::json levels = nlohmann::json::array();
   for (int l = 0; l < geometry.level_count(); ++l) {
     const LevelGeometry& g = geometry.level(l);
@@ -53,6 +53,13 @@ nlohmann::json make_metadata(const VolumeInfo& source, const OctreeGeometry& geo
                       {"hooi_iterations", params.codec.hooi_iterations},
                       {"zstd_level", params.codec.zstd_level},
                       {"levels", levels}};
+  if (!global.is_null()) {
+    // Cores only: no per-brick HOOI, no zstd stage; `quant` is the cores' scheme.
+    m["codec"] = kGlobalCodecName;
+    m.erase("hooi_iterations");
+    m.erase("zstd_level");
+    m["global"] = global;
+  }
   if (!targets.empty()) {
     // Error-target bricks carry their own steps; no fixed quantization scheme applies.
     m["quant"] = kCodedQuantName;

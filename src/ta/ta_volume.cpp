@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include <fmt/format.h>
 
@@ -21,8 +22,9 @@ using store::MetadataField;
 
 // Payload kinds each mode writes: fixed-rank files (a `quant` scheme) Tucker bricks, error-target
 // files (`quant` "coded") coded Tucker bricks and the lossless fallback; both constant bricks.
-bool kind_allowed(store::PayloadKind kind, bool coded) {
+bool kind_allowed(store::PayloadKind kind, bool coded, bool global) {
   using store::PayloadKind;
+  if (global) return kind == PayloadKind::constant || kind == PayloadKind::global_core;
   // Either mode stores a brick losslessly (raw_packed) when that is smaller, and wraps a brick
   // with NaN or infinite voxels (masked).
   if (kind == PayloadKind::constant || kind == PayloadKind::raw_packed || kind == PayloadKind::masked) return true;
@@ -44,9 +46,12 @@ TaVolume::TaVolume(std::unique_ptr<store::ContainerReader> container) : containe
   const nlohmann::json& m = container_->metadata();
   const MetadataField meta{file, "metadata"};
   const auto codec = m.find("codec");
-  if (codec == m.end() || !codec->is_string() || codec->get_ref<const std::string&>() != "ta-bricked")
+  const bool global =
+      codec != m.end() && codec->is_string() && codec->get_ref<const std::string&>() == kGlobalCodecName;
+  if (codec == m.end() || !codec->is_string() || (codec->get_ref<const std::string&>() != "ta-bricked" && !global))
     throw FormatError(file, "metadata.codec",
-                      "expected \"ta-bricked\", found " + (codec != m.end() ? store::json_excerpt(*codec) : std::string("none")));
+                      "expected \"ta-bricked\" or \"ta-global\", found " +
+                          (codec != m.end() ? store::json_excerpt(*codec) : std::string("none")));
   store::json_integer(json_member(m, "codec_version", meta), meta / "codec_version", 1, 1);
 
   const MetadataField src = meta / "source";
@@ -75,7 +80,7 @@ TaVolume::TaVolume(std::unique_ptr<store::ContainerReader> container) : containe
   geometry_ = std::make_unique<OctreeGeometry>(source_.dims, layout);
   rank_ = int(store::json_integer(json_member(m, "rank", meta), meta / "rank", 1, layout.brick));
   quant_ = store::json_string(json_member(m, "quant", meta), meta / "quant");
-  const bool coded = quant_ == kCodedQuantName;
+  const bool coded = quant_ == kCodedQuantName && !global;
   try {
     // Error-target files code every brick with its own steps; the default scheme is never used.
     if (!coded) scheme_ = quant::QuantScheme::parse(quant_);
@@ -110,10 +115,13 @@ TaVolume::TaVolume(std::unique_ptr<store::ContainerReader> container) : containe
     const Extent& grid = geometry_->level(e.key.level).bricks;
     if (e.key.x < 0 || e.key.y < 0 || e.key.z < 0 || e.key.x >= grid.x || e.key.y >= grid.y || e.key.z >= grid.z)
       throw FormatError(file, "index", name + " lies outside the level's brick grid " + extent_text(grid));
-    if (!kind_allowed(e.kind, coded))
+    if (!kind_allowed(e.kind, coded, global))
       throw FormatError(file, name,
-                        std::string("payload kind ") + store::payload_kind_name(e.kind) + " does not belong in a file with quant \"" +
-                            quant_ + "\"" + (coded ? " (expected constant, tucker_coded, raw_zstd, raw_packed or masked)" : " (expected constant, tucker, tucker_zstd, raw_packed or masked)"));
+                        std::string("payload kind ") + store::payload_kind_name(e.kind) +
+                            (global ? " does not belong in a ta-global file (expected constant or global_core)"
+                                    : " does not belong in a file with quant \"" + quant_ + "\"" +
+                                          (coded ? " (expected constant, tucker_coded, raw_zstd, raw_packed or masked)"
+                                                 : " (expected constant, tucker, tucker_zstd, raw_packed or masked)")));
     if (e.kind != store::PayloadKind::constant && e.size == 0)
       throw FormatError(file, name, std::string("a ") + store::payload_kind_name(e.kind) + " brick needs payload bytes, the index gives it none");
     ++bricks_per_level[e.key.level];
@@ -136,6 +144,57 @@ TaVolume::TaVolume(std::unique_ptr<store::ContainerReader> container) : containe
                           extent_text(grid) + " needs " + (want ? std::to_string(*want) : std::string("more than 2^63")));
   }
   build_subtree_histograms();
+  if (global) read_global(meta);
+}
+
+// metadata.global and the sections global_bases and feature_scale (docs/format.md, "Codec
+// ta-global"), checked against the geometry before any brick is decoded.
+void TaVolume::read_global(const store::MetadataField& meta) {
+  const std::string& file = container_->name();
+  const nlohmann::json& m = container_->metadata();
+  const store::MetadataField g = meta / "global";
+  const nlohmann::json& global = json_object(json_member(m, "global", meta), g);
+  const int brick = geometry_->layout().brick;
+  const auto ranks = store::json_integers(json_member(global, "ranks", g), 3, g / "ranks", 1, brick);
+  const nlohmann::json& ladder = json_member(global, "ladder", g);
+  if (!ladder.is_array() || ladder.empty() || ladder.size() > std::size_t(brick))
+    (g / "ladder").fail("expected 1 to " + std::to_string(brick) + " ranks, got " + store::json_excerpt(ladder));
+  const int lowest = int(std::min({ranks[0], ranks[1], ranks[2]}));
+  for (std::size_t i = 0; i < ladder.size(); ++i) {
+    ladder_.push_back(int(store::json_integer(ladder[i], (g / "ladder")[i], 1, lowest)));
+    if (i > 0 && ladder_[i] <= ladder_[i - 1]) ((g / "ladder")[i]).fail("ranks must increase");
+  }
+  bases_ = std::make_unique<GlobalBases>(GlobalBases::deserialize(
+      container_->section("global_bases"), *geometry_, {int(ranks[0]), int(ranks[1]), int(ranks[2])}, file));
+  const auto table = container_->section("feature_scale");
+  const std::uint64_t rows = std::uint64_t(geometry_->total_bricks());
+  if (table.size() != rows * ladder_.size() * sizeof(float))
+    throw FormatError(file, "section feature_scale",
+                      fmt::format("{} bytes, expected {} ({} bricks × {} ladder ranks × 4)", table.size(),
+                                  rows * ladder_.size() * sizeof(float), rows, ladder_.size()));
+  feature_scale_.resize(rows * ladder_.size());
+  std::memcpy(feature_scale_.data(), table.data(), table.size());
+  for (float e : feature_scale_)
+    if (!(e >= 0) || !std::isfinite(e))
+      throw FormatError(file, "section feature_scale", fmt::format("holds {}; expected RMSEs, finite and >= 0", e));
+}
+
+std::size_t TaVolume::octree_row(const store::BrickKey& key) const {
+  entry(key);  // a key outside the octree is refused by name
+  std::size_t row = 0;
+  for (int l = 0; l < key.level; ++l) row += std::size_t(geometry_->level(l).bricks.voxel_count());
+  const Extent& grid = geometry_->level(key.level).bricks;
+  return row + std::size_t(key.x + grid.x * (key.y + grid.y * std::int64_t(key.z)));
+}
+
+BrickBases TaVolume::brick_bases(const store::BrickKey& key) const {
+  if (!bases_) throw Error(container_->name() + ": a ta-bricked file has no global bases");
+  return bases_->brick_bases(key.level, key.x, key.y, key.z);
+}
+
+std::span<const float> TaVolume::rank_errors(const store::BrickKey& key) const {
+  if (!bases_) return {};
+  return std::span<const float>(feature_scale_).subspan(octree_row(key) * ladder_.size(), ladder_.size());
 }
 
 namespace {
@@ -187,8 +246,9 @@ void TaVolume::decode_brick(const store::BrickKey& key, int k, std::span<float> 
   const std::span<const std::byte> payload = container_->payload(e);  // its errors name the file and the brick
   const std::string file = container_->name();
   try {
+    const BrickBases bases = bases_ ? brick_bases(key) : BrickBases{};
     ta::decode_brick(e.kind, payload, e.min, scheme_, geometry_->layout().brick, std::clamp(k, 1, rank_), reconstructor,
-                     scratch, out, file);
+                     scratch, out, file, bases_ ? &bases : nullptr);
   } catch (const Error& error) {
     // The codec prefixes its messages with the context it was given, sometimes at two depths;
     // the user gets one "<file>: <brick>: <problem>".

@@ -373,3 +373,33 @@ TEST_F(CliTa, ErrorTargetsCompressToTheirBoundAndRejectBadValues) {
       << out;
   EXPECT_FALSE(fs::exists(file("bad.strata")));
 }
+
+// The global-basis codec through every command that reads a TA file.
+TEST_F(CliTa, GlobalCodecCompressesAndEveryReaderTakesIt) {
+  const fs::path global = dir_->path() / "global.strata";
+  std::string out;
+  ASSERT_EQ(run_command(strata_cmd("compress " + q(original()) + " -o " + q(global) + " --brick 16 --rank 8 --codec ta-global"),
+                        &out),
+            0)
+      << out;
+  EXPECT_TRUE(has(out, "global bases: fit ")) << out;
+  ASSERT_EQ(run_command(strata_cmd("info " + q(global)), &out), 0) << out;
+  EXPECT_TRUE(has(out, "codec:       ta-global")) << out;
+  EXPECT_TRUE(has(out, "feature-scale ranks [2,4,6,8]")) << out;
+  ASSERT_EQ(run_command(strata_cmd("eval " + q(original()) + " " + q(global) + " --json"), &out), 0) << out;
+  const nlohmann::json j = nlohmann::json::parse(out);
+  EXPECT_GT(j["storage"]["bits_per_voxel_feature_scale"].get<double>(), 0);
+  EXPECT_GT(j["error"]["psnr_db"].get<double>(), 25);  // rank 8 of 16-wide bricks of prisms
+  const fs::path back = dir_->path() / "global_back.nrrd";
+  ASSERT_EQ(run_command(strata_cmd("decompress " + q(global) + " -o " + q(back) + " --rank 4"), &out), 0) << out;
+  EXPECT_EQ(strata::io::read_volume(back).dims(), (strata::Extent{40, 36, 30}));
+  ASSERT_EQ(run_command(strata_cmd("render " + q(global) + " --size 48x40 -o " + q(dir_->path() / "global.png")), &out), 0)
+      << out;
+  EXPECT_FALSE(has(out, " 0 bricks in the cut")) << out;
+  // Error targets belong to the default codec.
+  EXPECT_EQ(run_command(strata_cmd("compress " + q(original()) + " -o " + q(dir_->path() / "x.strata") +
+                                   " --codec ta-global --psnr 40"),
+                        &out),
+            2);
+  EXPECT_TRUE(has(out, "--codec")) << out;
+}

@@ -58,6 +58,32 @@ TEST(QuantQuantizedBrick, SerializationRoundTripsForEveryScheme) {
   }
 }
 
+// The global-basis codec's core-only bricks: the same core codes and parameters as the full
+// brick of the same model, no factor codes, and a view that refuses to decode factors.
+TEST(QuantQuantizedBrick, CoreOnlyBricksCarryTheCoreAlone) {
+  const tensor::Tucker model = brick_model(16, 8, 3);
+  for (const char* text : kSchemes) {
+    SCOPED_TRACE(text);
+    const QuantScheme s = QuantScheme::parse(text);
+    const QuantizedBrick full = quantize(model, s), core = quantize_core_only(model.core, s);
+    EXPECT_EQ(core.dims, (tensor::Dims3{0, 0, 0}));
+    EXPECT_EQ(core.ranks, full.ranks);
+    EXPECT_EQ(core.core_codes, full.core_codes);
+    EXPECT_TRUE(core.factor_codes.empty());
+    const std::vector<std::byte> bytes = serialize(core, s);
+    EXPECT_EQ(bytes.size(), serialized_size(s, full.dims, full.ranks) - packed_size(full.factor_codes.size(), s.factor_bits));
+    EXPECT_EQ(deserialize(bytes, s), core);
+    const BrickView view(bytes, s);
+    DequantizedModel m;
+    dequantize(view, {5, 6, 7}, m);
+    std::vector<float> expected(5 * 6 * 7);
+    BrickView(serialize(full, s), s).dequantize_core({5, 6, 7}, expected);
+    EXPECT_EQ(m.core, expected);
+    EXPECT_TRUE(m.factors[0].empty());
+    EXPECT_THROW(view.dequantize_factor(1, 1, {}), Error);
+  }
+}
+
 TEST(QuantQuantizedBrick, FloatSchemeIsLossless) {
   const tensor::Tucker model = brick_model(16, 8, 2);
   const QuantScheme s = QuantScheme::parse("f32");

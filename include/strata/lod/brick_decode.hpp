@@ -13,11 +13,12 @@
 
 namespace strata::lod {
 
-// Dequantizes a Tucker payload (kind tucker or tucker_zstd) at its stored rank; `context`
-// prefixes error messages. Throws Error for constant bricks and bricks not B wide.
+// Dequantizes a Tucker payload at its stored rank; `context` prefixes error messages; a
+// global_core payload takes the brick's global `bases` as its factors. Throws Error for
+// constant bricks and bricks not B wide.
 BrickModel dequantize_payload(store::PayloadKind kind, std::span<const std::byte> payload,
                               const quant::QuantScheme& scheme, int brick_width, ta::DecodeScratch& scratch,
-                              const std::string& context);
+                              const std::string& context, const ta::BrickBases* bases = nullptr);
 
 // Reads (with checksum) and dequantizes one brick of `volume`; adds the payload size to
 // `bytes_read`.

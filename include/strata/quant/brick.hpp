@@ -49,6 +49,12 @@ struct QuantizedBrick {
 // Throws Error on non-finite coefficients or extents/ranks beyond 65535.
 QuantizedBrick quantize(const tensor::Tucker& model, const QuantScheme& scheme);
 
+/// @brief A core-only brick (extents {0, 0, 0}, no factor codes): the global-basis codec's
+/// per-brick core, whose factors are the volume's row-block bases. Serialized like any brick
+/// (its factor parameters, if the scheme stores any, are 0); BrickView reads it and refuses
+/// dequantize_factor; dequantize() leaves the model's factors to the caller.
+QuantizedBrick quantize_core_only(const tensor::Tensor3& core, const QuantScheme& scheme);
+
 std::size_t serialized_size(const QuantScheme& scheme, const tensor::Dims3& dims, const tensor::Ranks3& ranks);
 std::vector<std::byte> serialize(const QuantizedBrick& brick, const QuantScheme& scheme);
 QuantizedBrick deserialize(std::span<const std::byte> bytes, const QuantScheme& scheme);

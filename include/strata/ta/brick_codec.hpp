@@ -10,6 +10,7 @@
 ///
 /// Thread safety: the functions keep no shared state. They may run concurrently as long as each
 /// thread passes its own DecodeScratch, BrickReconstructor and output buffers.
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <span>
@@ -68,7 +69,21 @@ struct EncodedBrick {
   std::size_t core_bytes = 0, factor_bytes = 0, header_bytes = 0;
   // Error-target mode, when both bases were coded: each one's payload size (else 0).
   std::size_t block_dct_bytes = 0, hosvd_bytes = 0;
+  // Global-basis codec: the brick's row of the feature-scale table (ta/global_basis.hpp), the
+  // RMSE of its core region at each rank of the ladder; empty otherwise.
+  std::vector<float> rank_errors;
 };
+
+/// @brief The row-block bases of one brick of the global-basis codec (ta-global, paper 2), for
+/// modes 1, 2, 3: B × R_n floats each, orthonormal columns (ta/global_basis.hpp).
+using BrickBases = std::array<const tensor::Matrix<float>*, 3>;
+
+/// @brief Encodes a brick of the global-basis codec: a constant brick when all samples are
+/// equal, else its core (the samples projected on `bases`) quantized with `scheme` as a
+/// core-only brick (kind global_core). `core` receives the dequantized core (what decoders
+/// see), empty for a constant brick. Throws Error for non-finite samples.
+EncodedBrick encode_global_brick(const tensor::Tensor3& samples, const BrickBases& bases, const quant::QuantScheme& scheme,
+                                 tensor::Tensor3& core);
 
 /// @brief Encodes a brick of samples (B x B x B, first index fastest).
 /// A brick whose samples are all equal becomes a constant brick (no payload). Otherwise returns
@@ -105,9 +120,11 @@ std::span<const std::byte> plain_payload(store::PayloadKind kind, std::span<cons
 /// `brick_width` wide along every axis and dequantizes it at the leading ranks min(rank, R_n)
 /// into `model` (a rank of at least the stored one keeps the full stored rank). Throws Error
 /// prefixed with `context` for a malformed payload, a wrong width or rank < 1.
+/// A global_core payload (inside a masked one too) needs the brick's `bases`, which become the
+/// model's factors; other kinds ignore them.
 void dequantize_brick(store::PayloadKind kind, std::span<const std::byte> payload, const quant::QuantScheme& scheme,
                       int brick_width, int rank, DecodeScratch& scratch, quant::DequantizedModel& model,
-                      const std::string& context);
+                      const std::string& context, const BrickBases* bases = nullptr);
 
 /// @brief The leading ranks min(K, R_n) (K clamped to >= 1) at which `model` is reconstructed
 /// for rank K.
@@ -135,6 +152,7 @@ PayloadParts payload_parts(std::span<const std::byte> payload, const quant::Quan
 /// malformed.
 void decode_brick(store::PayloadKind kind, std::span<const std::byte> payload, float constant_value,
                   const quant::QuantScheme& scheme, int brick_width, int rank, tensor::BrickReconstructor& reconstructor,
-                  DecodeScratch& scratch, std::span<float> out, const std::string& context);
+                  DecodeScratch& scratch, std::span<float> out, const std::string& context,
+                  const BrickBases* bases = nullptr);
 
 }  // namespace strata::ta

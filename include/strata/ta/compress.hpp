@@ -8,13 +8,21 @@
 #include "strata/core/progress.hpp"
 #include "strata/io/volume_io.hpp"
 #include "strata/ta/brick_codec.hpp"
+#include "strata/ta/global_basis.hpp"
 #include "strata/ta/octree.hpp"
 
 namespace strata::ta {
 
+/// @brief Which codec `compress` writes: per-brick bases (paper 1, "ta-bricked") or one set of
+/// global bases with per-brick cores (paper 2, "ta-global"; fixed rank only, no NaN yet).
+enum class CodecKind { bricked, global };
+
 struct CompressParams {
   BrickLayout layout;
   CodecParams codec;
+  CodecKind kind = CodecKind::bricked;
+  /// ta-global: the global fit. Its rank is codec.rank and its slab size that of the input slabs.
+  GlobalFitOptions global;
   // Bound on the compressor's working memory in bytes (0 = none: 64 MiB input slabs). The
   // per-level brick-row windows are fixed by the volume's x*y extent; the input slab size
   // shrinks to fit the rest. Throws Error if even one-slice slabs cannot fit.
@@ -39,7 +47,13 @@ struct CompressReport {
   double seconds = 0, prepass_seconds = 0;
   std::uint64_t input_voxels = 0;
   int attempts = 1;  // encoding passes (a PSNR/RMSE budget the calibrated step missed takes another)
+  std::vector<double> global_fit;  // ta-global: the global model's fit after each sweep
+  double global_seconds = 0;       // ta-global: time of the global fit
 };
+
+/// @brief The ranks of the ta-global feature-scale table for bases of `rank` columns: every
+/// ⌈rank / 4⌉-th rank up to `rank` (4, 8, 12, 16 for rank 16).
+std::vector<int> feature_scale_ladder(int rank);
 
 // Reads `source` slab by slab (twice: a first pass for the value range that the per-brick
 // histograms need, then the encoding pass); only the slices one brick row needs are held per

@@ -18,6 +18,8 @@ struct StorageReport {
   std::uint64_t correction_bytes = 0, lossless_bytes = 0;
   // Masks of the NaN and infinite voxels (payload kind `masked`, without the bricks they wrap).
   std::uint64_t mask_bytes = 0;
+  // ta-global: the feature-scale table (its global bases count as factor bytes).
+  std::uint64_t feature_scale_bytes = 0;
   std::vector<std::int64_t> bricks_per_level, constant_per_level;
   std::vector<std::uint64_t> payload_bytes_per_level;  // stored brick payloads (as in the file) per level
   double bits_per_voxel(std::uint64_t bytes, const VolumeInfo& source) const;

@@ -5,7 +5,10 @@
 /// (never loaded whole), their mipmaps (pairwise row averages, one per octree level), and the
 /// orthonormal row-block bases a brick of a level is projected onto (Fig. 10). The global-basis
 /// codec builds its per-brick cores on these.
+#include <array>
 #include <cstdint>
+#include <span>
+#include <string>
 #include <vector>
 
 #include "strata/core/extent.hpp"
@@ -20,6 +23,9 @@ namespace strata::ta {
 /// (smooth cosines, what the leading singular vectors of a smooth volume resemble) need no
 /// pass over the data and are deterministic without a seed.
 enum class GlobalInit { dct, random };
+
+/// The codec name of global-basis files (docs/format.md, "Codec ta-global").
+inline constexpr const char* kGlobalCodecName = "ta-global";
 
 struct GlobalFitOptions {
   int rank = 16;                               ///< R per mode (clamped to each extent); paper: half the brick width
@@ -71,10 +77,20 @@ class GlobalBases {
   const tensor::Matrix<float>& basis(int level, int mode, std::int64_t index) const;
   /// @brief The three bases of brick (bx, by, bz) of `level`, for modes 1, 2, 3.
   std::array<const tensor::Matrix<float>*, 3> brick_bases(int level, std::int64_t bx, std::int64_t by, std::int64_t bz) const;
-  /// @brief Columns per basis of mode `mode` (1..3) where no brick is narrower than the rank.
+  /// @brief Columns of every basis of mode `mode` (1..3): min(R_n, B).
   int rank(int mode) const { return ranks_[std::size_t(mode - 1)]; }
 
+  /// @brief The bytes of section `global_bases` (docs/format.md): every basis as B × rank(n)
+  /// little-endian f32, column-major, in the order level, mode, brick index.
+  std::vector<std::byte> serialize() const;
+  /// @brief Bases read from those bytes for `geometry` and `ranks` columns per mode. Throws
+  /// FormatError(file, "section global_bases", …) when the size does not match or a value is
+  /// not finite.
+  static GlobalBases deserialize(std::span<const std::byte> bytes, const OctreeGeometry& geometry,
+                                 const std::array<int, 3>& ranks, const std::string& file);
+
  private:
+  GlobalBases() = default;
   std::array<int, 3> ranks_{};
   // bases_[level][mode - 1][index]
   std::vector<std::array<std::vector<tensor::Matrix<float>>, 3>> bases_;

@@ -8,7 +8,9 @@
 
 #include "strata/core/volume.hpp"
 #include "strata/store/container.hpp"
+#include "strata/store/metadata_json.hpp"
 #include "strata/ta/brick_codec.hpp"
+#include "strata/ta/global_basis.hpp"
 #include "strata/ta/octree.hpp"
 
 namespace strata::ta {
@@ -27,6 +29,16 @@ class TaVolume {
   const quant::QuantScheme& quant_scheme() const { return scheme_; }
   double value_min() const { return value_lo_; }
   double value_max() const { return value_hi_; }
+
+  /// @brief True for a global-basis file (codec ta-global, paper 2).
+  bool global() const { return bases_ != nullptr; }
+  /// @brief ta-global: the row-block bases brick `key` is rebuilt with (its factors).
+  BrickBases brick_bases(const store::BrickKey& key) const;
+  /// @brief ta-global: the ranks of the feature-scale table (increasing); empty otherwise.
+  const std::vector<int>& feature_scale_ladder() const { return ladder_; }
+  /// @brief ta-global: brick `key`'s row of the feature-scale table, the RMSE of its core
+  /// region at each ladder rank (never increasing; 0 for constant bricks).
+  std::span<const float> rank_errors(const store::BrickKey& key) const;
 
   // The index entry of `key`; throws FormatError ("brick (level l, x,y,z) is missing") when
   // the index lacks it.
@@ -58,6 +70,12 @@ class TaVolume {
   double value_lo_ = 0, value_hi_ = 0;
   std::vector<std::vector<std::uint64_t>> subtree_histograms_;  // [level][brick index, x fastest]
   void build_subtree_histograms();
+  // ta-global
+  std::unique_ptr<GlobalBases> bases_;
+  std::vector<int> ladder_;
+  std::vector<float> feature_scale_;
+  void read_global(const store::MetadataField& meta);
+  std::size_t octree_row(const store::BrickKey& key) const;
 };
 
 }  // namespace strata::ta
