@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <future>
 #include <limits>
 #include <string>
@@ -150,9 +151,39 @@ std::unique_ptr<Generator> make_generator(const Params& params) {
   throw Error("make_generator: invalid generator kind " + std::to_string(int(p.kind)));
 }
 
+namespace {
+
+// The full range of an integer sample type.
+std::pair<double, double> integer_range(DType t) {
+  return visit_dtype(t, [](auto tag) -> std::pair<double, double> {
+    using T = decltype(tag);
+    return {double(std::numeric_limits<T>::lowest()), double(std::numeric_limits<T>::max())};
+  });
+}
+
+// A slab in the output type. A scalar kind written to a narrower integer type is rescaled from
+// its native type's range to the output's (prisms u16 to u8 keep their structure instead of
+// saturating at 255); label ids and float outputs keep their values.
+Volume to_output(Volume slab, const Params& params) {
+  const DType native = native_dtype(params.kind), out = params.output_dtype.value_or(native);
+  if (out == native) return slab;
+  if (!is_label_kind(params.kind) && dtype_is_integer(native) && dtype_is_integer(out) &&
+      dtype_size(out) < dtype_size(native)) {
+    const auto [from_lo, from_hi] = integer_range(native);
+    const auto [to_lo, to_hi] = integer_range(out);
+    const double scale = (to_hi - to_lo) / (from_hi - from_lo);
+    Volume wide = slab.converted(DType::f64);
+    for (double& v : wide.samples<double>()) v = std::round(to_lo + (v - from_lo) * scale);
+    return wide.converted(out);
+  }
+  return slab.converted(out);
+}
+
+}  // namespace
+
 Volume generate(const Params& params) {
   auto generator = make_generator(params);
-  return generator->slab(0, generator->info().dims.z);
+  return to_output(generator->slab(0, generator->info().dims.z), params);
 }
 
 void generate_to_file(const Params& params, const std::filesystem::path& out, ProgressSink& progress) {
@@ -170,8 +201,7 @@ void generate_to_file(const Params& params, const std::filesystem::path& out, Pr
   std::future<void> pending;
   for (std::int64_t z0 = 0; z0 < info.dims.z; z0 += depth) {
     const std::int64_t z1 = std::min(info.dims.z, z0 + depth);
-    auto slab = std::make_shared<Volume>(generator->slab(z0, z1));
-    if (info.dtype != native) *slab = slab->converted(info.dtype);
+    auto slab = std::make_shared<Volume>(to_output(generator->slab(z0, z1), params));
     if (pending.valid()) pending.get();
     pending = std::async(std::launch::async, [&writer, slab] { writer->write_slab(*slab); });
     task.advance(slice_voxels * std::uint64_t(z1 - z0));

@@ -52,6 +52,29 @@ TEST(GenPrisms, UsesMostOfTheU16Range) {
   EXPECT_GT(*hi, 50000);
 }
 
+// A narrower output type gets the native u16 range mapped onto its own, so `generate prisms
+// --dtype u8` keeps its structure (it used to clamp every sample to 255).
+TEST(GenPrisms, NarrowerIntegerOutputsAreRescaledNotSaturated) {
+  Params p;
+  p.kind = Kind::prisms;
+  p.dims = {32, 32, 32};
+  p.seed = 3;
+  const Volume native = generate(p);
+  for (DType out : {DType::u8, DType::i8}) {
+    p.output_dtype = out;
+    const Volume narrow = generate(p);
+    ASSERT_EQ(narrow.dtype(), out);
+    const double lo = out == DType::u8 ? 0 : -128;
+    for (std::int64_t i = 0; i < native.dims().voxel_count(); i += 97) {
+      const Extent at{i % 32, i / 32 % 32, i / 1024};
+      const double expected = lo + native.value(at.x, at.y, at.z) * 255.0 / 65535.0;
+      EXPECT_NEAR(narrow.value(at.x, at.y, at.z), expected, 0.5 + 1e-9) << i;
+    }
+  }
+  p.output_dtype = DType::f32;  // wider types keep the values
+  EXPECT_EQ(generate(p).value(5, 6, 7), native.value(5, 6, 7));
+}
+
 TEST(GenPrisms, HasStructureAtCoarseAndFineScales) {
   const Volume v = generate(helpers::params(Kind::prisms, {96, 96, 96}));
   std::vector<double> all(v.samples<std::uint16_t>().begin(), v.samples<std::uint16_t>().end());
