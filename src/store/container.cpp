@@ -110,7 +110,7 @@ BrickEntry decode_entry(std::span<const std::byte, kIndexEntrySize> b) {
 bool known_kind(PayloadKind k) {
   return k == PayloadKind::constant || k == PayloadKind::tucker || k == PayloadKind::tucker_zstd ||
          k == PayloadKind::tucker_coded || k == PayloadKind::raw_zstd || k == PayloadKind::raw_packed ||
-         k == PayloadKind::masked || k == PayloadKind::global_core;
+         k == PayloadKind::masked || k == PayloadKind::global_core || k == PayloadKind::global_core_zstd;
 }
 
 // Appends value(e) of the entries (with payload_only, of those with payload bytes) as one column
@@ -229,6 +229,7 @@ const char* payload_kind_name(PayloadKind k) {
     case PayloadKind::raw_packed: return "raw_packed";
     case PayloadKind::masked: return "masked";
     case PayloadKind::global_core: return "global_core";
+    case PayloadKind::global_core_zstd: return "global_core_zstd";
   }
   return "unknown";
 }

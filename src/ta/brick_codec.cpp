@@ -68,8 +68,8 @@ constexpr std::uint64_t kMaxInflatedBrick = std::uint64_t(64) << 20;
 std::span<const std::byte> plain_payload(store::PayloadKind kind, std::span<const std::byte> payload,
                                          const quant::QuantScheme& scheme, DecodeScratch& scratch,
                                          const std::string& context) {
-  if (kind == store::PayloadKind::tucker) return payload;
-  if (kind != store::PayloadKind::tucker_zstd)
+  if (kind == store::PayloadKind::tucker || kind == store::PayloadKind::global_core) return payload;
+  if (kind != store::PayloadKind::tucker_zstd && kind != store::PayloadKind::global_core_zstd)
     throw Error(context + ": payload kind " + std::to_string(int(kind)) + " is not a Tucker brick");
   store::zstd_decompress(payload, kMaxInflatedBrick, scratch.inflated, context, "zstd payload");
   scratch.unshuffled = scratch.inflated;
@@ -80,7 +80,7 @@ std::span<const std::byte> plain_payload(store::PayloadKind kind, std::span<cons
 }
 
 EncodedBrick encode_global_brick(const tensor::Tensor3& samples, const BrickBases& bases, const quant::QuantScheme& scheme,
-                                 tensor::Tensor3& core) {
+                                 int zstd_level, tensor::Tensor3& core) {
   EncodedBrick out;
   core = tensor::Tensor3();
   if (is_constant(samples)) {
@@ -98,6 +98,15 @@ EncodedBrick encode_global_brick(const tensor::Tensor3& samples, const BrickBase
   const PayloadParts parts = payload_parts(out.payload, scheme, "encode");
   out.core_bytes = parts.core_bytes;
   out.header_bytes = parts.header_bytes;
+  if (zstd_level > 0) {
+    std::vector<std::byte> packed = deflate_payload(out.payload, scheme, zstd_level);
+    if (packed.size() < out.payload.size()) {
+      out.core_bytes = std::size_t(double(out.core_bytes) * double(packed.size()) / double(out.payload.size()));
+      out.header_bytes = packed.size() - out.core_bytes;
+      out.kind = store::PayloadKind::global_core_zstd;
+      out.payload = std::move(packed);
+    }
+  }
   return out;
 }
 
@@ -208,8 +217,10 @@ void dequantize_global_core(std::span<const std::byte> payload, const quant::Qua
 void dequantize_unmasked(store::PayloadKind kind, std::span<const std::byte> payload, const quant::QuantScheme& scheme,
                          int brick_width, int rank, DecodeScratch& scratch, quant::DequantizedModel& model,
                          const std::string& context, const BrickBases* bases) {
-  if (kind == store::PayloadKind::global_core) {
-    in_context(context, [&] { dequantize_global_core(payload, scheme, brick_width, rank, bases, model); });
+  if (kind == store::PayloadKind::global_core || kind == store::PayloadKind::global_core_zstd) {
+    in_context(context, [&] {
+      dequantize_global_core(plain_payload(kind, payload, scheme, scratch, context), scheme, brick_width, rank, bases, model);
+    });
     return;
   }
   if (kind == store::PayloadKind::tucker_coded) {

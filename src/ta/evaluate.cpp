@@ -59,9 +59,7 @@ void add_payload(store::PayloadKind kind, std::span<const std::byte> stored, con
     add_coded_parts(quant::deserialize_coded(stored, brick, c.name()), stored.size(), r);
     return;
   }
-  // A global_core payload is a plain core-only brick; the others may be zstd-packed.
-  const auto plain = kind == store::PayloadKind::global_core ? stored
-                                                             : plain_payload(kind, stored, volume.quant_scheme(), scratch, c.name());
+  const auto plain = plain_payload(kind, stored, volume.quant_scheme(), scratch, c.name());
   const auto parts = payload_parts(plain, volume.quant_scheme(), c.name());
   const double ratio = double(stored.size()) / double(plain.size());
   const auto core = std::uint64_t(double(parts.core_bytes) * ratio);

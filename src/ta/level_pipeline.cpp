@@ -227,7 +227,7 @@ bool LevelPipeline::encode_and_decode(std::int64_t bx, std::int64_t by, std::int
   if (global_) {
     const BrickBases bases = global_->bases->brick_bases(level_, bx, by, bz);
     tensor::Tensor3 core;
-    encoded = encode_global_brick(samples, bases, codec_.quant, core);
+    encoded = encode_global_brick(samples, bases, codec_.quant, codec_.zstd_level, core);
     const bool constant = encoded.kind == store::PayloadKind::constant;
     if (!constant) {
       const CoreRegion c = core_region(bx, by, bz);

@@ -54,10 +54,9 @@ nlohmann::json make_metadata(const VolumeInfo& source, const OctreeGeometry& geo
                       {"zstd_level", params.codec.zstd_level},
                       {"levels", levels}};
   if (!global.is_null()) {
-    // Cores only: no per-brick HOOI, no zstd stage; `quant` is the cores' scheme.
+    // Cores only: no per-brick HOOI; `quant` is the cores' scheme, `zstd_level` their zstd stage.
     m["codec"] = kGlobalCodecName;
     m.erase("hooi_iterations");
-    m.erase("zstd_level");
     m["global"] = global;
   }
   if (!targets.empty()) {

@@ -24,7 +24,8 @@ using store::MetadataField;
 // files (`quant` "coded") coded Tucker bricks and the lossless fallback; both constant bricks.
 bool kind_allowed(store::PayloadKind kind, bool coded, bool global) {
   using store::PayloadKind;
-  if (global) return kind == PayloadKind::constant || kind == PayloadKind::global_core;
+  if (global)
+    return kind == PayloadKind::constant || kind == PayloadKind::global_core || kind == PayloadKind::global_core_zstd;
   // Either mode stores a brick losslessly (raw_packed) when that is smaller, and wraps a brick
   // with NaN or infinite voxels (masked).
   if (kind == PayloadKind::constant || kind == PayloadKind::raw_packed || kind == PayloadKind::masked) return true;
@@ -118,7 +119,7 @@ TaVolume::TaVolume(std::unique_ptr<store::ContainerReader> container) : containe
     if (!kind_allowed(e.kind, coded, global))
       throw FormatError(file, name,
                         std::string("payload kind ") + store::payload_kind_name(e.kind) +
-                            (global ? " does not belong in a ta-global file (expected constant or global_core)"
+                            (global ? " does not belong in a ta-global file (expected constant, global_core or global_core_zstd)"
                                     : " does not belong in a file with quant \"" + quant_ + "\"" +
                                           (coded ? " (expected constant, tucker_coded, raw_zstd, raw_packed or masked)"
                                                  : " (expected constant, tucker, tucker_zstd, raw_packed or masked)")));

@@ -42,6 +42,7 @@ enum class PayloadKind : std::uint8_t {
   raw_packed = 6,    // the samples' non-repeating box, integer codes where exact, zstd: lossless (ta/raw_brick.hpp), format 1.3
   masked = 7,        // a brick with NaN or infinite voxels: their mask, then the brick of the others (ta/non_finite.hpp), format 1.4
   global_core = 8,   // a core-only quantized brick whose factors are the volume's global row-block bases (ta-global codec), format 1.5
+  global_core_zstd = 9,  // the same bytes, zstd-compressed (ta-global codec), format 1.5
 };
 const char* payload_kind_name(PayloadKind k);
 

@@ -80,10 +80,11 @@ using BrickBases = std::array<const tensor::Matrix<float>*, 3>;
 
 /// @brief Encodes a brick of the global-basis codec: a constant brick when all samples are
 /// equal, else its core (the samples projected on `bases`) quantized with `scheme` as a
-/// core-only brick (kind global_core). `core` receives the dequantized core (what decoders
-/// see), empty for a constant brick. Throws Error for non-finite samples.
+/// core-only brick (kind global_core), zstd-compressed at `zstd_level` (kind global_core_zstd)
+/// when that is smaller (0 = never). `core` receives the dequantized core (what decoders see),
+/// empty for a constant brick. Throws Error for non-finite samples.
 EncodedBrick encode_global_brick(const tensor::Tensor3& samples, const BrickBases& bases, const quant::QuantScheme& scheme,
-                                 tensor::Tensor3& core);
+                                 int zstd_level, tensor::Tensor3& core);
 
 /// @brief Encodes a brick of samples (B x B x B, first index fastest).
 /// A brick whose samples are all equal becomes a constant brick (no payload). Otherwise returns
