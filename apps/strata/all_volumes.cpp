@@ -39,12 +39,13 @@ class MemberFiles {
 std::int64_t encode_all_volumes(const std::string& input, io::ReadOptions read, const std::string& output,
                                 const EncodeVolume& encode) {
   read.volume = 0;
-  const std::int64_t count = io::open_volume(input, read)->info().volumes;
+  auto first = io::open_volume(input, read);
+  const std::int64_t count = first->info().volumes;
   if (count == 1) {
-    auto source = io::open_volume(input, read);
-    encode(*source, output, output);
+    encode(*first, output, output);
     return 1;
   }
+  first.reset();
   const MemberFiles members(output, count);
   for (std::int64_t i = 0; i < count; ++i) {
     read.volume = i;

@@ -9,7 +9,7 @@
 #include "strata/store/byte_planes.hpp"
 #include "strata/store/zstd_frame.hpp"
 #include "strata/quant/coded_brick.hpp"
-#include "strata/tensor/ttm.hpp"
+#include "strata/ta/global_basis.hpp"
 #include "strata/tensor/tucker.hpp"
 #include "ta/raw_brick.hpp"
 
@@ -88,8 +88,7 @@ EncodedBrick encode_global_brick(const tensor::Tensor3& samples, const BrickBase
     out.constant_value = samples.values()[0];
     return out;
   }
-  const tensor::Tensor3 projected =
-      tensor::project(samples, tensor::Factors<float>{*bases[0], *bases[1], *bases[2]});
+  const tensor::Tensor3 projected = project_brick(samples, bases);
   out.kind = store::PayloadKind::global_core;
   out.payload = quant::serialize(quant::quantize_core_only(projected, scheme), scheme);
   const quant::BrickView view(out.payload, scheme);

@@ -122,13 +122,7 @@ struct GlobalState {
   GlobalFit fit;
   std::unique_ptr<GlobalBases> bases;
   GlobalCoding coding;
-  std::vector<float> table;  // rows of ladder.size() floats, in octree order (level, z, y, x)
-  std::vector<std::size_t> level_offset;  // first row of each level
-
-  std::size_t row(const OctreeGeometry& g, const store::BrickKey& k) const {
-    const Extent& grid = g.level(k.level).bricks;
-    return level_offset[k.level] + std::size_t(k.x + grid.x * (k.y + grid.y * std::int64_t(k.z)));
-  }
+  std::vector<float> table;  // rows of ladder.size() floats, in octree order (OctreeGeometry::brick_ordinal)
 };
 
 EncodedLevels encode_levels(io::VolumeSource& source, const std::filesystem::path& out, const CompressParams& params,
@@ -155,7 +149,9 @@ EncodedLevels encode_levels(io::VolumeSource& source, const std::filesystem::pat
       report.brick_header_bytes += b.header_bytes;
       if (global && !b.rank_errors.empty())
         std::copy(b.rank_errors.begin(), b.rank_errors.end(),
-                  global->table.begin() + std::ptrdiff_t(global->row(geometry, key) * global->coding.ladder.size()));
+                  global->table.begin() +
+                      std::ptrdiff_t(geometry.brick_ordinal(key.level, key.x, key.y, key.z)) *
+                          std::ptrdiff_t(global->coding.ladder.size()));
     }
     bricks_task.advance(1);
   };
@@ -290,12 +286,8 @@ std::unique_ptr<GlobalState> fit_global(io::VolumeSource& source, const Compress
   g->bases = std::make_unique<GlobalBases>(g->fit.factors, geometry);
   g->coding.bases = g->bases.get();
   g->coding.ladder = feature_scale_ladder(std::min({g->bases->rank(1), g->bases->rank(2), g->bases->rank(3)}));
-  std::size_t rows = 0;
-  for (int l = 0; l < geometry.level_count(); ++l) {
-    g->level_offset.push_back(rows);
-    rows += std::size_t(geometry.level(l).bricks.voxel_count());
-  }
-  g->table.assign(rows * g->coding.ladder.size(), 0.0f);  // constant bricks are exact at every rank
+  // Constant bricks are exact at every rank: their rows stay 0.
+  g->table.assign(std::size_t(geometry.total_bricks()) * g->coding.ladder.size(), 0.0f);
   return g;
 }
 

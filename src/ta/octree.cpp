@@ -32,12 +32,20 @@ OctreeGeometry::OctreeGeometry(const Extent& volume_dims, const BrickLayout& lay
     if (dims.x <= core && dims.y <= core && dims.z <= core) break;
     dims = half_extent(dims);
   }
+  std::int64_t first = 0;
+  for (const LevelGeometry& l : levels_) {
+    first_brick_.push_back(first);
+    first += l.bricks.voxel_count();
+  }
 }
 
 std::int64_t OctreeGeometry::total_bricks() const {
-  std::int64_t n = 0;
-  for (const auto& l : levels_) n += l.bricks.voxel_count();
-  return n;
+  return first_brick_.back() + levels_.back().bricks.voxel_count();
+}
+
+std::int64_t OctreeGeometry::brick_ordinal(int l, std::int64_t bx, std::int64_t by, std::int64_t bz, bool within_level) const {
+  const Extent& grid = level(l).bricks;
+  return (within_level ? 0 : first_brick_[std::size_t(l)]) + bx + grid.x * (by + grid.y * bz);
 }
 
 Box OctreeGeometry::brick_sample_box(int level, std::int64_t bx, std::int64_t by, std::int64_t bz) const {

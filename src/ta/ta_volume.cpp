@@ -180,13 +180,6 @@ void TaVolume::read_global(const store::MetadataField& meta) {
       throw FormatError(file, "section feature_scale", fmt::format("holds {}; expected RMSEs, finite and >= 0", e));
 }
 
-std::size_t TaVolume::octree_row(const store::BrickKey& key) const {
-  entry(key);  // a key outside the octree is refused by name
-  std::size_t row = 0;
-  for (int l = 0; l < key.level; ++l) row += std::size_t(geometry_->level(l).bricks.voxel_count());
-  const Extent& grid = geometry_->level(key.level).bricks;
-  return row + std::size_t(key.x + grid.x * (key.y + grid.y * std::int64_t(key.z)));
-}
 
 BrickBases TaVolume::brick_bases(const store::BrickKey& key) const {
   if (!bases_) throw Error(container_->name() + ": a ta-bricked file has no global bases");
@@ -195,16 +188,11 @@ BrickBases TaVolume::brick_bases(const store::BrickKey& key) const {
 
 std::span<const float> TaVolume::rank_errors(const store::BrickKey& key) const {
   if (!bases_) return {};
-  return std::span<const float>(feature_scale_).subspan(octree_row(key) * ladder_.size(), ladder_.size());
+  entry(key);  // a key outside the octree is refused by name
+  const auto row = std::size_t(geometry_->brick_ordinal(key.level, key.x, key.y, key.z));
+  return std::span<const float>(feature_scale_).subspan(row * ladder_.size(), ladder_.size());
 }
 
-namespace {
-
-std::size_t brick_index(const Extent& grid, std::int64_t x, std::int64_t y, std::int64_t z) {
-  return std::size_t(x + grid.x * (y + grid.y * z));
-}
-
-}  // namespace
 
 void TaVolume::build_subtree_histograms() {
   const store::HistogramBinning binning(value_lo_, value_hi_);
@@ -215,24 +203,23 @@ void TaVolume::build_subtree_histograms() {
     std::uint64_t own = e.histogram;
     if (e.kind == store::PayloadKind::constant)
       own = std::isfinite(e.min) ? std::uint64_t(1) << binning.bin(e.min) : 0;
-    subtree_histograms_[e.key.level][brick_index(geometry_->level(e.key.level).bricks, e.key.x, e.key.y, e.key.z)] = own;
+    subtree_histograms_[e.key.level][std::size_t(geometry_->brick_ordinal(e.key.level, e.key.x, e.key.y, e.key.z, true))] = own;
   }
   // Level l + 1's brick (x, y, z) covers level l's bricks 2x .. 2x + 1 (and so on): the core
   // width is the same on every level and each level halves the one below.
   for (int l = 0; l + 1 < geometry_->level_count(); ++l) {
     const Extent& grid = geometry_->level(l).bricks;
-    const Extent& parents = geometry_->level(l + 1).bricks;
     for (std::int64_t z = 0; z < grid.z; ++z)
       for (std::int64_t y = 0; y < grid.y; ++y)
         for (std::int64_t x = 0; x < grid.x; ++x)
-          subtree_histograms_[std::size_t(l + 1)][brick_index(parents, x / 2, y / 2, z / 2)] |=
-              subtree_histograms_[std::size_t(l)][brick_index(grid, x, y, z)];
+          subtree_histograms_[std::size_t(l + 1)][std::size_t(geometry_->brick_ordinal(l + 1, x / 2, y / 2, z / 2, true))] |=
+              subtree_histograms_[std::size_t(l)][std::size_t(geometry_->brick_ordinal(l, x, y, z, true))];
   }
 }
 
 std::uint64_t TaVolume::subtree_histogram(const store::BrickKey& key) const {
   entry(key);  // a key outside the octree is refused by name
-  return subtree_histograms_[key.level][brick_index(geometry_->level(key.level).bricks, key.x, key.y, key.z)];
+  return subtree_histograms_[key.level][std::size_t(geometry_->brick_ordinal(key.level, key.x, key.y, key.z, true))];
 }
 
 const store::BrickEntry& TaVolume::entry(const store::BrickKey& key) const {

@@ -34,6 +34,10 @@ class OctreeGeometry {
   int level_count() const { return int(levels_.size()); }
   const LevelGeometry& level(int l) const { return levels_.at(std::size_t(l)); }
   std::int64_t total_bricks() const;
+  /// @brief Brick (bx, by, bz) of `level` in octree order: the bricks of finer levels first,
+  /// then x fastest within the level (the ta-global feature-scale table's row order). With
+  /// `within_level`, its position in its own level only.
+  std::int64_t brick_ordinal(int level, std::int64_t bx, std::int64_t by, std::int64_t bz, bool within_level = false) const;
 
   // Voxels of `level` whose samples a brick stores: its core box shifted by -overlap and grown
   // by 2*overlap. May extend past the level's edges; those samples are clamped to the edge.
@@ -44,6 +48,7 @@ class OctreeGeometry {
  private:
   BrickLayout layout_;
   std::vector<LevelGeometry> levels_;
+  std::vector<std::int64_t> first_brick_;  // octree ordinal of each level's first brick
 };
 
 // Extent of the next coarser level: ceil(d / 2) per axis.

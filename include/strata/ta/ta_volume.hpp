@@ -75,7 +75,6 @@ class TaVolume {
   std::vector<int> ladder_;
   std::vector<float> feature_scale_;
   void read_global(const store::MetadataField& meta);
-  std::size_t octree_row(const store::BrickKey& key) const;
 };
 
 }  // namespace strata::ta
