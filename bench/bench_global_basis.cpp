@@ -4,8 +4,9 @@
 // global-basis octree (brick 32, overlap 2): every brick projected on its row-block bases with
 // float cores, and the SNR of the bricks' cores rebuilt at rank K against the volume. The
 // volume is a generated prisms 128^3 u16, or the file named by STRATA_BENCH_VOLUME.
-//   STRATA_BENCH_VOLUME=/usr/share/mricron/templates/ch2better.nii.gz \
+//   STRATA_BENCH_VOLUME=/usr/share/mricron/templates/ch2better.nii.gz
 //     ./build/release/bench/bench_global_basis --benchmark_counters_tabular=true
+// (one command line).
 #include <benchmark/benchmark.h>
 
 #include <cstdlib>

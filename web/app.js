@@ -6,7 +6,16 @@ import { SliceView } from './slice-view.js';
 import { StatusBar } from './status-bar.js';
 import { TfEditor } from './tf-editor.js';
 import { PRESET_NAMES, formatNumber, presetPoints, tfToString } from './transfer-function.js';
-import { LAYOUTS, applyHash, datasetsFromHash, defaultState, encodeState, parseHash } from './state.js';
+import {
+  FEATURE_SCALE_STEPS,
+  LAYOUTS,
+  applyHash,
+  datasetsFromHash,
+  defaultState,
+  encodeState,
+  nearestStep,
+  parseHash,
+} from './state.js';
 import { View3D } from './view3d.js';
 import { bindKeyboard } from './keyboard.js';
 
@@ -344,6 +353,8 @@ class Viewer {
     };
     slider('rank-slider', (interactive) => this.setRender({ rank: Number($('rank-slider').value) }, interactive));
     slider('lod-slider', (interactive) => this.setRender({ lod: LOD_STEPS[Number($('lod-slider').value)] }, interactive));
+    slider('fs-slider', (interactive) =>
+      this.setRender({ featureScale: FEATURE_SCALE_STEPS[Number($('fs-slider').value)] }, interactive));
     slider('step-slider', (interactive) => this.setRender({ step: Number($('step-slider').value) }, interactive));
     $('shading-toggle').addEventListener('change', (e) => this.setRender({ shading: e.target.checked }, false));
     $('scalar-visible').addEventListener('change', (e) => this.setLayerVisible('scalar', e.target.checked));
@@ -422,9 +433,13 @@ class Viewer {
     rank.value = Math.max(1, state.rank);
     rank.disabled = !(state.rank > 0);
     $('rank-out').textContent = state.rank > 0 ? `${state.rank}/${rank.max}` : '—';
-    const lodIndex = LOD_STEPS.reduce((best, v, i) => (Math.abs(v - state.lod) < Math.abs(LOD_STEPS[best] - state.lod) ? i : best), 0);
-    $('lod-slider').value = lodIndex;
+    $('lod-slider').value = nearestStep(LOD_STEPS, state.lod);
     $('lod-out').textContent = `${formatNumber(state.lod, 3)} px`;
+    // Only ta-global files carry the feature-scale table the error control needs.
+    const hasTable = (this.scalarDataset()?.feature_scale_ladder ?? []).length > 0;
+    $('fs-slider').value = nearestStep(FEATURE_SCALE_STEPS, state.featureScale);
+    $('fs-slider').disabled = !hasTable;
+    $('fs-out').textContent = !hasTable ? '—' : state.featureScale > 0 ? `${formatNumber(100 * state.featureScale, 3)} %` : 'off';
     $('step-slider').value = state.step;
     $('step-out').textContent = formatNumber(state.step, 3);
     $('shading-toggle').checked = state.shading;

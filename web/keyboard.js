@@ -1,5 +1,6 @@
 // Keyboard shortcuts (listed in the help overlay, index.html). Keys typed into a form field are
 // left to the field.
+import { FEATURE_SCALE_STEPS, nearestStep } from './state.js';
 const ORBIT_STEP_DEG = 5;
 const ZOOM_STEP = 1.15;
 const LAYOUT_KEYS = { 0: 'quad', 1: '3d', 2: 'xy', 3: 'xz', 4: 'yz' };
@@ -36,6 +37,11 @@ function keyActions(viewer) {
     const max = viewer.scalarDataset()?.rank ?? 0;
     if (state().rank > 0) viewer.setRender({ rank: Math.max(1, Math.min(max, state().rank + delta)) }, false);
   };
+  const featureScale = (delta) => () => {
+    if ((viewer.scalarDataset()?.feature_scale_ladder ?? []).length === 0) return;
+    const i = nearestStep(FEATURE_SCALE_STEPS, state().featureScale) + delta;
+    viewer.setRender({ featureScale: FEATURE_SCALE_STEPS[Math.max(0, Math.min(FEATURE_SCALE_STEPS.length - 1, i))] }, false);
+  };
   const slice = (steps) => () => (viewer.activeSlice ?? viewer.slices[0]).step(steps);
   const actions = {
     '?': () => viewer.toggleHelp(),
@@ -58,6 +64,8 @@ function keyActions(viewer) {
     },
     '[': rank(-1),
     ']': rank(1),
+    '{': featureScale(-1),
+    '}': featureScale(1),
     s: () => viewer.setRender({ shading: !state().shading }, false),
     v: () => viewer.setLayerVisible('scalar', !state().scalarVisible),
     l: () => viewer.setLayerVisible('labels', !state().labelsVisible),

@@ -5,6 +5,13 @@ import { presetPoints, tfFromString, tfToString } from './transfer-function.js';
 import { isHexColor } from './colors.js';
 
 export const LAYOUTS = ['quad', '3d', 'xy', 'xz', 'yz'];
+// The feature-scale targets the error control offers (normalized RMSE; 0 = off).
+export const FEATURE_SCALE_STEPS = [0, 0.002, 0.005, 0.01, 0.02, 0.05, 0.1, 0.2];
+
+// The index of the step nearest to `value`.
+export function nearestStep(steps, value) {
+  return steps.reduce((best, v, i) => (Math.abs(v - value) < Math.abs(steps[best] - value) ? i : best), 0);
+}
 
 // Defaults for a scalar dataset (and an optional label dataset): the server's own defaults
 // (az 30, el 20, framing distance, ct preset, stored rank), the cursor at the volume centre.
@@ -20,6 +27,7 @@ export function defaultState(scalar, labels) {
     tfPreset: 'ct',
     rank: scalar?.rank || 0,
     lod: 1,
+    featureScale: 0,
     step: 0.5,
     shading: true,
     window: [...range],
@@ -54,6 +62,7 @@ export function encodeState(state) {
     preset: state.tfPreset || null,
     rank: state.rank,
     lod: fmt(state.lod),
+    fs: state.featureScale > 0 ? fmt(state.featureScale) : null,
     step: fmt(state.step),
     sh: state.shading ? 1 : 0,
     win: list(state.window),
@@ -146,6 +155,8 @@ function applyRenderFields(state, fields) {
   if (state.rank > 0 && Number.isInteger(rank) && rank >= 1 && rank <= state.rank) state.rank = rank;
   const lod = Number(fields.lod);
   if (lod > 0 && lod <= 64) state.lod = lod;
+  const featureScale = Number(fields.fs);
+  if (featureScale > 0 && featureScale <= 1) state.featureScale = featureScale;
   const step = Number(fields.step);
   if (step >= 0.05 && step <= 4) state.step = step;
   if (fields.sh === '0' || fields.sh === '1') state.shading = fields.sh === '1';

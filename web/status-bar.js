@@ -20,7 +20,8 @@ export class StatusBar {
       `${quality} frame; ${formatNumber(elapsedMs, 3)} ms round trip`);
     this.el.frame.dataset.quality = quality;
     this.set('fps', fps ? formatNumber(fps, 2) : '—');
-    this.set('bricks', load.bricks_resident !== undefined ? `${load.bricks_resident} / ${load.bricks_loading ?? 0}` : '—');
+    this.set('bricks', load.bricks_resident !== undefined ? `${load.bricks_resident} / ${load.bricks_loading ?? 0}` : '—',
+      cutSummary(stats?.selection));
     this.set('bytes', load.bytes_read !== undefined ? formatBytes(load.bytes_read) : '—');
     this.set('decode', load.decode_ms !== undefined ? `${formatNumber(load.decode_ms, 3)} ms` : '—');
   }
@@ -42,6 +43,16 @@ export class StatusBar {
       this.el.message.textContent = '';
     }, MESSAGE_MS);
   }
+}
+
+// The LOD cut in words: bricks per level and, with an error target, per rank.
+export function cutSummary(selection) {
+  if (!selection?.per_level) return '';
+  const levels = selection.per_level.map((n, level) => (n > 0 ? `L${level} ${n}` : null)).filter(Boolean);
+  const ranks = Object.entries(selection.per_rank ?? {})
+    .sort((a, b) => Number(a[0]) - Number(b[0]))
+    .map(([rank, n]) => `K${rank} ${n}`);
+  return [`bricks per level: ${levels.join(', ')}`, ...(ranks.length ? [`per rank: ${ranks.join(', ')}`] : [])].join('; ');
 }
 
 export function formatBytes(bytes) {

@@ -184,6 +184,7 @@ export class View3D {
     if (state.source3d === 'scalar') {
       params.tf = this.viewer.tfString();
       if (state.rank > 0) params.rank = state.rank;
+      if (state.featureScale > 0) params.fs = state.featureScale;
     }
     return params;
   }

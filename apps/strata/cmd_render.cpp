@@ -26,7 +26,8 @@ constexpr int kMaxOrbitFrames = 3600;
 
 struct RenderArgs {
   std::string input, output, size = "1024x768", tf = "ct", shading = "on", stats, colors, background = "0,0,0";
-  double azimuth = 30, elevation = 20, distance = 0, fov = 30, lod = 1.0, step = 0.5, lod_bias = 0.0, target_fps = 0;
+  double azimuth = 30, elevation = 20, distance = 0, fov = 30, lod = 1.0, step = 0.5, lod_bias = 0.0, target_fps = 0,
+         feature_scale = 0;
   int rank = 0, orbit = 0;
   bool exact = false, ortho = false;
   std::string cache = "1G";
@@ -97,6 +98,16 @@ void print_frame(const fs::path& path, const nlohmann::json& s) {
                 (unsigned long long)s["load"].value("cache_misses", std::uint64_t(0)),
                 human_bytes(s["load"].value("bytes_read", std::uint64_t(0))).c_str(), s["load"].value("decode_ms", 0.0));
   std::printf("\n");
+  if (s.contains("selection") && s["selection"].contains("per_rank")) {
+    // Alg. 2's choice: bricks per level (finest first) and per rank.
+    std::string levels, ranks;
+    const auto& per_level = s["selection"]["per_level"];
+    for (std::size_t l = 0; l < per_level.size(); ++l)
+      if (per_level[l].get<std::int64_t>() > 0) levels += fmt::format(" L{}:{}", l, per_level[l].get<std::int64_t>());
+    for (const auto& [k, count] : s["selection"]["per_rank"].items()) ranks += fmt::format(" K{}:{}", k, count.get<std::int64_t>());
+    std::printf("  feature scale %g: bricks per level%s; per rank%s\n", s["selection"]["feature_scale"].get<double>(),
+                levels.c_str(), ranks.c_str());
+  }
 }
 
 void print_summary(const char* what, const nlohmann::json& sum) {
@@ -127,6 +138,7 @@ render::FrameSettings frame_settings(const RenderArgs& a) {
   f.camera = camera_spec(a);
   f.rank = a.rank;
   f.lod = a.lod;
+  f.feature_scale = a.feature_scale;
   f.lod_bias = a.lod_bias;
   f.step = a.step;
   f.shading = a.shading == "on";
@@ -216,6 +228,10 @@ void register_render(CLI::App& app, const GlobalOptions& global) {
   cmd->add_option("--rank", a->rank, "Reconstruction rank K (0 = the stored rank): the feature-scale slider")
       ->capture_default_str();
   cmd->add_option("--lod", a->lod, "Refine bricks while a voxel covers more than this many pixels (0 < L <= 64)")
+      ->capture_default_str();
+  cmd->add_option("--feature-scale", a->feature_scale,
+                  "ta-global files: error target E, a normalized RMSE (e.g. 0.01 = 1% of the value range) that picks "
+                  "each brick's rank and level from the file's feature-scale table (0 = off, the --lod rule alone)")
       ->capture_default_str();
   cmd->add_option("--shading", a->shading, "Blinn-Phong shading: on | off")->capture_default_str();
   cmd->add_option("--step", a->step, "Sample distance in voxels of the sampled level (0.05..16)")->capture_default_str();

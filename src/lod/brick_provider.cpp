@@ -15,6 +15,10 @@ store::BrickKey parent_of(const store::BrickKey& k) {
   return {std::uint8_t(k.level + 1), k.x / 2, k.y / 2, k.z / 2};
 }
 
+// The rank a cut brick is reconstructed at: the frame's rank K (the rank slider), lowered to the
+// rank a feature scale chose for it.
+int brick_rank(const CutBrick& brick, int k) { return brick.rank > 0 ? std::min(brick.rank, k) : k; }
+
 }  // namespace
 
 BrickProvider::BrickProvider(const ta::TaVolume& volume, const ProviderOptions& options)
@@ -77,13 +81,14 @@ bool BrickProvider::stand_in(const CutBrick& brick, int rank, ResidentBrick& out
   return false;
 }
 
-void BrickProvider::resolve_exact(const Selection& cut, const std::vector<std::size_t>& missing, int rank,
+void BrickProvider::resolve_exact(const Selection& cut, const std::vector<std::size_t>& missing, int k,
                                   std::vector<LoadRequest> requests, FrameBricks& frame) {
   loader_.submit(requests);
   loader_.drain(reconstructor_, scratch_);
   loader_.wait_idle();
   for (std::size_t i : missing) {
     const store::BrickKey& key = cut.bricks[i].key;
+    const int rank = brick_rank(cut.bricks[i], k);
     BrickSamples s = cache_.find(key, rank);
     // Evicted already when the cache is smaller than the cut: decode again and keep our share.
     if (!s) s = decode({key, rank}, reconstructor_, scratch_);
@@ -101,16 +106,17 @@ FrameBricks BrickProvider::acquire(const Selection& cut, int rank, bool exact) {
   std::vector<LoadRequest> requests;
   for (std::size_t i = 0; i < cut.bricks.size(); ++i) {
     const CutBrick& b = cut.bricks[i];
+    const int rank = brick_rank(b, k);
     if (b.entry->kind == store::PayloadKind::constant) {
-      frame.bricks.push_back(constant_brick(*b.entry, k));
+      frame.bricks.push_back(constant_brick(*b.entry, rank));
       ++st.cache_hits;  // resident by definition: nothing to decode
-    } else if (BrickSamples s = cache_.find(b.key, k)) {
-      frame.bricks.push_back({b.key, k, std::move(s), 0});
+    } else if (BrickSamples s = cache_.find(b.key, rank)) {
+      frame.bricks.push_back({b.key, rank, std::move(s), 0});
       ++st.cache_hits;
     } else {
       ++st.cache_misses;
       missing.push_back(i);
-      requests.push_back({{b.key, k}, b.depth});
+      requests.push_back({{b.key, rank}, b.depth});
     }
   }
   if (exact) {
@@ -119,7 +125,7 @@ FrameBricks BrickProvider::acquire(const Selection& cut, int rank, bool exact) {
     std::unordered_set<store::BrickKey, store::BrickKeyHash> shown;
     for (std::size_t i : missing) {
       ResidentBrick r;
-      if (stand_in(cut.bricks[i], k, r, requests) && shown.insert(r.key).second)
+      if (stand_in(cut.bricks[i], brick_rank(cut.bricks[i], k), r, requests) && shown.insert(r.key).second)
         frame.bricks.push_back(std::move(r));
     }
     loader_.submit(requests);
@@ -135,8 +141,10 @@ void BrickProvider::prefetch(const Selection& cut, int rank) {
   loader_.rethrow_failure();
   const int k = clamp_rank(rank);
   std::vector<LoadRequest> requests;
-  for (const CutBrick& b : cut.bricks)
-    if (b.entry->kind != store::PayloadKind::constant && !cache_.find(b.key, k)) requests.push_back({{b.key, k}, b.depth});
+  for (const CutBrick& b : cut.bricks) {
+    const int rank = brick_rank(b, k);
+    if (b.entry->kind != store::PayloadKind::constant && !cache_.find(b.key, rank)) requests.push_back({{b.key, rank}, b.depth});
+  }
   loader_.submit(requests);
 }
 

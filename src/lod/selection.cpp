@@ -1,7 +1,10 @@
 #include "strata/lod/selection.hpp"
 
+#include <cmath>
 #include <queue>
 #include <string>
+
+#include <fmt/format.h>
 
 #include "strata/core/error.hpp"
 #include "strata/lod/brick_bounds.hpp"
@@ -16,6 +19,9 @@ void SelectionOptions::validate(int brick_width) const {
   if (memory_budget < one)
     throw Error("lod selection: the memory budget of " + std::to_string(memory_budget) +
                 " bytes is below one reconstructed brick (" + std::to_string(one) + " bytes)");
+  if (!(std::isfinite(feature_scale) && feature_scale >= 0 && feature_scale <= 1))
+    throw Error(fmt::format("lod selection: the feature scale is a normalized RMSE in [0, 1] (0 = off), got {}",
+                            feature_scale));
 }
 
 std::uint64_t reconstructed_bytes(const store::BrickEntry& entry, int brick_width) {
@@ -45,7 +51,8 @@ class CutBuilder {
  public:
   CutBuilder(const ta::TaVolume& volume, const View& view, std::uint64_t visible_bins, const SelectionOptions& options)
       : volume_(volume), view_(view), near_(near_distance(view)), bins_(visible_bins), options_(options),
-        width_(volume.geometry().layout().brick) {
+        width_(volume.geometry().layout().brick),
+        target_rmse_(options.feature_scale * (volume.value_max() - volume.value_min())) {
     cut_.per_level.assign(std::size_t(volume.geometry().level_count()), 0);
   }
 
@@ -84,7 +91,29 @@ class CutBuilder {
     }
     const double depth = view_depth(view_, box, near_);
     out.push_back({key, entry, depth, voxel_edge(volume_.source_info().spacing, key.level) / view_.pixel_size_at(depth),
-                   brick_visible(*entry, bins_, volume_.value_min(), volume_.value_max())});
+                   brick_visible(*entry, bins_, volume_.value_min(), volume_.value_max()), feature_rank(key)});
+  }
+
+  bool feature_scale() const { return options_.feature_scale > 0; }
+
+  // Alg. 2, line 16: the lowest ladder rank whose stored RMSE meets the target (else the full one).
+  int feature_rank(const store::BrickKey& key) const {
+    if (!feature_scale()) return 0;
+    const std::span<const float> errors = volume_.rank_errors(key);
+    const std::vector<int>& ladder = volume_.feature_scale_ladder();
+    for (std::size_t i = 0; i < errors.size(); ++i)
+      if (errors[i] <= target_rmse_) return ladder[i];
+    return ladder.back();
+  }
+
+  // Whether a drawable brick stays in the cut: the screen-space rule, or with a feature scale
+  // Alg. 2, line 12 (the lowest rank meets the target: never refined; the full rank meets it:
+  // refined only while large on screen; otherwise always refined).
+  bool fine_enough(const CutBrick& brick) const {
+    const bool small = brick.pixels_per_voxel <= options_.lod;
+    if (!feature_scale()) return small;
+    const std::span<const float> errors = volume_.rank_errors(brick.key);
+    return errors.front() <= target_rmse_ || (errors.back() <= target_rmse_ && small);
   }
 
   void admit(const std::vector<CutBrick>& bricks, const Culled& culled) {
@@ -103,8 +132,8 @@ class CutBuilder {
       queue_.pop();
       // A brick whose own samples are invisible is refined whatever its size on screen (its
       // children hold what its averages lost); if the budgets forbid that, it is dropped.
-      const bool fine_enough = brick.pixels_per_voxel <= options_.lod && brick.content_visible;
-      if (brick.key.level == 0 || fine_enough || !try_split(brick)) {
+      const bool stays = brick.content_visible && fine_enough(brick);
+      if (brick.key.level == 0 || stays || !try_split(brick)) {
         if (brick.content_visible) {
           keep(brick);
         } else {
@@ -157,6 +186,7 @@ class CutBuilder {
   void keep(const CutBrick& brick) {
     cut_.bricks.push_back(brick);
     ++cut_.per_level[brick.key.level];
+    if (brick.rank > 0) ++cut_.per_rank[brick.rank];
     cut_.bytes += reconstructed_bytes(*brick.entry, width_);
   }
 
@@ -166,6 +196,7 @@ class CutBuilder {
   std::uint64_t bins_;
   const SelectionOptions& options_;
   int width_;
+  double target_rmse_;  // the feature scale in the file's units
   Selection cut_;
   std::priority_queue<CutBrick, std::vector<CutBrick>, Refinement> queue_;
   std::int64_t count_ = 0;   // bricks queued or kept
@@ -178,6 +209,10 @@ Selection select_cut(const ta::TaVolume& volume, const View& view, std::uint64_t
                      const SelectionOptions& options) {
   options.validate(volume.geometry().layout().brick);
   check_view(view);
+  if (options.feature_scale > 0 && !volume.global())
+    throw ParameterError("feature_scale", volume.container().name() +
+                                              ": a feature scale needs the feature-scale table of a ta-global file "
+                                              "(compress with --codec ta-global), or 0 for the screen-space rule alone");
   return CutBuilder(volume, view, visible_bins, options).build();
 }
 

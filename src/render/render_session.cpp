@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <limits>
+#include <map>
 #include <cmath>
 
 #include <fmt/format.h>
@@ -86,6 +87,7 @@ Image RenderSession::Scalar::frame(const Camera& camera, const FrameSettings& se
   const auto t0 = SteadyClock::now();
   lod::SelectionOptions cut_options = selection;
   cut_options.lod = settings.lod;
+  cut_options.feature_scale = settings.feature_scale;
   const std::uint64_t visible_bins = tf.visible_bins(volume.value_min(), volume.value_max());
   const lod::Selection cut = lod::select_cut(volume, camera.view(), visible_bins, cut_options);
   const double select_ms = ms_since(t0);
@@ -105,6 +107,15 @@ Image RenderSession::Scalar::frame(const Camera& camera, const FrameSettings& se
                         {"bytes", cut.bytes},           {"budget_hit", cut.budget_hit()},
                         {"culled_frustum", cut.culled_frustum}, {"culled_empty", cut.culled_empty},
                         {"select_ms", select_ms}};
+  if (settings.feature_scale > 0) {
+    // The ranks drawn: the chosen ones, capped by the frame's rank.
+    std::map<int, std::int64_t> drawn;
+    for (const auto& [k, count] : cut.per_rank) drawn[std::min(k, provider.clamp_rank(rank))] += count;
+    nlohmann::json per_rank = nlohmann::json::object();
+    for (const auto& [k, count] : drawn) per_rank[std::to_string(k)] = count;
+    stats["selection"]["feature_scale"] = settings.feature_scale;
+    stats["selection"]["per_rank"] = per_rank;
+  }
   stats["rank"] = provider.clamp_rank(rank);
   return image;
 }
@@ -189,6 +200,9 @@ void validate(const FrameSettings& s) {
   if (!(std::abs(s.lod_bias) <= 64))
     throw ParameterError("FrameSettings::lod_bias", fmt::format("must lie in [-64, 64] levels, got {}", s.lod_bias));
   if (s.rank < 0) throw ParameterError("FrameSettings::rank", fmt::format("must be >= 0 (0 = the stored rank), got {}", s.rank));
+  if (!(s.feature_scale >= 0 && s.feature_scale <= 1))
+    throw ParameterError("FrameSettings::feature_scale",
+                         fmt::format("must be a normalized RMSE in [0, 1] (0 = off), got {}", s.feature_scale));
 }
 
 void validate(const SessionOptions& o) {
@@ -283,6 +297,7 @@ nlohmann::json RenderSession::describe() const {
           {"dtype", dtype_name(dtype)},
           {"levels", level_count()},
           {"rank", stored_rank()},
+          {"feature_scale_ladder", scalar_ ? nlohmann::json(scalar_->volume.feature_scale_ladder()) : nlohmann::json::array()},
           {"value_range", {lo, hi}},
           {"histogram", histogram},
           {"label_count", labels_ ? labels_->labels.label_map().size() : 0u}};

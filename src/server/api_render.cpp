@@ -38,7 +38,7 @@ void check_client(const std::string& client) {
 }
 
 FrameRequest parse_frame(const Dataset& d, const HttpRequest& r) {
-  const Params p(r, {"w", "h", "az", "el", "dist", "target", "fov", "tf", "rank", "lod", "step", "shading", "quality",
+  const Params p(r, {"w", "h", "az", "el", "dist", "target", "fov", "tf", "rank", "lod", "fs", "step", "shading", "quality",
                      "format", "client", "seq"});
   FrameRequest f;
   render::FrameSettings& s = f.settings;
@@ -49,6 +49,9 @@ FrameRequest parse_frame(const Dataset& d, const HttpRequest& r) {
   }
   s.rank = parse_rank(p, d);
   s.lod = p.number("lod", {0, 64, true}, 1.0);
+  s.feature_scale = p.number("fs", {0, 1}, 0.0);
+  if (s.feature_scale > 0 && d.description.value("feature_scale_ladder", nlohmann::json::array()).empty())
+    bad_parameter("fs", "an error target needs the feature-scale table of a ta-global file; this one has none");
   s.step = p.number("step", {0.05, 4}, 0.5);
   s.shading = p.choice("shading", {"0", "1"}, "1") == "1";
   const bool coarse = p.choice("quality", {"coarse", "exact"}, "exact") == "coarse";
@@ -75,6 +78,7 @@ nlohmann::json header_stats(const nlohmann::json& s, bool coarse, double queue_m
     j["selection"] = {{"bricks", s["selection"]["bricks"]},
                       {"per_level", s["selection"]["per_level"]},
                       {"budget_hit", s["selection"]["budget_hit"]}};
+  if (s.contains("selection") && s["selection"].contains("per_rank")) j["selection"]["per_rank"] = s["selection"]["per_rank"];
   if (s.contains("load")) {
     const nlohmann::json& l = s["load"];
     j["load"] = {{"bricks_resident", l["resident"]}, {"bricks_loading", l["pending"]},

@@ -236,20 +236,22 @@ class BudgetStepSearch {
 
 }  // namespace
 
-std::uint64_t fixed_working_set(const OctreeGeometry& geometry) {
+std::uint64_t fixed_working_set(const OctreeGeometry& geometry, bool feature_reference) {
   const BrickLayout& l = geometry.layout();
   std::uint64_t bytes = 0;
   for (int level = 0; level < geometry.level_count(); ++level) {
     const Extent& d = geometry.level(level).dims;
     const std::uint64_t slice = std::uint64_t(d.x * d.y) * sizeof(float);
     bytes += slice * std::uint64_t(l.brick + 1 + l.core() + 1);  // window + decoded row + pending pair
+    // Reference slices arrive ahead of the samples, by up to a brick row of this level.
+    if (feature_reference && level > 0) bytes += 2 * slice * std::uint64_t(l.brick + 1 + l.core() + 1);
   }
   return bytes;
 }
 
 std::uint64_t input_slab_bytes(const OctreeGeometry& geometry, const VolumeInfo& source, const CompressParams& params) {
   if (params.memory_limit == 0) return io::kDefaultSlabBytes;
-  const std::uint64_t fixed = fixed_working_set(geometry) + kBaselineBytes;
+  const std::uint64_t fixed = fixed_working_set(geometry, params.kind == CodecKind::global) + kBaselineBytes;
   // A slab is held in the source type plus its per-slice float copies while pushed.
   const double per_source_byte = 1.0 + double(sizeof(float)) / double(dtype_size(source.dtype));
   const std::uint64_t slice = source.bytes_per_slice();

@@ -322,9 +322,9 @@ tensor::Tensor3 project_brick(const tensor::Tensor3& samples, const std::array<c
   return tensor::project(samples, tensor::Factors<float>{*bases[0], *bases[1], *bases[2]});
 }
 
-std::vector<double> rank_ladder_rmse(const tensor::Tensor3& samples, const tensor::Tensor3& core,
+std::vector<double> rank_ladder_rmse(const tensor::Tensor3& reference, const tensor::Tensor3& core,
                                      const std::array<const Matrix<float>*, 3>& bases, const Box& region,
-                                     const std::vector<int>& ladder) {
+                                     const std::vector<int>& ladder, double resolution_variance) {
   if (region.empty()) throw ParameterError("region", "is empty");
   std::vector<double> rmse;
   for (int k : ladder) {
@@ -342,10 +342,10 @@ std::vector<double> rank_ladder_rmse(const tensor::Tensor3& samples, const tenso
     for (std::int64_t z = region.lo.z; z < region.hi.z; ++z)
       for (std::int64_t y = region.lo.y; y < region.hi.y; ++y)
         for (std::int64_t x = region.lo.x; x < region.hi.x; ++x) {
-          const double d = double(rebuilt(x, y, z)) - double(samples(x, y, z));
+          const double d = double(rebuilt(x, y, z)) - double(reference(x, y, z));
           sum += d * d;
         }
-    rmse.push_back(std::sqrt(sum / double(region.size().voxel_count())));
+    rmse.push_back(std::sqrt(sum / double(region.size().voxel_count()) + resolution_variance));
   }
   // Conservative: no entry below that of a higher rank (see the header).
   for (std::size_t i = rmse.size(); i-- > 1;) rmse[i - 1] = std::max(rmse[i - 1], rmse[i]);

@@ -57,6 +57,42 @@ void downsample_xy(const float* slice, const Extent& dims, float* out) {
   }
 }
 
+// Two equal halves of a cell, each as (mean, variance about its mean), make the cell's
+// (mean, variance) exactly. An odd last column, row or slice pairs with itself, as in the samples.
+inline void merge_halves(float mean_a, float var_a, float mean_b, float var_b, float& mean, float& var) {
+  const float half_gap = 0.5f * (mean_a - mean_b);
+  mean = 0.5f * (mean_a + mean_b);
+  var = 0.5f * (var_a + var_b) + half_gap * half_gap;
+}
+
+// A reference slice (variance null: 0) reduced 2x2 in x and y.
+LevelPipeline::ReferenceSlice reduce_reference_xy(const float* mean, const float* variance, const Extent& dims) {
+  const Extent half = half_extent(dims);
+  LevelPipeline::ReferenceSlice out{std::vector<float>(std::size_t(half.x * half.y)),
+                                    std::vector<float>(std::size_t(half.x * half.y))};
+  auto at = [&](std::int64_t x, std::int64_t y, float& m, float& v) {
+    const std::int64_t i = y * dims.x + x;
+    m = mean[i];
+    v = variance ? variance[i] : 0.0f;
+  };
+  for (std::int64_t hy = 0; hy < half.y; ++hy) {
+    const std::int64_t y0 = 2 * hy, y1 = std::min(2 * hy + 1, dims.y - 1);
+    for (std::int64_t hx = 0; hx < half.x; ++hx) {
+      const std::int64_t x0 = 2 * hx, x1 = std::min(2 * hx + 1, dims.x - 1);
+      float m00, v00, m01, v01, m10, v10, m11, v11, ma, va, mb, vb;
+      at(x0, y0, m00, v00);
+      at(x1, y0, m01, v01);
+      at(x0, y1, m10, v10);
+      at(x1, y1, m11, v11);
+      merge_halves(m00, v00, m01, v01, ma, va);
+      merge_halves(m10, v10, m11, v11, mb, vb);
+      const std::size_t o = std::size_t(hy * half.x + hx);
+      merge_halves(ma, va, mb, vb, out.mean[o], out.variance[o]);
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 // The HOSVD basis costs a brick about as much again as everything else (an eigen-decomposition
@@ -106,6 +142,7 @@ bool LevelPipeline::row_ready(std::int64_t row) const {
 void LevelPipeline::push_slice(std::vector<float> slice) {
   if (std::int64_t(slice.size()) != dims_.dims.x * dims_.dims.y)
     throw Error("compress: level " + std::to_string(level_) + " received a slice of the wrong size");
+  if (global_ && level_ == 0 && next_) emit_reference(slice.data(), nullptr);
   window_.push_back(std::move(slice));
   ++slices_received_;
   while (next_row_ < dims_.bricks.z && row_ready(next_row_)) {
@@ -113,6 +150,47 @@ void LevelPipeline::push_slice(std::vector<float> slice) {
     ++next_row_;
     drop_unneeded_slices(next_row_);
   }
+}
+
+void LevelPipeline::push_reference_slice(ReferenceSlice slice) {
+  if (std::int64_t(slice.mean.size()) != dims_.dims.x * dims_.dims.y || slice.variance.size() != slice.mean.size())
+    throw Error("compress: level " + std::to_string(level_) + " received a reference slice of the wrong size");
+  if (next_) emit_reference(slice.mean.data(), slice.variance.data());
+  reference_window_.push_back(std::move(slice));
+}
+
+void LevelPipeline::emit_reference(const float* mean, const float* variance) {
+  ReferenceSlice h = reduce_reference_xy(mean, variance, dims_.dims);
+  ++reference_slices_;
+  if (!pending_reference_) {
+    pending_reference_ = std::move(h);
+    // An odd last slice has no partner: it stands for itself in the coarser level.
+    if (reference_slices_ == dims_.dims.z) next_->push_reference_slice(*std::exchange(pending_reference_, std::nullopt));
+    return;
+  }
+  ReferenceSlice& a = *pending_reference_;
+  for (std::size_t i = 0; i < a.mean.size(); ++i)
+    merge_halves(a.mean[i], a.variance[i], h.mean[i], h.variance[i], a.mean[i], a.variance[i]);
+  next_->push_reference_slice(*std::exchange(pending_reference_, std::nullopt));
+}
+
+double LevelPipeline::gather_reference(std::int64_t bx, std::int64_t by, std::int64_t bz, tensor::Tensor3& means) const {
+  const BrickLayout& l = geometry_.layout();
+  const Box core = geometry_.brick_core_box(level_, bx, by, bz);
+  const std::int64_t ox = core.lo.x - l.overlap, oy = core.lo.y - l.overlap, oz = core.lo.z - l.overlap;
+  double variance = 0;
+  for (std::int64_t z = core.lo.z; z < core.hi.z; ++z) {
+    if (z < reference_z0_ || z - reference_z0_ >= std::int64_t(reference_window_.size()))
+      throw Error("compress: level " + std::to_string(level_) + " lacks reference slice " + std::to_string(z));
+    const ReferenceSlice& slice = reference_window_[std::size_t(z - reference_z0_)];
+    for (std::int64_t y = core.lo.y; y < core.hi.y; ++y)
+      for (std::int64_t x = core.lo.x; x < core.hi.x; ++x) {
+        const std::size_t i = std::size_t(y * dims_.dims.x + x);
+        means(x - ox, y - oy, z - oz) = slice.mean[i];
+        variance += double(slice.variance[i]);
+      }
+  }
+  return variance / double(core.size().voxel_count());
 }
 
 void LevelPipeline::finish() {
@@ -132,6 +210,10 @@ void LevelPipeline::drop_unneeded_slices(std::int64_t next_row) {
   while (window_z0_ < keep_from && !window_.empty()) {
     window_.pop_front();
     ++window_z0_;
+  }
+  while (reference_z0_ < keep_from && !reference_window_.empty()) {
+    reference_window_.pop_front();
+    ++reference_z0_;
   }
 }
 
@@ -232,7 +314,16 @@ bool LevelPipeline::encode_and_decode(std::int64_t bx, std::int64_t by, std::int
     if (!constant) {
       const CoreRegion c = core_region(bx, by, bz);
       const Box region{{c.lo[0], c.lo[1], c.lo[2]}, {c.hi[0], c.hi[1], c.hi[2]}};
-      for (double e : rank_ladder_rmse(samples, core, bases, region, global_->ladder)) encoded.rank_errors.push_back(float(e));
+      // Level 0 is the original; a coarse level is measured against the original's cells.
+      std::vector<double> errors;
+      if (level_ == 0) {
+        errors = rank_ladder_rmse(samples, core, bases, region, global_->ladder);
+      } else {
+        tensor::Tensor3 means(samples.dim(1), samples.dim(2), samples.dim(3));
+        const double variance = gather_reference(bx, by, bz, means);
+        errors = rank_ladder_rmse(means, core, bases, region, global_->ladder, variance);
+      }
+      for (double e : errors) encoded.rank_errors.push_back(float(e));
     }
     if (!constant || next_)
       decode_brick(encoded.kind, encoded.payload, encoded.constant_value, codec_.quant, geometry_.layout().brick,

@@ -43,6 +43,17 @@ class LevelPipeline {
 
   // Appends the next slice (dims.x * dims.y floats) of this level.
   void push_slice(std::vector<float> slice);
+
+  // ta-global, coarse levels: the reference the feature-scale table is measured against (paper 2
+  // §4.2, "against the original"). Each voxel of level l stands for a cell of 2^l x 2^l x 2^l
+  // original voxels; `mean` is the original's mean over the cell and `variance` its variance about
+  // that mean. A brick upsampled cell by cell then has the squared error variance + (mean -
+  // reconstruction)^2 per cell against the original, exactly. Level 0 makes them from its input
+  // slices and each level hands them on, ahead of the samples, which wait for encoding.
+  struct ReferenceSlice {
+    std::vector<float> mean, variance;
+  };
+  void push_reference_slice(ReferenceSlice slice);
   // Call once every slice has been pushed: encodes the remaining rows and finishes `next`.
   void finish();
 
@@ -72,6 +83,12 @@ class LevelPipeline {
   // of the next level's slices (next_slices_) directly from its decoded voxels.
   void downsample_core(std::span<const float> decoded, std::int64_t bx, std::int64_t by, std::int64_t bz);
   void drop_unneeded_slices(std::int64_t next_row);
+  // Reduces one reference slice of this level (variance null: 0, the original itself) 2x2 in x
+  // and y and pairs it with the previous one for `next`.
+  void emit_reference(const float* mean, const float* variance);
+  // ta-global, level >= 1: the reference means at the brick's core voxels (brick-local, in
+  // `means`) and the mean of the reference variance over them.
+  double gather_reference(std::int64_t bx, std::int64_t by, std::int64_t bz, tensor::Tensor3& means) const;
   // The brick-local voxels of the brick's core (what the level's output takes from it).
   CoreRegion core_region(std::int64_t bx, std::int64_t by, std::int64_t bz) const;
 
@@ -91,6 +108,9 @@ class LevelPipeline {
   std::vector<float> next_slices_;        // the row's 2x2x2 averages for `next` (even core), reused
   std::vector<float> pending_decoded_;     // one decoded slice (2x2 averaged) awaiting its partner
   std::int64_t decoded_slices_ = 0;
+  std::deque<ReferenceSlice> reference_window_;  // reference slices [reference_z0_, ...)
+  std::int64_t reference_z0_ = 0, reference_slices_ = 0;
+  std::optional<ReferenceSlice> pending_reference_;  // reduced in x and y, awaiting its z partner
   CoreError measured_;
   // What the HOSVD basis saved on the bricks that coded both bases, in this level's finished
   // rows and in those of every level (shared by the pipelines of one volume).

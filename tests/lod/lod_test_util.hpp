@@ -8,6 +8,7 @@
 
 #include "strata/lod/brick_bounds.hpp"
 #include "strata/lod/view.hpp"
+#include "strata/ta/compress.hpp"
 #include "strata/ta/ta_volume.hpp"
 #include "support/test_support.hpp"
 #include "ta/ta_test_util.hpp"
@@ -17,23 +18,29 @@ namespace strata::lod::testing {
 inline constexpr std::uint64_t kAllBins = ~std::uint64_t(0);
 
 // A 64^3 prisms volume in 16-wide bricks (core 12): 4 levels with 216, 27, 8 and 1 bricks.
-// Compressed once per test program; rank 8 of stored 8.
-class Prisms64 {
+// Compressed once per test program by codec `Kind`; rank 8 of stored 8.
+template <ta::CodecKind Kind>
+class PrismsVolume {
  public:
   static const ta::TaVolume& volume() {
-    static Prisms64 instance;
+    static PrismsVolume instance;
     return *instance.volume_;
   }
 
  private:
-  Prisms64() {
+  PrismsVolume() {
     const auto path = dir_ / "prisms64.strata";
-    ta::testing::compress(ta::testing::prisms({64, 64, 64}, 11), path, ta::testing::params(16, 2, 8, "u16,b8log+"));
+    ta::CompressParams params = ta::testing::params(16, 2, 8, "u16,b8log+");
+    params.kind = Kind;
+    ta::testing::compress(ta::testing::prisms({64, 64, 64}, 11), path, params);
     volume_ = std::make_unique<ta::TaVolume>(path);
   }
   test::TempDir dir_;
   std::unique_ptr<ta::TaVolume> volume_;
 };
+
+// The per-brick codec (ta-bricked).
+using Prisms64 = PrismsVolume<ta::CodecKind::bricked>;
 
 // A perspective view from `eye` towards `target` (up = +y unless parallel), square image of
 // `pixels` rows, vertical field of view `fov_deg`.

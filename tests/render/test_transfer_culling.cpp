@@ -96,7 +96,9 @@ TEST(RenderTransferCulling, EveryBrickAPresetShowsIsReached) {
           EXPECT_TRUE(got.count(k)) << label << ", " << name << ": brick " << std::get<0>(k) << "," << std::get<1>(k)
                                     << "," << std::get<2>(k) << " has visible samples but was culled";
         // From far away the cut stays coarse, yet never empty while something is visible.
-        if (!want.empty()) EXPECT_FALSE(lod::select_cut(t, far, bins, unlimited).bricks.empty()) << label << ", " << name;
+        if (!want.empty()) {
+          EXPECT_FALSE(lod::select_cut(t, far, bins, unlimited).bricks.empty()) << label << ", " << name;
+        }
       }
     }
 }

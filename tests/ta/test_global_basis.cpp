@@ -236,7 +236,9 @@ TEST(TaGlobalBasis, FeatureScaleTableNeverClaimsLessErrorThanARankHas) {
       // The RMSE of rank ladder[i] alone, computed here without the table's rule.
       const auto alone = rank_ladder_rmse(samples, core, q, region, {ladder[i]});
       EXPECT_GE(table[i], alone[0] - 1e-9) << i;
-      if (i + 1 < ladder.size()) EXPECT_GE(table[i], table[i + 1]) << i;
+      if (i + 1 < ladder.size()) {
+        EXPECT_GE(table[i], table[i + 1]) << i;
+      }
     }
     EXPECT_EQ(table.back(), rank_ladder_rmse(samples, core, q, region, {12})[0]);
     EXPECT_GT(table.front(), table.back());  // rank 2 of a prisms brick loses detail

@@ -22,6 +22,7 @@ function edited() {
     tfPreset: '',
     rank: 3,
     lod: 2,
+    featureScale: 0.02,
     step: 0.25,
     shading: false,
     window: [-1.5, 42.25],
@@ -56,7 +57,7 @@ test('the hash stays readable: no escaped commas, colons or semicolons', () => {
 
 test('damaged or out-of-range fields fall back to the defaults', () => {
   const defaults = defaultState(scalar, labels);
-  const fields = parseHash('#cam=abc&cur=1,2&tf=1:2&rank=99&lod=0&step=9&win=5,1&lc=x:zz,4:12345g&layout=grid&src=nope');
+  const fields = parseHash('#cam=abc&cur=1,2&tf=1:2&rank=99&lod=0&fs=2&step=9&win=5,1&lc=x:zz,4:12345g&layout=grid&src=nope');
   const state = applyHash(defaultState(scalar, labels), fields, scalar);
   assert.deepEqual(state, defaults);
 });

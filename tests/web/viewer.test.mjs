@@ -61,6 +61,7 @@ function makeData(strata, dir) {
   run('compress', 'x.nrrd', '-o', 'x.strata', '--rank', '8');
   run('generate', 'voronoi', '--size', String(SIZE), '-o', 'l.nrrd');
   run('labels', 'encode', 'l.nrrd', '-o', 'l.strata');
+  run('compress', 'x.nrrd', '-o', 'g.strata', '--rank', '8', '--codec', 'ta-global');
 }
 
 async function waitForServer(url, child, timeoutMs = 30000) {
@@ -83,7 +84,7 @@ async function startServer() {
   workDir = fs.mkdtempSync(path.join(os.tmpdir(), 'strata-web-'));
   makeData(strata, workDir);
   const port = await freePort();
-  const child = spawn(strata, ['serve', 'x.strata', 'l.strata', '--host', '127.0.0.1', '--port', String(port)], {
+  const child = spawn(strata, ['serve', 'x.strata', 'l.strata', 'g.strata', '--host', '127.0.0.1', '--port', String(port)], {
     cwd: workDir,
     stdio: ['ignore', 'pipe', 'pipe'],
   });
@@ -265,6 +266,12 @@ test('the rank slider changes the image', async () => {
   assert.ok(meanAbsDifference(before, await thumbnail('canvas-3d')) > 1, 'rank 1 looks like rank 8');
 });
 
+test('the error control is off for a file without a feature-scale table', async () => {
+  // The served scalar file uses the per-brick codec: only ta-global files carry the table.
+  assert.equal(await page.getByTestId('fs-slider').isDisabled(), true);
+  assert.equal(await page.getByTestId('fs-out').textContent(), '—');
+});
+
 test('moving a transfer-function point changes the image', async () => {
   const before = await thumbnail('canvas-3d');
   const frames = await frameCount('canvas-3d');
@@ -365,6 +372,31 @@ test('reloading the URL restores the view', async () => {
   assert.equal(after.rank, 1);
   assert.ok(after.camera.dist > 0);
   assert.ok(luminanceStdDev(await thumbnail('canvas-3d')) > 4, '3D view blank after reload');
+});
+
+test('on a ta-global file the error control picks ranks per brick and coarsens the cut', async () => {
+  const ids = await page.evaluate(() => [...document.querySelectorAll('#scalar-select option')].map((o) => o.textContent));
+  const global = ids.findIndex((text) => text.startsWith('g.strata'));
+  assert.ok(global > 0, `g.strata not offered: ${ids}`);
+  let frames = await frameCount('canvas-3d');
+  await page.getByTestId('scalar-select').selectOption({ index: global });
+  await waitForExactFrame(frames);
+  assert.equal(await page.getByTestId('fs-slider').isDisabled(), false);
+  assert.equal(await page.getByTestId('fs-out').textContent(), 'off');
+  const bricksOff = Number((await page.getByTestId('status-bricks').textContent()).split(' / ')[0]);
+  const before = await thumbnail('canvas-3d');
+  frames = await frameCount('canvas-3d');
+  await page.getByTestId('fs-slider').focus();
+  await page.keyboard.press('End'); // the largest target, 20 % of the value range
+  await waitForExactFrame(frames);
+  assert.equal((await viewState()).featureScale, 0.2);
+  assert.equal(await page.getByTestId('fs-out').textContent(), '20 %');
+  const title = await page.getByTestId('status-bricks').getAttribute('title');
+  assert.match(title, /per rank: K\d+ \d+/, `no per-rank figures in "${title}"`);
+  const bricksLoose = Number((await page.getByTestId('status-bricks').textContent()).split(' / ')[0]);
+  assert.ok(bricksLoose < bricksOff, `a loose target should draw fewer bricks (${bricksLoose} vs ${bricksOff})`);
+  assert.ok(meanAbsDifference(before, await thumbnail('canvas-3d')) > 1, 'the coarse cut looks like the fine one');
+  assert.match(page.url(), /fs=0\.2/);
 });
 
 test('the page raised no errors', () => {

@@ -33,7 +33,8 @@ class BrickProvider {
   BrickProvider(const BrickProvider&) = delete;
   BrickProvider& operator=(const BrickProvider&) = delete;
 
-  // The bricks for one frame at rank K (clamped to 1..stored rank). Progressive (exact = false):
+  // The bricks for one frame at rank K (clamped to 1..stored rank; a cut brick with a rank of its
+  // own, chosen by a feature scale, is reconstructed at the lower of the two). Progressive (exact = false):
   // never blocks on a miss. Exact: returns every cut brick itself. One caller at a time.
   // Rethrows a loader failure (e.g. a corrupt payload) from an earlier request.
   // stats.bytes_read and stats.decode_ms count the loading finished since the previous call, by
@@ -58,7 +59,7 @@ class BrickProvider {
   // The nearest resident stand-in for a missing brick, if any; queues missing ancestors so the
   // next frames have coarse data early (BrickLoader::submit drops repeated requests).
   bool stand_in(const CutBrick& brick, int rank, ResidentBrick& out, std::vector<LoadRequest>& requests);
-  void resolve_exact(const Selection& cut, const std::vector<std::size_t>& missing, int rank,
+  void resolve_exact(const Selection& cut, const std::vector<std::size_t>& missing, int k,
                      std::vector<LoadRequest> requests, FrameBricks& frame);
 
   const ta::TaVolume& volume_;

@@ -5,7 +5,14 @@
 // transfer function. Bricks outside the frustum or empty under the transfer function are
 // dropped. Refinement is greedy, largest projected voxel first, so it runs coarse to fine and,
 // within a level, nearest first; when a budget would be exceeded the brick stays coarse.
+//
+// With a feature scale (ta-global files, paper 2 §5, Alg. 2) one error target ε couples
+// resolution and rank through the file's feature-scale table: each brick gets the lowest ladder
+// rank whose stored RMSE meets ε; a brick whose lowest rank meets ε is not refined however large
+// it is on screen (the minimum error front), one whose full rank misses ε is refined however small
+// (the maximum error front), and between the two the screen-space rule decides.
 #include <cstdint>
+#include <map>
 #include <vector>
 
 #include "strata/lod/view.hpp"
@@ -18,7 +25,10 @@ struct SelectionOptions {
   double lod = 1.0;                          // refine while a voxel spans more pixels than this
   std::int64_t max_bricks = 8192;            // bricks in the cut
   std::uint64_t memory_budget = 1ull << 30;  // bytes of reconstructed (non-constant) bricks, B^3 floats each
-  void validate(int brick_width) const;      // throws Error: lod > 0, max_bricks >= 1, budget >= one brick
+  // ε_target of Alg. 2 as a normalized RMSE (RMSE / the file's value range); 0 = off.
+  double feature_scale = 0;
+  // Throws Error: lod > 0, max_bricks >= 1, budget >= one brick, feature_scale finite in [0, 1].
+  void validate(int brick_width) const;
 };
 
 struct CutBrick {
@@ -29,11 +39,15 @@ struct CutBrick {
   // False when the brick's own samples are all invisible under the transfer function while
   // finer bricks below it are not (thin structures averaged away): it is refined, never drawn.
   bool content_visible = true;
+  // With a feature scale: the ladder rank whose stored error meets it (the full rank when none
+  // does); 0 otherwise (the frame's rank).
+  int rank = 0;
 };
 
 struct Selection {
   std::vector<CutBrick> bricks;             // in refinement order: coarse and near first
   std::vector<std::int64_t> per_level;      // bricks of the cut per level (index = level)
+  std::map<int, std::int64_t> per_rank;     // with a feature scale: bricks of the cut per chosen rank
   std::uint64_t bytes = 0;                  // reconstructed bytes the cut needs (constant bricks: 0)
   bool brick_budget_hit = false, memory_budget_hit = false;
   std::int64_t culled_frustum = 0, culled_empty = 0;  // bricks examined and dropped
@@ -44,7 +58,8 @@ struct Selection {
 std::uint64_t reconstructed_bytes(const store::BrickEntry& entry, int brick_width);
 
 // `visible_bins`: histogram bins (histogram_bins.hpp) with non-zero opacity; 0 selects nothing.
-// Throws Error on an unusable view (non-positive pixel size) or invalid options.
+// Throws Error on an unusable view (non-positive pixel size) or invalid options, and
+// ParameterError("feature_scale") for a feature scale on a file without a feature-scale table.
 Selection select_cut(const ta::TaVolume& volume, const View& view, std::uint64_t visible_bins,
                      const SelectionOptions& options = {});
 

@@ -71,6 +71,9 @@ struct FrameSettings {
   std::shared_ptr<const TransferFunction> tf;  ///< scalar and plain files; null = the "ct" preset
   int rank = 0;                                ///< TA files: reconstruction rank K; 0 = the stored rank
   double lod = 1.0;                            ///< TA files: pixels per voxel before a brick is refined
+  /// ta-global files: ε_target of paper 2's Alg. 2, a normalized RMSE (RMSE / value range) that
+  /// picks each brick's rank and bounds refinement (lod/selection.hpp); 0 = off.
+  double feature_scale = 0;
   double lod_bias = 0.0;                       ///< label files: added to the per-sample mip level
   double step = 0.5;                           ///< sample distance in voxels of the sampled level
   bool shading = true;
@@ -79,7 +82,8 @@ struct FrameSettings {
 
 /// @brief Throws ParameterError naming the field unless the camera passes validate(CameraSpec),
 /// the step check_step (sampling_limits.hpp), lod is finite in (0, 64] pixels, lod_bias finite
-/// in [-64, 64] levels and rank >= 0. RenderSession::frame checks this first.
+/// in [-64, 64] levels, rank >= 0 and feature_scale finite in [0, 1]. RenderSession::frame
+/// checks this first (and that a non-zero feature_scale meets a ta-global file).
 void validate(const FrameSettings& settings);
 /// @brief Throws ParameterError naming the field unless the cache budgets are positive,
 /// max_bricks >= 1, loader_threads >= 0, target_fps finite in [0, 1e6], min_interactive_scale

@@ -30,8 +30,10 @@ struct CompressParams {
 };
 
 // Bytes the compressor holds regardless of the slab size: for each level, the slices of one
-// brick row plus its overlap and the decoded row handed to the next level, in float.
-std::uint64_t fixed_working_set(const OctreeGeometry& geometry);
+// brick row plus its overlap and the decoded row handed to the next level, in float; with
+// `feature_reference` (ta-global) also the coarse levels' feature-scale reference (two floats
+// per voxel over the same slices).
+std::uint64_t fixed_working_set(const OctreeGeometry& geometry, bool feature_reference = false);
 // Input slab size (bytes of the source type) that keeps the total within params.memory_limit.
 std::uint64_t input_slab_bytes(const OctreeGeometry& geometry, const VolumeInfo& source, const CompressParams& params);
 

@@ -107,8 +107,15 @@ tensor::Tensor3 project_brick(const tensor::Tensor3& samples, const std::array<c
 /// whole brick, but over a part of it a higher rank may be slightly worse; each entry is
 /// therefore the largest RMSE of its rank and every higher one, so a renderer that picks the
 /// lowest rank meeting a target never gets more error than the table says.
-std::vector<double> rank_ladder_rmse(const tensor::Tensor3& samples, const tensor::Tensor3& core,
+///
+/// Coarse levels are measured against the original: `reference` holds, at the region's voxels,
+/// the original's mean over each voxel's cell and `resolution_variance` the mean over the region
+/// of the original's variance within a cell. Upsampled cell by cell (nearest), the brick's
+/// squared error against the original is then exactly variance + (mean − rebuilt)² per cell, so
+/// each entry is sqrt(MSE against the means + resolution_variance). At level 0 the reference is
+/// the samples and the variance 0.
+std::vector<double> rank_ladder_rmse(const tensor::Tensor3& reference, const tensor::Tensor3& core,
                                      const std::array<const tensor::Matrix<float>*, 3>& bases, const Box& region,
-                                     const std::vector<int>& ladder);
+                                     const std::vector<int>& ladder, double resolution_variance = 0);
 
 }  // namespace strata::ta
