@@ -3,6 +3,7 @@
 // through the Mixture Graph palette (paper 4, §4). `--orbit N` writes N frames around the volume.
 #include <cstdio>
 #include <filesystem>
+#include <map>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -104,7 +105,9 @@ void print_frame(const fs::path& path, const nlohmann::json& s) {
     const auto& per_level = s["selection"]["per_level"];
     for (std::size_t l = 0; l < per_level.size(); ++l)
       if (per_level[l].get<std::int64_t>() > 0) levels += fmt::format(" L{}:{}", l, per_level[l].get<std::int64_t>());
-    for (const auto& [k, count] : s["selection"]["per_rank"].items()) ranks += fmt::format(" K{}:{}", k, count.get<std::int64_t>());
+    std::map<int, std::int64_t> per_rank;  // JSON keys are text: "12" would sort before "4"
+    for (const auto& [k, count] : s["selection"]["per_rank"].items()) per_rank[std::stoi(k)] = count.get<std::int64_t>();
+    for (const auto& [k, count] : per_rank) ranks += fmt::format(" K{}:{}", k, count);
     std::printf("  feature scale %g: bricks per level%s; per rank%s\n", s["selection"]["feature_scale"].get<double>(),
                 levels.c_str(), ranks.c_str());
   }

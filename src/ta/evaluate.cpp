@@ -1,6 +1,7 @@
 #include "strata/ta/evaluate.hpp"
 
 #include <chrono>
+#include <cmath>
 
 #include <algorithm>
 
@@ -102,11 +103,71 @@ StorageReport storage_report(const TaVolume& volume) {
   return r;
 }
 
-ErrorReport error_report(const TaVolume& volume, io::VolumeSource& original, int k) {
+namespace {
+
+// The 2x2x2 means of an f32 volume; an odd last column, row or slice pairs with itself, and a
+// cell's non-finite voxels are left out unless all are (LevelPipeline's rule).
+Volume halve(const Volume& v) {
+  const Extent d = v.dims(), h = half_extent(d);
+  Volume out(h, DType::f32, v.spacing());
+  const auto in = v.view<float>();
+  auto o = out.view<float>();
+  for (std::int64_t z = 0; z < h.z; ++z)
+    for (std::int64_t y = 0; y < h.y; ++y)
+      for (std::int64_t x = 0; x < h.x; ++x) {
+        double sum = 0;
+        int finite = 0;
+        float first = 0;
+        for (int c = 0; c < 8; ++c) {
+          const float s = in(std::min(2 * x + (c & 1), d.x - 1), std::min(2 * y + (c >> 1 & 1), d.y - 1),
+                             std::min(2 * z + (c >> 2), d.z - 1));
+          if (c == 0) first = s;
+          if (std::isfinite(s)) {
+            sum += double(s);
+            ++finite;
+          }
+        }
+        o(x, y, z) = finite > 0 ? float(sum / finite) : first;
+      }
+  return out;
+}
+
+void check_same_dims(const TaVolume& volume, io::VolumeSource& original) {
   const Extent dims = volume.source_info().dims;
   if (!(original.info().dims == dims))
     throw Error(original.path().string() + ": dims " + original.info().dims.to_string() +
                 " differ from the compressed volume's " + dims.to_string());
+}
+
+// Slabs of the original start at multiples of the coarsest cell, so halving a slab level by
+// level gives exactly those levels' slices of the whole pyramid.
+std::vector<ErrorMetrics> coarse_errors(const TaVolume& volume, io::VolumeSource& original, int k) {
+  const int levels = volume.geometry().level_count();
+  if (levels < 2) return {};
+  const Extent dims = volume.source_info().dims;
+  const std::int64_t cell = std::int64_t(1) << (levels - 1);
+  const std::int64_t wanted = std::max<std::int64_t>(cell, volume.geometry().layout().core() * 4);
+  const std::int64_t rows = (wanted + cell - 1) / cell * cell;
+  std::vector<ErrorAccumulator> acc(std::size_t(levels - 1));
+  for (std::int64_t z0 = 0; z0 < dims.z; z0 += rows) {
+    Volume slab = original.read_slab(z0, std::min(dims.z, z0 + rows)).converted(DType::f32);
+    for (int l = 1; l < levels; ++l) {
+      slab = halve(slab);
+      const Extent level_dims = volume.geometry().level(l).dims;
+      const std::int64_t lz0 = z0 >> l;
+      acc[std::size_t(l - 1)].add(slab, volume.decode_box(l, {{0, 0, lz0}, {level_dims.x, level_dims.y, lz0 + slab.dims().z}}, k));
+    }
+  }
+  std::vector<ErrorMetrics> out;
+  for (const ErrorAccumulator& a : acc) out.push_back(a.result());
+  return out;
+}
+
+}  // namespace
+
+ErrorReport error_report(const TaVolume& volume, io::VolumeSource& original, int k, bool coarse_levels) {
+  const Extent dims = volume.source_info().dims;
+  check_same_dims(volume, original);
   const std::int64_t rows = volume.geometry().layout().core() * 4;  // a few brick rows per slab
   ErrorAccumulator acc;
   ErrorReport r;
@@ -119,6 +180,7 @@ ErrorReport error_report(const TaVolume& volume, io::VolumeSource& original, int
     acc.add(original.read_slab(z0, z1), decoded);
   }
   r.metrics = acc.result();
+  if (coarse_levels) r.coarse = coarse_errors(volume, original, k);
   return r;
 }
 

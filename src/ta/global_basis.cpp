@@ -58,13 +58,24 @@ void fix_signs(MatrixD& u) {
   }
 }
 
-// The r eigenvectors of the symmetric `gram` with the largest eigenvalues, largest first.
-MatrixD leading_eigenvectors(const MatrixD& gram, int r) {
-  Eigen::SelfAdjointEigenSolver<MatrixD> eig(gram);
-  if (eig.info() != Eigen::Success) throw Error("global basis: the eigen-decomposition of a Gram matrix failed");
-  const Eigen::Index n = gram.rows();
-  MatrixD u(n, r);
-  for (int j = 0; j < r; ++j) u.col(j) = eig.eigenvectors().col(n - 1 - j);  // ascending order
+// The r leading left singular vectors of `y` (I × C, the unfolded HOOI product), largest first:
+// the eigenvectors of y yᵀ without forming that I × I matrix, which grows with the square of a
+// volume axis (128 MiB for 4096 slices) while y holds I × R² values. With fewer columns than r
+// (a volume thinner than the rank along the other modes) y yᵀ is decomposed instead: its
+// eigenvectors of eigenvalue 0 complete the basis.
+MatrixD leading_left_singular_vectors(const MatrixD& y, int r) {
+  MatrixD u;
+  if (y.cols() >= r) {
+    Eigen::BDCSVD<MatrixD> svd(y, Eigen::ComputeThinU);
+    if (svd.info() != Eigen::Success) throw Error("global basis: the SVD of an unfolded product failed");
+    u = svd.matrixU().leftCols(r);
+  } else {
+    Eigen::SelfAdjointEigenSolver<MatrixD> eig(y * y.transpose());
+    if (eig.info() != Eigen::Success) throw Error("global basis: the eigen-decomposition of a Gram matrix failed");
+    const Eigen::Index n = y.rows();
+    u.resize(n, r);
+    for (int j = 0; j < r; ++j) u.col(j) = eig.eigenvectors().col(n - 1 - j);  // ascending order
+  }
   fix_signs(u);
   return u;
 }
@@ -195,11 +206,11 @@ GlobalFit fit_global_factors(io::VolumeSource& source, const GlobalFitOptions& o
   for (int s = 0; s < options.max_sweeps; ++s) {
     double norm2 = 0;
     const MatrixD y1 = sweep.mode1(u2, u3, norm2);
-    u1 = leading_eigenvectors(y1 * y1.transpose(), rank[0]);
+    u1 = leading_left_singular_vectors(y1, rank[0]);
     const MatrixD y2 = sweep.mode2(u1, u3, norm2);
-    u2 = leading_eigenvectors(y2 * y2.transpose(), rank[1]);
+    u2 = leading_left_singular_vectors(y2, rank[1]);
     const MatrixD y3 = sweep.mode3(u1, u2, norm2);
-    u3 = leading_eigenvectors(y3 * y3.transpose(), rank[2]);
+    u3 = leading_left_singular_vectors(y3, rank[2]);
     fit.passes += 3;
     // With orthonormal factors ‖A − Ã‖² = ‖A‖² − ‖core‖², and the core is Y3 ×3 U3ᵀ.
     const double core2 = (u3.transpose() * y3).squaredNorm();

@@ -178,6 +178,14 @@ void TaVolume::read_global(const store::MetadataField& meta) {
   for (float e : feature_scale_)
     if (!(e >= 0) || !std::isfinite(e))
       throw FormatError(file, "section feature_scale", fmt::format("holds {}; expected RMSEs, finite and >= 0", e));
+  // Alg. 2 picks the lowest rank meeting a target: a row that grows with the rank would break it.
+  const std::size_t width = ladder_.size();
+  for (std::size_t row = 0; row < rows; ++row)
+    for (std::size_t i = 1; i < width; ++i)
+      if (feature_scale_[row * width + i] > feature_scale_[row * width + i - 1])
+        throw FormatError(file, "section feature_scale",
+                          fmt::format("row {} grows from rank {} to rank {}; expected RMSEs that never increase", row,
+                                      ladder_[i - 1], ladder_[i]));
 }
 
 

@@ -3,6 +3,7 @@
 // never a silent decode with the wrong geometry.
 #include <gtest/gtest.h>
 
+#include <cstring>
 #include <random>
 
 #include "strata/store/container.hpp"
@@ -207,5 +208,59 @@ TEST_F(TaForgedFiles, TruncatedFilesAreFormatErrors) {
       EXPECT_TRUE(contains(msg, "truncated.strata: ")) << size << ": " << msg;
       EXPECT_FALSE(contains(msg, "FOREIGN") || contains(msg, "Error: ")) << size << ": " << msg;
     }
+  }
+}
+
+// ta-global files (docs/format.md, "Codec ta-global") forged with every checksum valid: the
+// global metadata, the bases and the feature-scale table are checked before any brick decodes,
+// and every failure names the file and the field or section.
+TEST_F(TaForgedFiles, GlobalBasesAndTheFeatureScaleTableAreChecked) {
+  CompressParams g = params(16, 2, 8, "u16,b8log+");
+  g.kind = CodecKind::global;
+  const fs::path good_global = *dir_ / "global.strata";
+  compress(prisms({30, 30, 30}, 4), good_global, g);
+  EXPECT_EQ(open_and_decode(good_global), "");
+  using Sections = std::vector<forge::Section>;
+  auto section = [](Sections& all, const std::string& name) -> std::vector<std::byte>& {
+    for (forge::Section& s : all)
+      if (s.name == name) return s.bytes;
+    throw std::runtime_error("no section " + name);
+  };
+  auto set_float = [](std::vector<std::byte>& bytes, std::size_t i, float v) {
+    std::memcpy(bytes.data() + i * sizeof(float), &v, sizeof v);
+  };
+  struct Case {
+    std::string expect;
+    std::function<void(nlohmann::json&)> edit;
+    std::function<void(Sections&)> sections;
+  };
+  const std::vector<Case> cases{
+      {"metadata.global: missing", [](nlohmann::json& m) { m.erase("global"); }, nullptr},
+      {"metadata.global.ranks: expected an array of 3 integers in [1, 16]",
+       [](nlohmann::json& m) { m["global"]["ranks"] = {8, 8, 17}; }, nullptr},
+      {"section global_bases: ", [](nlohmann::json& m) { m["global"]["ranks"] = {9, 8, 8}; }, nullptr},
+      {"metadata.global.ladder[1]: ranks must increase", [](nlohmann::json& m) { m["global"]["ladder"] = {4, 4, 6, 8}; },
+       nullptr},
+      {"metadata.global.ladder[3]: expected an integer in [1, 8]", [](nlohmann::json& m) { m["global"]["ladder"] = {2, 4, 6, 9}; },
+       nullptr},
+      {"metadata.global.ladder: expected 1 to 16 ranks", [](nlohmann::json& m) { m["global"]["ladder"] = nlohmann::json::array(); },
+       nullptr},
+      {"section feature_scale: ", [](nlohmann::json& m) { m["global"]["ladder"] = {4, 8}; }, nullptr},
+      {"no section named 'global_bases'", nullptr, [](Sections& s) { std::erase_if(s, [](auto& x) { return x.name == "global_bases"; }); }},
+      {"section global_bases: ", nullptr, [&](Sections& s) { section(s, "global_bases").resize(section(s, "global_bases").size() - 4); }},
+      {"holds a non-finite value", nullptr, [&](Sections& s) { set_float(section(s, "global_bases"), 7, std::nanf("")); }},
+      {"section feature_scale: ", nullptr, [&](Sections& s) { section(s, "feature_scale").resize(12); }},
+      {"section feature_scale: holds -1", nullptr, [&](Sections& s) { set_float(section(s, "feature_scale"), 2, -1.0f); }},
+      {"section feature_scale: row 0 grows from rank 6 to rank 8", nullptr,
+       [&](Sections& s) { set_float(section(s, "feature_scale"), 3, 1e6f); }},
+  };
+  int i = 0;
+  for (const Case& c : cases) {
+    const std::string name = "global" + std::to_string(i++) + ".strata";
+    forge::rewrite(good_global, *dir_ / name, c.edit, nullptr, c.sections);
+    const std::string msg = open_and_decode(*dir_ / name);
+    EXPECT_TRUE(contains(msg, name + ": ")) << c.expect << "\n" << msg;
+    EXPECT_TRUE(contains(msg, c.expect)) << c.expect << "\n" << msg;
+    EXPECT_FALSE(contains(msg, "FOREIGN") || contains(msg, "Error: ") || contains(msg, "json.exception")) << msg;
   }
 }

@@ -31,9 +31,16 @@ struct ErrorReport {
   int rank = 0;
   ErrorMetrics metrics;
   double decode_seconds = 0;  // level 0, all bricks, on thread_count() threads
+  // Levels 1.. against the original box-filtered to them (2x2x2 means level by level, the odd
+  // last column, row or slice standing for itself, as the compressor builds its pyramid; NaN
+  // and infinity ignored where a cell has finite voxels): what a coarse level costs in accuracy
+  // besides the resolution it gave up.
+  std::vector<ErrorMetrics> coarse;
 };
 
-// Decodes level 0 at rank K a few brick rows at a time and compares with `original`.
-ErrorReport error_report(const TaVolume& volume, io::VolumeSource& original, int k);
+// Decodes level 0 at rank K a few brick rows at a time and compares with `original`; with
+// `coarse_levels` also every coarser level (ErrorReport::coarse), from one more pass over the
+// original in slabs aligned to the coarsest level.
+ErrorReport error_report(const TaVolume& volume, io::VolumeSource& original, int k, bool coarse_levels = false);
 
 }  // namespace strata::ta

@@ -45,9 +45,9 @@ struct GlobalFit {
 };
 
 /// @brief Fits global factor matrices to `source` by HOOI (Alg. 1): each mode's update projects
-/// the volume on the other two factors, accumulating slab by slab, and takes the leading
-/// eigenvectors of the projection's Gram matrix. Non-finite voxels count as 0. Memory: one
-/// slab of options.slab_bytes plus O(I_n · R²) per mode. Throws ParameterError("GlobalFitOptions::…")
+/// the volume on the other two factors, accumulating slab by slab, and takes the projection's
+/// leading left singular vectors (thin SVD: no I_n × I_n Gram matrix). Non-finite voxels count
+/// as 0. Memory: one slab of options.slab_bytes plus O(I_n · R²) per mode. Throws ParameterError("GlobalFitOptions::…")
 /// for a rank < 1, max_sweeps < 1 or a negative tolerance.
 GlobalFit fit_global_factors(io::VolumeSource& source, const GlobalFitOptions& options, ProgressSink& progress);
 
