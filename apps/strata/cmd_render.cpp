@@ -182,6 +182,9 @@ void run_render(const RenderArgs& a, const GlobalOptions&) {
   const render::SessionOptions options = session_options(a);
   check_outputs(a);
   render::RenderSession session(a.input, options);
+  if (a.feature_scale > 0 && session.describe()["feature_scale_ladder"].empty())
+    throw UsageError("--feature-scale", a.input + " has no feature-scale table: an error target needs a ta-global file "
+                                                  "(strata compress --codec ta-global)");
   if (!a.colors.empty() && session.kind() == render::DatasetKind::labels)
     session.set_label_colors(render::LabelColorMap::load(a.colors));
   OutputSet outputs;  // removed again unless every frame and the statistics are written

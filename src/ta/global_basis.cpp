@@ -58,24 +58,25 @@ void fix_signs(MatrixD& u) {
   }
 }
 
-// The r leading left singular vectors of `y` (I × C, the unfolded HOOI product), largest first:
-// the eigenvectors of y yᵀ without forming that I × I matrix, which grows with the square of a
-// volume axis (128 MiB for 4096 slices) while y holds I × R² values. With fewer columns than r
-// (a volume thinner than the rank along the other modes) y yᵀ is decomposed instead: its
-// eigenvectors of eigenvalue 0 complete the basis.
-MatrixD leading_left_singular_vectors(const MatrixD& y, int r) {
-  MatrixD u;
-  if (y.cols() >= r) {
-    Eigen::BDCSVD<MatrixD> svd(y, Eigen::ComputeThinU);
-    if (svd.info() != Eigen::Success) throw Error("global basis: the SVD of an unfolded product failed");
-    u = svd.matrixU().leftCols(r);
-  } else {
-    Eigen::SelfAdjointEigenSolver<MatrixD> eig(y * y.transpose());
-    if (eig.info() != Eigen::Success) throw Error("global basis: the eigen-decomposition of a Gram matrix failed");
-    const Eigen::Index n = y.rows();
-    u.resize(n, r);
-    for (int j = 0; j < r; ++j) u.col(j) = eig.eigenvectors().col(n - 1 - j);  // ascending order
-  }
+// The r leading left singular vectors of the unfolded HOOI product Y (I × C), largest first,
+// from `yt` = Yᵀ (C × I). Neither an I × I Gram matrix (it grows with the square of a volume
+// axis: 128 MiB for 4096 slices) nor a second I × C copy for an SVD's workspace is formed: the
+// eigenvectors V of the C × C matrix YᵀY give Y V, whose columns are the wanted vectors scaled by
+// the singular values; a QR factorization normalizes them (and orthogonalizes what rounding or
+// a zero singular value left). With fewer than r columns, DCT vectors complete the basis.
+MatrixD leading_left_singular_vectors(const MatrixD& yt, int r) {
+  const Eigen::Index c = yt.rows(), n = yt.cols();
+  Eigen::SelfAdjointEigenSolver<MatrixD> eig(yt * yt.transpose());
+  if (eig.info() != Eigen::Success) throw Error("global basis: the eigen-decomposition of a Gram matrix failed");
+  const Eigen::Index kept = std::min<Eigen::Index>(r, c);
+  MatrixD columns(n, r);
+  for (Eigen::Index j = 0; j < kept; ++j) columns.col(j) = yt.transpose() * eig.eigenvectors().col(c - 1 - j);  // ascending
+  if (kept < r) columns.rightCols(r - kept) = dct_basis(n, int(r)).rightCols(r - kept);
+  const Eigen::HouseholderQR<MatrixD> qr(columns);
+  MatrixD u = qr.householderQ() * MatrixD::Identity(n, r);
+  // QR may flip a column; align each with its source before the sign convention.
+  for (Eigen::Index j = 0; j < r; ++j)
+    if (u.col(j).dot(columns.col(j)) < 0) u.col(j) = -u.col(j);
   fix_signs(u);
   return u;
 }
@@ -132,6 +133,8 @@ struct Sweep {
   Extent dims;
   std::int64_t slice_size() const { return dims.x * dims.y; }
 
+  // Each mode returns its unfolded product transposed (R_a R_b × I_n): the form the decomposition
+  // takes and, for mode 3, the one the slabs fill, so the largest of them is never copied.
   // Y1 = A ×2 U2ᵀ ×3 U3ᵀ (I1 × R2R3): per slice M U2, combined over z by U3.
   MatrixD mode1(const MatrixD& u2, const MatrixD& u3, double& norm2) {
     const MatrixF u2f = u2.cast<float>();
@@ -145,10 +148,10 @@ struct Sweep {
       });
       y.noalias() += t.cast<double>() * u3.middleRows(z0, n);
     });
-    return Eigen::Map<const MatrixD>(y.data(), dims.x, r2 * r3);  // Y1 unfolded along mode 1
+    return Eigen::Map<const MatrixD>(y.data(), dims.x, r2 * r3).transpose();  // Y1 unfolded along mode 1, transposed
   }
 
-  // Y2 = A ×1 U1ᵀ ×3 U3ᵀ (R1 × I2 × R3); returns its mode-2 unfolding (I2 × R1R3).
+  // Y2 = A ×1 U1ᵀ ×3 U3ᵀ (R1 × I2 × R3); returns its mode-2 unfolding (I2 × R1R3), transposed.
   MatrixD mode2(const MatrixD& u1, const MatrixD& u3, double& norm2) {
     const MatrixF u1t = u1.transpose().cast<float>();
     const Eigen::Index r1 = u1.cols(), r3 = u3.cols();
@@ -161,14 +164,13 @@ struct Sweep {
       });
       y.noalias() += w.cast<double>() * u3.middleRows(z0, n);
     });
-    MatrixD unfolded(dims.y, r1 * r3);
-    for (Eigen::Index k = 0; k < r3; ++k)
-      unfolded.middleCols(k * r1, r1) = Eigen::Map<const MatrixD>(y.col(k).data(), r1, dims.y).transpose();
-    return unfolded;
+    MatrixD unfolded_t(r1 * r3, dims.y);
+    for (Eigen::Index k = 0; k < r3; ++k) unfolded_t.middleRows(k * r1, r1) = Eigen::Map<const MatrixD>(y.col(k).data(), r1, dims.y);
+    return unfolded_t;
   }
 
-  // Y3 = A ×1 U1ᵀ ×2 U2ᵀ (R1R2 × I3, one column per slice); returns its mode-3 unfolding
-  // (I3 × R1R2).
+  // Y3 = A ×1 U1ᵀ ×2 U2ᵀ (R1R2 × I3, one column per slice): the mode-3 unfolding (I3 × R1R2),
+  // transposed.
   MatrixD mode3(const MatrixD& u1, const MatrixD& u2, double& norm2) {
     const MatrixF u1t = u1.transpose().cast<float>(), u2f = u2.cast<float>();
     MatrixD y(u1.cols() * u2.cols(), dims.z);
@@ -179,7 +181,7 @@ struct Sweep {
       });
       y.middleCols(z0, n) = v.cast<double>();
     });
-    return y.transpose();
+    return y;
   }
 };
 
@@ -213,7 +215,7 @@ GlobalFit fit_global_factors(io::VolumeSource& source, const GlobalFitOptions& o
     u3 = leading_left_singular_vectors(y3, rank[2]);
     fit.passes += 3;
     // With orthonormal factors ‖A − Ã‖² = ‖A‖² − ‖core‖², and the core is Y3 ×3 U3ᵀ.
-    const double core2 = (u3.transpose() * y3).squaredNorm();
+    const double core2 = (y3 * u3).squaredNorm();
     const double error = std::sqrt(std::max(0.0, norm2 - core2));
     fit.fit_per_sweep.push_back(norm2 > 0 ? 1.0 - error / std::sqrt(norm2) : 1.0);
     if (s > 0 && fit.fit_per_sweep[std::size_t(s)] - fit.fit_per_sweep[std::size_t(s - 1)] < options.tolerance) break;

@@ -9,15 +9,18 @@
 
 #include "strata/core/metrics.hpp"
 #include "strata/io/volume_io.hpp"
+#include "cli/cli_test_util.hpp"
 #include "support/test_support.hpp"
 
+using strata::test::PeakRun;
 using strata::test::run_command;
+using strata::test::run_measuring_peak;
+using strata::test::strata_cmd;
 using strata::test::TempDir;
 namespace fs = std::filesystem;
 
 namespace {
 
-std::string strata_cmd(const std::string& args) { return std::string(STRATA_BINARY) + " --progress none " + args; }
 std::string q(const fs::path& p) { return strata::test::shell_quoted(p); }
 bool has(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
 
@@ -396,10 +399,46 @@ TEST_F(CliTa, GlobalCodecCompressesAndEveryReaderTakesIt) {
   ASSERT_EQ(run_command(strata_cmd("render " + q(global) + " --size 48x40 -o " + q(dir_->path() / "global.png")), &out), 0)
       << out;
   EXPECT_FALSE(has(out, " 0 bricks in the cut")) << out;
+  // Alg. 2: an error target picks ranks and levels from the feature-scale table.
+  ASSERT_EQ(run_command(strata_cmd("render " + q(global) + " --size 48x40 --feature-scale 0.05 -o " +
+                                   q(dir_->path() / "global_fs.png")),
+                        &out),
+            0)
+      << out;
+  EXPECT_TRUE(has(out, "feature scale 0.05: bricks per level L")) << out;
+  EXPECT_TRUE(has(out, "; per rank K")) << out;
+  EXPECT_EQ(run_command(strata_cmd("render " + q(compressed()) + " --size 48x40 --feature-scale 0.05 -o " +
+                                   q(dir_->path() / "bricked_fs.png")),
+                        &out),
+            2)
+      << out;
+  EXPECT_TRUE(has(out, "--feature-scale: ") && has(out, "ta-global")) << out;
+  EXPECT_EQ(run_command(strata_cmd("render " + q(global) + " --feature-scale 2 -o " + q(dir_->path() / "x.png")), &out), 2)
+      << out;
   // Error targets belong to the default codec.
   EXPECT_EQ(run_command(strata_cmd("compress " + q(original()) + " -o " + q(dir_->path() / "x.strata") +
                                    " --codec ta-global --psnr 40"),
                         &out),
             2);
   EXPECT_TRUE(has(out, "--codec")) << out;
+}
+
+// Out of core (paper 2 on volumes larger than memory): a volume three times the memory limit
+// compresses with ta-global while the process's peak resident set stays under the limit, which
+// includes the compressor's 48 MiB allowance for code and per-thread scratch. A tall volume
+// keeps the slices, which the level pipelines hold a brick row of, small beside the whole.
+TEST_F(CliTa, GlobalCodecStaysUnderTheMemoryLimit) {
+  const fs::path tall = dir_->path() / "tall.raw";
+  std::string out;
+  ASSERT_EQ(run_command(strata_cmd("generate prisms --size 128,128,12288 --dtype u8 -o " + q(tall)), &out), 0) << out;
+  ASSERT_EQ(fs::file_size(tall), 192ull << 20);
+  const std::uint64_t limit = 64ull << 20;
+  const PeakRun run = run_measuring_peak({"--threads", "2", "compress", tall.string(), "-o",
+                                          (dir_->path() / "tall.strata").string(), "--codec", "ta-global",
+                                          "--memory-limit", "64M"});
+  ASSERT_EQ(run.exit_code, 0);
+  EXPECT_LT(run.peak_rss_bytes, limit) << "peak RSS " << (run.peak_rss_bytes >> 20) << " MiB";
+  EXPECT_GT(run.peak_rss_bytes, 8ull << 20) << "the measurement saw the compressor";
+  ASSERT_EQ(run_command(strata_cmd("info " + q(dir_->path() / "tall.strata")), &out), 0) << out;
+  EXPECT_TRUE(has(out, "source:      [128,128,12288] u8")) << out;
 }
