@@ -16,10 +16,12 @@ export function worldSize(dataset) {
   return dataset.dims.map((d, i) => d * (dataset.spacing?.[i] ?? 1));
 }
 
-// Distance at which the volume's bounding sphere fills the narrower field of view: the server's
-// default when a request carries no `dist`.
+// Distance at which the sphere holding the volume's content (the dataset's `frame_radius`,
+// else its bounding sphere) fills the narrower field of view: the server's default when a
+// request carries no `dist`.
 export function framingDistance(dataset, width, height) {
-  const radius = Math.max(0.5 * Math.hypot(...worldSize(dataset)), 1e-9);
+  const bounding = Math.max(0.5 * Math.hypot(...worldSize(dataset)), 1e-9);
+  const radius = dataset.frame_radius > 0 ? Math.min(dataset.frame_radius, bounding) : bounding;
   const tanV = Math.tan(radians(FOV_DEG) / 2);
   const tanH = tanV * (width / height);
   return radius / Math.sin(Math.atan(Math.min(tanV, tanH)));

@@ -171,6 +171,10 @@ nlohmann::json container_report(const OpenContainer& open) {
     if (m.contains("levels") && m["levels"].is_array())
       for (const auto& l : m["levels"]) ids.push_back(l.value("ids_bytes", std::uint64_t(0)));
     g["ids_bytes"] = ids;
+    if (m.contains("normals") && m["sections"].contains("normals")) {
+      g["normals"] = m["normals"];
+      g["normals"]["bytes"] = m["sections"]["normals"].value("size", std::uint64_t(0));
+    }
     j["mixture_graph"] = g;
   }
   if (m.contains("source") && m["source"].contains("dims")) {
@@ -208,6 +212,10 @@ void print_container_report(const nlohmann::json& j) {
                 g.value("ids", std::string("?")).c_str());
     std::printf("mixtures:    %llu distinct, %llu input pairs\n", g.value("distinct_mixtures", 0ull), g.value("input_pairs", 0ull));
     if (g.contains("max_l1_error")) std::printf("error:       max l1 %.6f\n", g["max_l1_error"].get<double>());
+    if (g.contains("normals"))
+      std::printf("normals:     a normals graph of %s (window radius %d, band %d, dithered: %s) for pre-filtered lighting\n",
+                  human_bytes(g["normals"].value("bytes", std::uint64_t(0))).c_str(), g["normals"].value("radius", 0),
+                  g["normals"].value("band", 0), g["normals"].value("error_diffusion", false) ? "yes" : "no");
     for (std::size_t l = 0; l < j["levels"].size() && l < g["ids_bytes"].size(); ++l)
       std::printf("level %zu:     %s, ids %s\n", l, j["levels"][l].value("dims", nlohmann::json()).dump().c_str(),
                   human_bytes(g["ids_bytes"][l].get<std::uint64_t>()).c_str());

@@ -17,7 +17,9 @@ struct LabelsEncodeArgs {
   std::string input, output, strategy = "max-reduction", ids = "blocks";
   int bits = 9, zstd = 9;
   std::uint32_t tau = 3;
-  bool no_error = false, json = false;
+  bool no_error = false, json = false, normals = false;
+  int normals_radius = 3, normals_diffusion = 0, normals_band = 1;
+  std::string normals_dither = "on";
   RawInputArgs raw;
   bool all_volumes = false;
 };
@@ -38,6 +40,7 @@ void print_encode_report(const std::string& name, const Extent& dims, const mixt
                      {"bits_per_voxel", r.bits_per_voxel}, {"seconds", r.seconds},
                      {"factor_seconds", r.factor_seconds}};
     if (r.max_l1) j["max_l1_error"] = *r.max_l1;
+    if (o.normals) j["normals"] = {{"bytes", r.normals_bytes}, {"seconds", r.normals_seconds}};
     std::printf("%s\n", j.dump(2).c_str());
     return;
   }
@@ -46,6 +49,9 @@ void print_encode_report(const std::string& name, const Extent& dims, const mixt
               human_bytes(r.graph_bytes).c_str(), r.bits_per_voxel);
   if (r.max_l1) std::printf(", max l1 error %.5f", *r.max_l1);
   std::printf(", %.2f s (factorize %.2f s)\n", r.seconds, r.factor_seconds);
+  if (o.normals)
+    std::printf("normals graph: %s (%.3f bits/voxel), %.2f s\n", human_bytes(r.normals_bytes).c_str(),
+                8.0 * double(r.normals_bytes) / double(std::max<std::uint64_t>(1, r.level0_voxels)), r.normals_seconds);
 }
 
 void run_labels_encode(const LabelsEncodeArgs& args, const GlobalOptions& global) {
@@ -56,6 +62,14 @@ void run_labels_encode(const LabelsEncodeArgs& args, const GlobalOptions& global
   o.ids = mixture::parse_ids_mode(args.ids);
   o.measure_error = !args.no_error;
   o.ids_zstd = args.zstd;
+  o.normals = args.normals;
+  o.normal_options.radius = args.normals_radius;
+  o.normal_options.diffusion = args.normals_diffusion;
+  o.normal_options.band = args.normals_band;
+  if (args.normals_dither != "on" && args.normals_dither != "off")
+    throw UsageError("--normals-dither", "expected on or off, got '" + args.normals_dither + "'");
+  o.normal_options.error_diffusion = args.normals_dither == "on";
+  as_usage_error([&] { o.normal_options.validate(); });
   auto progress = global.make_progress();
   io::ReadOptions read = args.raw.to_read_options();
   read.progress = progress.get();
@@ -90,6 +104,15 @@ void register_labels_encode(CLI::App& labels, const GlobalOptions& global) {
       ->check(CLI::IsMember({"max-reduction", "max-occurrence", "reuse"}));
   cmd->add_option("--tau", args->tau, "Two-stage threshold (mixtures with more ids vote first; <= 1: one stage)")
       ->capture_default_str();
+  cmd->add_option("--normals-band", args->normals_band,
+                  "Voxels within this distance of a boundary get their own normal (0..radius)")
+      ->capture_default_str();
+  cmd->add_option("--normals-diffusion", args->normals_diffusion,
+                  "Sweeps carrying the boundary normals into segment interiors (0..64; 0 = boundaries only)")
+      ->capture_default_str();
+  cmd->add_option("--normals-dither", args->normals_dither,
+                  "3D error diffusion when quantizing the normals to 9 bits: on | off (off: banding, smaller graph)")
+      ->capture_default_str();
   cmd->add_option("--ids", args->ids, "Per-level id storage: blocks (8^3 block palettes) | fixed (paper Table 1 A)")
       ->capture_default_str()
       ->check(CLI::IsMember({"blocks", "fixed"}));
@@ -97,6 +120,11 @@ void register_labels_encode(CLI::App& labels, const GlobalOptions& global) {
       ->capture_default_str()
       ->check(CLI::Range(0, 22));
   cmd->add_flag("--no-error", args->no_error, "Skip measuring the max l1 reconstruction error");
+  cmd->add_flag("--normals", args->normals,
+                "Also store a normals graph for smooth, pre-filtered shading (`render --lighting normals`)");
+  cmd->add_option("--normals-radius", args->normals_radius,
+                  "Half-width in voxels of the window the normals are estimated from (1..4; larger is smoother)")
+      ->capture_default_str();
   cmd->add_flag("--json", args->json, "Print the report as JSON");
   args->raw.add_to(*cmd);
   add_all_volumes_flag(*cmd, args->all_volumes);

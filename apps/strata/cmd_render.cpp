@@ -26,7 +26,8 @@ namespace {
 constexpr int kMaxOrbitFrames = 3600;
 
 struct RenderArgs {
-  std::string input, output, size = "1024x768", tf = "ct", shading = "on", stats, colors, background = "0,0,0";
+  std::string input, output, size = "1024x768", tf = "ct", shading = "on", stats, colors, background = "0,0,0",
+      lighting = "auto";
   double azimuth = 30, elevation = 20, distance = 0, fov = 30, lod = 1.0, step = 0.5, lod_bias = 0.0, target_fps = 0,
          feature_scale = 0;
   int rank = 0, orbit = 0;
@@ -143,6 +144,10 @@ render::FrameSettings frame_settings(const RenderArgs& a) {
   f.lod = a.lod;
   f.feature_scale = a.feature_scale;
   f.lod_bias = a.lod_bias;
+  if (a.lighting == "auto") f.label_lighting = render::LabelLightingChoice::automatic;
+  else if (a.lighting == "gradient") f.label_lighting = render::LabelLightingChoice::gradient;
+  else if (a.lighting == "normals") f.label_lighting = render::LabelLightingChoice::normals;
+  else throw UsageError("--lighting", "expected auto, gradient or normals, got '" + a.lighting + "'");
   f.step = a.step;
   f.shading = a.shading == "on";
   as_usage_error([&] {
@@ -182,6 +187,10 @@ void run_render(const RenderArgs& a, const GlobalOptions&) {
   const render::SessionOptions options = session_options(a);
   check_outputs(a);
   render::RenderSession session(a.input, options);
+  if (settings.label_lighting == render::LabelLightingChoice::normals &&
+      (session.kind() != render::DatasetKind::labels || !session.describe().value("normals", false)))
+    throw UsageError("--lighting", a.input + " has no normals graph: normals lighting needs a label file encoded with "
+                                             "strata labels encode --normals");
   if (a.feature_scale > 0 && session.describe()["feature_scale_ladder"].empty())
     throw UsageError("--feature-scale", a.input + " has no feature-scale table: an error target needs a ta-global file "
                                                   "(strata compress --codec ta-global)");
@@ -253,6 +262,10 @@ void register_render(CLI::App& app, const GlobalOptions& global) {
   cmd->add_option("--cache", a->cache, "Brick cache and LOD memory budget (e.g. 512M, 2G)")->capture_default_str();
   cmd->add_option("--max-bricks", a->max_bricks, "Brick budget of the LOD cut (>= 1)")->capture_default_str();
   cmd->add_option("--colors", a->colors, "Label files: JSON colour map (default: a hash colour per label)");
+  cmd->add_option("--lighting", a->lighting,
+                  "Label files, with shading: normals (the file's normals graph, `labels encode --normals`: smooth, "
+                  "pre-filtered) | gradient (opacity gradients, on the fly) | auto (normals when the file has them)")
+      ->capture_default_str();
   cmd->add_option("--lod-bias", a->lod_bias, "Label files: added to the mip level chosen per sample (-64..64)")
       ->capture_default_str();
   add_volume_option(*cmd, a->volume);

@@ -4,10 +4,12 @@
 
 #include <algorithm>
 #include <chrono>
+#include <optional>
 
 #include "mixture/encoded_labels_format.hpp"
 #include "strata/core/bytes.hpp"
 #include "strata/core/error.hpp"
+#include "strata/io/files.hpp"
 #include "strata/io/volume_io.hpp"
 #include "strata/mixture/histogram_mipmap.hpp"
 #include "strata/store/container.hpp"
@@ -23,6 +25,33 @@ double background_fraction(const MipLevel& level0, const LabelMap& map) {
   if (!zero || level0.ids.empty()) return 0.0;
   const auto n = std::count(level0.ids.begin(), level0.ids.end(), *zero);
   return double(n) / double(level0.ids.size());
+}
+
+// The normals graph: the label volume's quantized normal codes encoded as labels of their own
+// into a temporary file beside `out`, whose bytes become section "normals".
+nlohmann::json add_normals(const Volume& labels, const std::filesystem::path& out, const EncodeOptions& options,
+                           store::ContainerWriter& writer, EncodeReport& rep) {
+  const auto start = std::chrono::steady_clock::now();
+  const LabelNormals normals = quantize_label_normals(labels, options.normal_options);
+  const std::filesystem::path dir = out.has_parent_path() ? out.parent_path() : std::filesystem::path(".");
+  const io::TempFile nested(dir, "." + out.filename().string() + ".normals");
+  EncodeOptions inner = options;
+  inner.normals = false;
+  inner.measure_error = false;
+  encode_labels(normals.codes, nested.path(), inner);
+  const io::MappedFile bytes(nested.path());
+  writer.add_section("normals", std::span(bytes.data(), std::size_t(bytes.size())));
+  rep.normals_bytes = bytes.size();
+  rep.normals_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const NormalOptions& o = options.normal_options;
+  return {{"codebook", "fibonacci-511"},
+          {"radius", o.radius},
+          {"band", o.band},
+          {"diffusion", o.diffusion},
+          {"error_diffusion", o.error_diffusion},
+          {"band_voxels", normals.band_voxels},
+          {"interior_voxels", normals.interior_voxels},
+          {"seconds", rep.normals_seconds}};
 }
 
 }  // namespace
@@ -73,6 +102,8 @@ EncodeReport encode_labels(const Volume& labels, const std::filesystem::path& ou
   }
 
   store::ContainerWriter writer(out);
+  std::optional<nlohmann::json> normals_meta;
+  if (options.normals) normals_meta = add_normals(labels, out, options, writer, rep);
   writer.add_section("mixture_graph", graph_bytes);
   rep.graph_bytes = graph_bytes.size();
   ByteWriter lm;
@@ -121,6 +152,7 @@ EncodeReport encode_labels(const Volume& labels, const std::filesystem::path& ou
                       {"tau", options.tau},
                       {"fractional", h.fractional()},
                       {"stats", stats}};
+  if (normals_meta) meta["normals"] = *normals_meta;
   rep.file_bytes = writer.finish(meta);
   rep.bits_per_voxel = 8.0 * double(rep.file_bytes) / double(std::max<std::uint64_t>(1, rep.level0_voxels));
   rep.seconds = std::chrono::duration<double>(clock::now() - t0).count();

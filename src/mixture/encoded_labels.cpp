@@ -3,6 +3,8 @@
 // Layout: docs/format.md, "Codec mixture-graph"; the writer is encode_labels.cpp.
 #include "strata/mixture/encoded_labels.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 
@@ -176,6 +178,25 @@ EncodedLabels::EncodedLabels(std::unique_ptr<store::ContainerReader> reader)
 const nlohmann::json& EncodedLabels::metadata() const { return reader_->metadata(); }
 const std::filesystem::path& EncodedLabels::path() const { return reader_->path(); }
 const std::string& EncodedLabels::name() const { return reader_->name(); }
+
+bool EncodedLabels::has_normals() const { return reader_->has_section("normals"); }
+
+std::unique_ptr<EncodedLabels> EncodedLabels::open_normals() const {
+  if (!has_normals()) throw FormatError(name(), "section normals", "missing: encode with `strata labels encode --normals`");
+  auto normals = std::make_unique<EncodedLabels>(
+      std::make_unique<store::ContainerReader>(*reader_, "normals", name() + " (normals)"));
+  // Its levels must line up voxel for voxel with the labels' (the renderer samples both at once).
+  if (normals->level_dims_ != level_dims_)
+    throw FormatError(name(), "section normals",
+                      fmt::format("its levels do not match the labels' ({} against {} levels, level 0 {} against {})",
+                                  normals->level_count(), level_count(), normals->level_dims(0).to_string(),
+                                  level_dims(0).to_string()));
+  // Codes are 0..511 (label_normals.hpp).
+  const auto values = normals->label_map().values();
+  if (!values.empty() && (values.front() < 0 || values.back() >= kNormalCodes))
+    throw FormatError(name(), "section normals", fmt::format("holds code {}; expected 0..{}", values.back() >= kNormalCodes ? values.back() : values.front(), kNormalCodes - 1));
+  return normals;
+}
 
 Extent EncodedLabels::level_dims(int level) const {
   if (level < 0 || level >= level_count())

@@ -27,6 +27,8 @@ void validate(const CameraSpec& spec) {
     throw ParameterError("CameraSpec::fov_deg", fmt::format("must lie in (0, 180) degrees, got {}", spec.fov_deg));
   if (!(std::isfinite(spec.ortho_height) && spec.ortho_height >= 0))
     throw ParameterError("CameraSpec::ortho_height", fmt::format("must be finite and >= 0, got {}", spec.ortho_height));
+  if (!(std::isfinite(spec.frame_radius) && spec.frame_radius >= 0))
+    throw ParameterError("CameraSpec::frame_radius", fmt::format("must be finite and >= 0, got {}", spec.frame_radius));
   const OrbitParams& o = spec.orbit;
   if (!(std::abs(o.azimuth_deg) <= kMaxAzimuthDeg))
     throw ParameterError("OrbitParams::azimuth_deg",
@@ -70,7 +72,8 @@ Camera::Camera(const CameraSpec& spec, const Extent& volume_dims, const Spacing&
     // The sphere fits a cone of half-angle a when distance = r / sin(a); take the narrower
     // of the two half-angles so neither image axis clips the volume.
     const double half_angle = std::atan(std::min(tan_v, tan_h));
-    orbit.distance = scene_radius / std::sin(half_angle);
+    const double framed = spec_.frame_radius > 0 ? std::min(spec_.frame_radius, scene_radius) : scene_radius;
+    orbit.distance = framed / std::sin(half_angle);
   }
 
   const double az = radians(orbit.azimuth_deg), el = radians(orbit.elevation_deg);

@@ -31,10 +31,17 @@ struct LevelView {
   double size = 1;   // 2^level
 };
 
+// Node ids per level and the palette they index: the labels, or the normals graph's light.
+struct Layer {
+  std::vector<LevelView> levels;
+  const float* palette = nullptr;
+};
+
 // Everything a ray needs, fixed for the frame.
 struct Frame {
   std::vector<LevelView> levels;
   const float* palette = nullptr;
+  Layer light;  // normals lighting: the pre-filtered diffuse (r) and specular (g) factors
   Vec3 inv_spacing;
   Vec3 dims0;                // level-0 box in voxel coordinates
   double voxel_world = 1;    // level-0 voxel size (geometric mean of the spacing)
@@ -61,6 +68,10 @@ void validate(const LabelRenderOptions& o, int level_count) {
                          fmt::format("must be a finite number of levels in [-{0}, {0}], got {1}", kMaxLevels, o.lod_bias));
   if (!(o.ambient >= 0 && o.ambient <= 1))
     throw ParameterError("LabelRenderOptions::ambient", fmt::format("must lie in 0..1, got {}", o.ambient));
+  if (!(o.specular >= 0 && o.specular <= 1))
+    throw ParameterError("LabelRenderOptions::specular", fmt::format("must lie in 0..1, got {}", o.specular));
+  if (!(o.shininess > 0 && o.shininess <= 1024))
+    throw ParameterError("LabelRenderOptions::shininess", fmt::format("must lie in (0, 1024], got {}", o.shininess));
   for (float c : {o.background.r, o.background.g, o.background.b, o.background.a})
     if (!(c >= 0 && c <= 1))
       throw ParameterError("LabelRenderOptions::background", fmt::format("components must lie in 0..1, got {}", c));
@@ -76,8 +87,8 @@ std::int64_t clamp_floor(double v, std::int64_t n) {
 
 // Trilinear interpolation of the palette colours of the 8 voxels of level `k` around the
 // level-0 voxel-space point u (voxel centres at integer + 0.5; clamp to the edge).
-Rgbaf sample_level(const Frame& f, int k, const Vec3& u) {
-  const LevelView& L = f.levels[std::size_t(k)];
+Rgbaf sample_level(const std::vector<LevelView>& levels, const float* palette, int k, const Vec3& u) {
+  const LevelView& L = levels[std::size_t(k)];
   const double v[3] = {u.x * L.scale - 0.5, u.y * L.scale - 0.5, u.z * L.scale - 0.5};
   const std::int64_t n[3] = {L.nx, L.ny, L.nz};
   std::int64_t lo[3], hi[3];
@@ -95,13 +106,13 @@ Rgbaf sample_level(const Frame& f, int k, const Vec3& u) {
   }
   // Inside a uniform region all 8 nodes agree: one palette read instead of eight, no weights.
   if (std::all_of(ids + 1, ids + 8, [&](std::uint32_t id) { return id == ids[0]; })) {
-    const float* p = f.palette + std::size_t(ids[0]) * 4;
+    const float* p = palette + std::size_t(ids[0]) * 4;
     return {p[0], p[1], p[2], p[3]};
   }
   Rgbaf s;
   for (int c = 0; c < 8; ++c) {
     const float weight = float((c & 1 ? w[0] : 1 - w[0]) * (c & 2 ? w[1] : 1 - w[1]) * (c & 4 ? w[2] : 1 - w[2]));
-    const float* p = f.palette + std::size_t(ids[c]) * 4;
+    const float* p = palette + std::size_t(ids[c]) * 4;
     s.r += weight * p[0];
     s.g += weight * p[1];
     s.b += weight * p[2];
@@ -127,13 +138,15 @@ LevelChoice choose_level(const Frame& f, double lod) {
   return {k, k == f.top ? 0.0f : float(clamped - k)};
 }
 
-Rgbaf sample(const Frame& f, const LevelChoice& c, const Vec3& u) {
-  Rgbaf s = sample_level(f, c.level, u);
+Rgbaf sample(const std::vector<LevelView>& levels, const float* palette, const LevelChoice& c, const Vec3& u) {
+  Rgbaf s = sample_level(levels, palette, c.level, u);
   if (c.next_weight <= 0) return s;
-  const Rgbaf t = sample_level(f, c.level + 1, u);
+  const Rgbaf t = sample_level(levels, palette, c.level + 1, u);
   const float w = c.next_weight;
   return {s.r + w * (t.r - s.r), s.g + w * (t.g - s.g), s.b + w * (t.b - s.b), s.a + w * (t.a - s.a)};
 }
+
+Rgbaf sample(const Frame& f, const LevelChoice& c, const Vec3& u) { return sample(f.levels, f.palette, c, u); }
 
 // Headlight factor from the gradient of the interpolated opacity at level `k` (central
 // differences one level voxel apart); 1 where the opacity is locally flat (no surface).
@@ -266,7 +279,12 @@ Rgbaf march(const Frame& f, const Ray& ray, RayCounters& counters) {
     ++counters.samples;
     t += dt;
     if (s.a <= 1e-7f) continue;
-    if (f.options.shading) {
+    if (f.options.shading && f.light.palette) {
+      // Pre-filtered light of the same footprint: diffuse scales the colour, specular adds
+      // white in proportion to the opacity (premultiplied).
+      const Rgbaf light = sample(f.light.levels, f.light.palette, level, at);
+      s.r = s.r * light.r + s.a * light.g, s.g = s.g * light.r + s.a * light.g, s.b = s.b * light.r + s.a * light.g;
+    } else if (f.options.shading) {
       const float light = headlight(f, level, at, ray.direction);
       s.r *= light, s.g *= light, s.b *= light;
     }
@@ -327,13 +345,14 @@ int frame_finest_level(const Frame& f, const Spacing& s) {
   return int(std::clamp(k, double(f.options.finest_level), double(f.top)));
 }
 
-void bind_levels(Frame& f, const LabelScene& scene) {
-  f.palette = scene.palette().data();
+// The levels finest..top of `scene` as the marcher reads them (skip grids with `skip`).
+void bind_levels(const Frame& f, const LabelScene& scene, bool skip, std::vector<LevelView>& levels) {
+  levels.resize(std::size_t(scene.level_count()));
   for (int l = f.finest; l <= f.top; ++l) {
-    LevelView& v = f.levels[std::size_t(l)];
+    LevelView& v = levels[std::size_t(l)];
     const Extent d = scene.level_dims(l);
     v.ids = scene.level_ids(l).data();
-    if (f.options.skip_empty && l >= LabelScene::kFinestSkipLevel) v.occupied = scene.occupied(l).data();
+    if (skip && l >= LabelScene::kFinestSkipLevel) v.occupied = scene.occupied(l).data();
     v.nx = d.x, v.ny = d.y, v.nz = d.z;
     v.size = std::ldexp(1.0, l);
     v.scale = 1.0 / v.size;
@@ -360,15 +379,33 @@ void render_tiles(const Frame& f, const Camera& camera, Image& image, LabelRende
 }  // namespace
 
 Image render_labels(LabelScene& scene, const Camera& camera, const LabelRenderOptions& options,
-                    LabelRenderStats* stats) {
+                    LabelRenderStats* stats, LabelShading* normals) {
   const auto start = std::chrono::steady_clock::now();
   validate(options, scene.level_count());
   if (scene.level_count() > kMaxLevels) throw Error("label render: more than 64 mip levels");
   Frame f = make_frame(scene, camera, options);
   f.finest = frame_finest_level(f, scene.spacing());
 
-  const LabelPrepareReport prepared = scene.prepare(f.finest, options.skip_empty);
-  bind_levels(f, scene);
+  const bool lit = options.shading && options.lighting == LabelLighting::normals;
+  if (lit && !normals)
+    throw ParameterError("LabelRenderOptions::lighting",
+                         "normals lighting needs the file's normals graph (strata labels encode --normals)");
+  if (lit && normals->scene().level_count() != scene.level_count())
+    throw ParameterError("LabelRenderOptions::lighting", "the normals graph's levels differ from the labels'");
+
+  LabelPrepareReport prepared = scene.prepare(f.finest, options.skip_empty);
+  f.palette = scene.palette().data();
+  bind_levels(f, scene, options.skip_empty, f.levels);
+  if (lit) {
+    // A headlight at infinity: towards the eye, against the view direction.
+    normals->set_light({-f.view.forward, options.ambient, options.specular, options.shininess});
+    const LabelPrepareReport light = normals->prepare(f.finest);
+    prepared.palette_ms += light.palette_ms;
+    prepared.ids_ms += light.ids_ms;
+    prepared.id_voxels_decoded += light.id_voxels_decoded;
+    f.light.palette = normals->scene().palette().data();
+    bind_levels(f, normals->scene(), false, f.light.levels);
+  }
 
   LabelRenderStats local;
   local.palette_ms = prepared.palette_ms;

@@ -120,6 +120,70 @@ Image RenderSession::Scalar::frame(const Camera& camera, const FrameSettings& se
   return image;
 }
 
+FrameSphere::FrameSphere(const Extent& dims, const Spacing& spacing)
+    : centre{0.5 * double(dims.x) * spacing.x, 0.5 * double(dims.y) * spacing.y, 0.5 * double(dims.z) * spacing.z},
+      bounding(length(centre)) {}
+
+void FrameSphere::add_box(const Vec3& lo, const Vec3& hi) {
+  const Vec3 far{std::max(std::abs(lo.x - centre.x), std::abs(hi.x - centre.x)),
+                 std::max(std::abs(lo.y - centre.y), std::abs(hi.y - centre.y)),
+                 std::max(std::abs(lo.z - centre.z), std::abs(hi.z - centre.z))};
+  radius = std::max(radius, length(far));
+}
+
+void FrameSphere::add_cell(const Extent& dims0, const Spacing& s, int level, std::int64_t x, std::int64_t y,
+                           std::int64_t z) {
+  const double cell = std::ldexp(1.0, level);
+  add_box({double(x) * cell * s.x, double(y) * cell * s.y, double(z) * cell * s.z},
+          {std::min(double(x + 1) * cell, double(dims0.x)) * s.x, std::min(double(y + 1) * cell, double(dims0.y)) * s.y,
+           std::min(double(z + 1) * cell, double(dims0.z)) * s.z});
+}
+
+double FrameSphere::rounded() const {
+  if (radius <= 0) return 0;
+  const double step = bounding / kSteps;
+  return std::min(bounding, std::ceil(radius / step) * step);
+}
+
+int frame_level(Extent dims) {
+  int level = 0;
+  while (std::max({dims.x, dims.y, dims.z}) > FrameSphere::kWidest) {
+    dims = ta::half_extent(dims);
+    ++level;
+  }
+  return level;
+}
+
+namespace {
+
+// The cells of `coarse` (level `level` of a volume of `dims0`) that the default transfer
+// function shows, over the value range [lo, hi].
+double visible_cells_radius(const Volume& coarse, int level, const Extent& dims0, const Spacing& s, double lo, double hi) {
+  FrameSphere sphere(dims0, s);
+  const std::uint64_t bins = frame_tf(FrameSettings{}).visible_bins(lo, hi);
+  const store::HistogramBinning binning(lo, hi);
+  const auto v = coarse.view<float>();
+  const Extent d = coarse.dims();
+  for (std::int64_t z = 0; z < d.z; ++z)
+    for (std::int64_t y = 0; y < d.y; ++y)
+      for (std::int64_t x = 0; x < d.x; ++x) {
+        const float f = v(x, y, z);
+        if (std::isfinite(f) && ((bins >> binning.bin(f)) & 1u)) sphere.add_cell(dims0, s, level, x, y, z);
+      }
+  return sphere.rounded();
+}
+
+}  // namespace
+
+// The cells of the coarsest level at most 64 wide that the default transfer function shows,
+// decoded at the stored rank: the same rule as a plain volume's, box-filtered to that level.
+double RenderSession::Scalar::frame_radius() const {
+  const Extent d0 = volume.source_info().dims;
+  const int level = std::min(frame_level(d0), volume.geometry().level_count() - 1);
+  const Volume coarse = volume.decode_box(level, Box::whole(volume.geometry().level(level).dims), volume.rank());
+  return visible_cells_radius(coarse, level, d0, volume.source_info().spacing, volume.value_min(), volume.value_max());
+}
+
 // One count per level-0 brick and histogram bin it touches (the index's occupancy masks).
 std::vector<std::uint64_t> RenderSession::Scalar::histogram() const {
   std::vector<std::uint64_t> counts(store::kHistogramBins, 0);
@@ -134,8 +198,32 @@ std::vector<std::uint64_t> RenderSession::Scalar::histogram() const {
   return counts;
 }
 
+// Voxels of the coarsest level at most 64 wide whose footprint holds any label but 0.
+double RenderSession::Labels::frame_radius() const {
+  const Spacing s = labels.spacing();
+  const Extent d0 = labels.level_dims(0);
+  FrameSphere sphere(d0, s);
+  const std::optional<std::uint32_t> background = labels.label_map().id_of(0);
+  if (!background) {
+    sphere.add_box({0, 0, 0}, {double(d0.x) * s.x, double(d0.y) * s.y, double(d0.z) * s.z});
+    return sphere.rounded();
+  }
+  const int level = std::min(frame_level(d0), labels.level_count() - 1);
+  const Extent d = labels.level_dims(level);
+  std::vector<std::uint32_t> ids(std::size_t(d.voxel_count()));
+  labels.decode_box(level, Box::whole(d), ids);
+  const std::vector<float> background_share = labels.label_fractions(0);
+  for (std::int64_t z = 0; z < d.z; ++z)
+    for (std::int64_t y = 0; y < d.y; ++y)
+      for (std::int64_t x = 0; x < d.x; ++x)
+        if (background_share[ids[std::size_t((z * d.y + y) * d.x + x)]] < 1.0f) sphere.add_cell(d0, s, level, x, y, z);
+  return sphere.rounded();
+}
+
 RenderSession::Labels::Labels(std::unique_ptr<store::ContainerReader> input)
-    : labels(std::move(input)), scene(labels, LabelColorMap{}) {}
+    : labels(std::move(input)), scene(labels, LabelColorMap{}) {
+  if (labels.has_normals()) normals = std::make_unique<LabelShading>(labels.open_normals());
+}
 
 Image RenderSession::Labels::frame(const Camera& camera, const FrameSettings& settings,
                                    const std::array<float, 4>& background, nlohmann::json& stats) {
@@ -143,10 +231,17 @@ Image RenderSession::Labels::frame(const Camera& camera, const FrameSettings& se
   options.lod_bias = settings.lod_bias;
   options.step = settings.step;
   options.shading = settings.shading;
+  // Files with a normals graph are lit from it unless the frame asks for gradients.
+  options.lighting = settings.label_lighting == LabelLightingChoice::gradient || !normals ? LabelLighting::gradient
+                                                                                           : LabelLighting::normals;
+  if (settings.label_lighting == LabelLightingChoice::normals && !normals)
+    throw ParameterError("FrameSettings::label_lighting",
+                         labels.name() + ": has no normals graph (encode it with strata labels encode --normals)");
   options.background = {background[0], background[1], background[2], background[3]};
   LabelRenderStats st;
-  Image image = render_labels(scene, camera, options, &st);
+  Image image = render_labels(scene, camera, options, &st, normals.get());
   stats = stats_json(st);
+  stats["render"]["lighting"] = options.lighting == LabelLighting::normals ? "normals" : "gradient";
   return image;
 }
 
@@ -180,6 +275,15 @@ Image RenderSession::Plain::frame(const Camera& camera, const FrameSettings& set
   Image image = caster.render(camera, prepared, &rs);
   stats = stats_json(rs);
   return image;
+}
+
+// The volume box-filtered to the coarsest level at most 64 wide (as a TA file's pyramid),
+// then the cells the default transfer function shows.
+double RenderSession::Plain::frame_radius() const {
+  const int level = frame_level(volume.dims());
+  Volume coarse = volume;
+  for (int l = 0; l < level; ++l) coarse = ta::half_resolution(coarse);
+  return visible_cells_radius(coarse, level, volume.dims(), volume.spacing(), range.first, range.second);
 }
 
 // Exact voxel counts in 64 bins over the value range, binned as the compressor bins bricks;
@@ -227,14 +331,15 @@ RenderSession::RenderSession(const std::filesystem::path& input, const SessionOp
   validate(options);
   if (!store::is_strata_file(input)) {
     plain_ = std::make_unique<Plain>(input, options.volume);
-    return;
+  } else {
+    // One reader, opened once: its codec picks the session kind, which takes it over.
+    auto reader = store::open_volume(input, options.volume);
+    if (reader->metadata().value("codec", std::string()) == mixture::kMixtureCodecName)
+      labels_ = std::make_unique<Labels>(std::move(reader));
+    else
+      scalar_ = std::make_unique<Scalar>(std::move(reader), options);
   }
-  // One reader, opened once: its codec picks the session kind, which takes it over.
-  auto reader = store::open_volume(input, options.volume);
-  if (reader->metadata().value("codec", std::string()) == mixture::kMixtureCodecName)
-    labels_ = std::make_unique<Labels>(std::move(reader));
-  else
-    scalar_ = std::make_unique<Scalar>(std::move(reader), options);
+  frame_radius_ = plain_ ? plain_->frame_radius() : labels_ ? labels_->frame_radius() : scalar_->frame_radius();
 }
 
 RenderSession::~RenderSession() = default;
@@ -297,10 +402,12 @@ nlohmann::json RenderSession::describe() const {
           {"dtype", dtype_name(dtype)},
           {"levels", level_count()},
           {"rank", stored_rank()},
+          {"frame_radius", frame_radius_},
           {"feature_scale_ladder", scalar_ ? nlohmann::json(scalar_->volume.feature_scale_ladder()) : nlohmann::json::array()},
           {"value_range", {lo, hi}},
           {"histogram", histogram},
-          {"label_count", labels_ ? labels_->labels.label_map().size() : 0u}};
+          {"label_count", labels_ ? labels_->labels.label_map().size() : 0u},
+          {"normals", labels_ && labels_->normals != nullptr}};
 }
 
 namespace {
@@ -331,6 +438,7 @@ Image RenderSession::frame(const FrameSettings& settings, nlohmann::json& stats)
   const double scale = adaptive ? std::max(options_.min_interactive_scale, options_.target_fps > 0 ? image_scale_ : 1.0)
                                 : 1.0;
   CameraSpec cast = spec;
+  if (cast.frame_radius == 0) cast.frame_radius = frame_radius_;
   cast.width = std::max(1, int(std::lround(spec.width / scale)));
   cast.height = std::max(1, int(std::lround(spec.height / scale)));
   const Camera camera(cast, dims(), spacing());

@@ -33,6 +33,26 @@ class CasterSlot {
 };
 
 // A TA file: LOD cut -> brick provider -> ray caster.
+// What the default camera frames (CameraSpec::frame_radius): the sphere about the volume's
+// centre that holds every box added, in world units; the boxes are where the volume shows
+// something under its default look (the "ct" preset, or every label but 0).
+// The radius is rounded up to a sixteenth of the bounding sphere's, so a plain volume and its
+// compressed copy, whose coarse values differ a little, frame alike.
+struct FrameSphere {
+  static constexpr std::int64_t kWidest = 64;  // cells per axis of the level looked at
+  static constexpr double kSteps = 16;
+  Vec3 centre;
+  double bounding = 0, radius = 0;
+  FrameSphere(const Extent& dims, const Spacing& spacing);
+  void add_box(const Vec3& lo, const Vec3& hi);  // its farthest corner
+  // The level-0 voxels of cell (x, y, z) of level `level` (clipped to the volume).
+  void add_cell(const Extent& dims0, const Spacing& s, int level, std::int64_t x, std::int64_t y, std::int64_t z);
+  double rounded() const;  // 0 when nothing was added
+};
+
+// The coarsest level (halving as the octree does) at most FrameSphere::kWidest wide.
+int frame_level(Extent dims);
+
 struct RenderSession::Scalar {
   ta::TaVolume volume;
   lod::BrickProvider provider;
@@ -40,6 +60,7 @@ struct RenderSession::Scalar {
   lod::SelectionOptions selection;
 
   Scalar(std::unique_ptr<store::ContainerReader> input, const SessionOptions& options);
+  double frame_radius() const;
   Image frame(const Camera& camera, const FrameSettings& settings, const RenderOptions& options, nlohmann::json& stats);
   // Calls f(x, y, z, value) for every voxel of `box` (level `level` coordinates) at rank K,
   // read through the provider (exact: waits for every brick the box meets).
@@ -60,6 +81,7 @@ struct RenderSession::Scalar {
 struct RenderSession::Labels {
   mixture::EncodedLabels labels;
   render::LabelScene scene;
+  std::unique_ptr<LabelShading> normals;  // the file's normals graph, when it has one
   LabelColorMap colors;
   // Per node, for slices: the dominant source (built on first use) and the colour of the
   // visible labels made opaque, so a slice shows coverage, not the 3D opacity.
@@ -69,6 +91,7 @@ struct RenderSession::Labels {
   std::vector<float> fractions;
 
   Labels(std::unique_ptr<store::ContainerReader> input);
+  double frame_radius() const;
   Image frame(const Camera& camera, const FrameSettings& settings, const std::array<float, 4>& background,
               nlohmann::json& stats);
   // Node ids of a slice at its level, in slice order (decode_box's x-fastest order is the
@@ -87,6 +110,7 @@ struct RenderSession::Plain {
   PreparedVolume prepared;
 
   Plain(const std::filesystem::path& input, std::optional<std::int64_t> volume);
+  double frame_radius() const;  // voxels the "ct" preset shows
   Image frame(const Camera& camera, const FrameSettings& settings, const RenderOptions& options, nlohmann::json& stats);
   std::vector<std::uint64_t> histogram() const;
 };

@@ -38,7 +38,7 @@ void check_client(const std::string& client) {
 }
 
 FrameRequest parse_frame(const Dataset& d, const HttpRequest& r) {
-  const Params p(r, {"w", "h", "az", "el", "dist", "target", "fov", "tf", "rank", "lod", "fs", "step", "shading", "quality",
+  const Params p(r, {"w", "h", "az", "el", "dist", "target", "fov", "tf", "rank", "lod", "fs", "lighting", "step", "shading", "quality",
                      "format", "client", "seq"});
   FrameRequest f;
   render::FrameSettings& s = f.settings;
@@ -54,6 +54,15 @@ FrameRequest parse_frame(const Dataset& d, const HttpRequest& r) {
     bad_parameter("fs", "an error target needs the feature-scale table of a ta-global file; this one has none");
   s.step = p.number("step", {0.05, 4}, 0.5);
   s.shading = p.choice("shading", {"0", "1"}, "1") == "1";
+  if (p.has("lighting")) {
+    require_kind(d, {render::DatasetKind::labels}, "lighting");
+    const std::string lighting = p.choice("lighting", {"auto", "gradient", "normals"}, "auto");
+    if (lighting == "normals" && !d.description.value("normals", false))
+      bad_parameter("lighting", "this label file has no normals graph (strata labels encode --normals)");
+    s.label_lighting = lighting == "gradient"  ? render::LabelLightingChoice::gradient
+                       : lighting == "normals" ? render::LabelLightingChoice::normals
+                                               : render::LabelLightingChoice::automatic;
+  }
   const bool coarse = p.choice("quality", {"coarse", "exact"}, "exact") == "coarse";
   s.quality = coarse ? render::FrameQuality::interactive : render::FrameQuality::exact;
   f.jpeg = p.choice("format", {"jpeg", "png"}, coarse ? "jpeg" : "png") == "jpeg";

@@ -105,33 +105,6 @@ StorageReport storage_report(const TaVolume& volume) {
 
 namespace {
 
-// The 2x2x2 means of an f32 volume; an odd last column, row or slice pairs with itself, and a
-// cell's non-finite voxels are left out unless all are (LevelPipeline's rule).
-Volume halve(const Volume& v) {
-  const Extent d = v.dims(), h = half_extent(d);
-  Volume out(h, DType::f32, v.spacing());
-  const auto in = v.view<float>();
-  auto o = out.view<float>();
-  for (std::int64_t z = 0; z < h.z; ++z)
-    for (std::int64_t y = 0; y < h.y; ++y)
-      for (std::int64_t x = 0; x < h.x; ++x) {
-        double sum = 0;
-        int finite = 0;
-        float first = 0;
-        for (int c = 0; c < 8; ++c) {
-          const float s = in(std::min(2 * x + (c & 1), d.x - 1), std::min(2 * y + (c >> 1 & 1), d.y - 1),
-                             std::min(2 * z + (c >> 2), d.z - 1));
-          if (c == 0) first = s;
-          if (std::isfinite(s)) {
-            sum += double(s);
-            ++finite;
-          }
-        }
-        o(x, y, z) = finite > 0 ? float(sum / finite) : first;
-      }
-  return out;
-}
-
 void check_same_dims(const TaVolume& volume, io::VolumeSource& original) {
   const Extent dims = volume.source_info().dims;
   if (!(original.info().dims == dims))
@@ -152,7 +125,7 @@ std::vector<ErrorMetrics> coarse_errors(const TaVolume& volume, io::VolumeSource
   for (std::int64_t z0 = 0; z0 < dims.z; z0 += rows) {
     Volume slab = original.read_slab(z0, std::min(dims.z, z0 + rows)).converted(DType::f32);
     for (int l = 1; l < levels; ++l) {
-      slab = halve(slab);
+      slab = half_resolution(slab);
       const Extent level_dims = volume.geometry().level(l).dims;
       const std::int64_t lz0 = z0 >> l;
       acc[std::size_t(l - 1)].add(slab, volume.decode_box(l, {{0, 0, lz0}, {level_dims.x, level_dims.y, lz0 + slab.dims().z}}, k));

@@ -1,5 +1,7 @@
 #include "strata/ta/octree.hpp"
 
+#include <cmath>
+
 #include <algorithm>
 #include <string>
 
@@ -59,6 +61,31 @@ Box OctreeGeometry::brick_core_box(int level, std::int64_t bx, std::int64_t by, 
   const std::int64_t core = layout_.core();
   Box box{{bx * core, by * core, bz * core}, {(bx + 1) * core, (by + 1) * core, (bz + 1) * core}};
   return box.intersect(Box::whole(this->level(level).dims));
+}
+
+Volume half_resolution(const Volume& v) {
+  const Extent d = v.dims(), h = half_extent(d);
+  Volume out(h, DType::f32, v.spacing());
+  const auto in = v.view<float>();
+  auto o = out.view<float>();
+  for (std::int64_t z = 0; z < h.z; ++z)
+    for (std::int64_t y = 0; y < h.y; ++y)
+      for (std::int64_t x = 0; x < h.x; ++x) {
+        double sum = 0;
+        int finite = 0;
+        float first = 0;
+        for (int c = 0; c < 8; ++c) {
+          const float s = in(std::min(2 * x + (c & 1), d.x - 1), std::min(2 * y + (c >> 1 & 1), d.y - 1),
+                             std::min(2 * z + (c >> 2), d.z - 1));
+          if (c == 0) first = s;
+          if (std::isfinite(s)) {
+            sum += double(s);
+            ++finite;
+          }
+        }
+        o(x, y, z) = finite > 0 ? float(sum / finite) : first;
+      }
+  return out;
 }
 
 }  // namespace strata::ta

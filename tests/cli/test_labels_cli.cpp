@@ -185,3 +185,30 @@ TEST(CliLabels, CalibrateReportsSharesOutsideSigma) {
   EXPECT_EQ(run_command(strata_cmd("labels calibrate " + enc + " --method naive"), &out), 2) << out;
   EXPECT_EQ(run_command(strata_cmd("labels calibrate " + (dir / "missing.strata").string()), &out), 1) << out;
 }
+
+// `labels encode --normals` adds the normals graph; `render --lighting normals` uses it, and
+// refuses files without it by the flag's name.
+TEST(CliLabels, NormalsGraphEncodesAndLightsFrames) {
+  TempDir dir;
+  const std::string in = (dir / "v.nrrd").string(), plain = (dir / "plain.strata").string(),
+                    lit = (dir / "lit.strata").string();
+  std::string out;
+  ASSERT_EQ(run_command(strata_cmd("generate voronoi --size 32,28,24 --count 12 -o " + in), &out), 0) << out;
+  ASSERT_EQ(run_command(strata_cmd("labels encode " + in + " -o " + lit + " --normals --no-error"), &out), 0) << out;
+  EXPECT_NE(out.find("normals graph: "), std::string::npos) << out;
+  ASSERT_EQ(run_command(strata_cmd("labels encode " + in + " -o " + plain + " --no-error"), &out), 0) << out;
+  ASSERT_EQ(run_command(strata_cmd("render " + lit + " --size 48x40 --lighting normals --stats " + (dir / "s.json").string() +
+                                   " -o " + (dir / "lit.png").string()),
+                        &out),
+            0)
+      << out;
+  std::ifstream stats(dir / "s.json");
+  const auto s = nlohmann::json::parse(stats);
+  EXPECT_EQ(s["frames"][0]["render"]["lighting"], "normals") << s.dump();
+  ASSERT_EQ(run_command(strata_cmd("render " + plain + " --size 48x40 --lighting normals -o " + (dir / "x.png").string()), &out), 2)
+      << out;
+  EXPECT_NE(out.find("--lighting: "), std::string::npos) << out;
+  EXPECT_EQ(run_command(strata_cmd("render " + lit + " --lighting shiny -o " + (dir / "y.png").string()), &out), 2) << out;
+  EXPECT_EQ(run_command(strata_cmd("labels encode " + in + " -o " + (dir / "z.strata").string() + " --normals --normals-radius 9"), &out), 2)
+      << out;
+}

@@ -26,6 +26,7 @@
 #include "strata/mixture/graph_bitstream.hpp"
 #include "strata/mixture/id_storage.hpp"
 #include "strata/mixture/label_map.hpp"
+#include "strata/mixture/label_normals.hpp"
 #include "strata/mixture/lookup.hpp"
 #include "strata/mixture/node_grid.hpp"
 #include "strata/mixture/schedule.hpp"
@@ -55,6 +56,11 @@ struct EncodeOptions {
   // zstd level applied to each serialized ids_L<n> section (0 = stored as is). Readers
   // decompress once at open; random access then works on the in-memory id storage.
   int ids_zstd = 9;
+  // Also store a normals Mixture Graph for pre-filtered shading (paper "Lighting"): the
+  // quantized normal codes of label_normals.hpp, encoded as a label volume of their own and
+  // kept whole as section "normals" (a complete nested .strata file, docs/format.md).
+  bool normals = false;
+  NormalOptions normal_options;
 };
 
 struct EncodeReport {
@@ -73,6 +79,8 @@ struct EncodeReport {
   std::uint64_t level0_voxels = 0;
   double bits_per_voxel = 0.0;                // whole file / level-0 voxels
   double seconds = 0.0, factor_seconds = 0.0;
+  std::uint64_t normals_bytes = 0;   // section "normals" (0 without normals)
+  double normals_seconds = 0.0;      // estimating, quantizing and encoding them
 };
 
 EncodeReport encode_labels(const Volume& labels, const std::filesystem::path& out, const EncodeOptions& options = {},
@@ -104,6 +112,13 @@ class EncodedLabels final : public NodeGrid {
   bool ids_compressed() const { return ids_zstd_; }
   Spacing spacing() const { return spacing_; }
   const nlohmann::json& metadata() const;
+
+  /// @brief Whether the file holds a normals graph (EncodeOptions::normals).
+  bool has_normals() const;
+  /// @brief The normals graph: a label file of normal codes (label_normals.hpp), read from section
+  /// "normals" of this file's mapping and named "<file> (normals)" in messages. Throws
+  /// FormatError when it is absent or damaged, or when its dims differ from this file's.
+  std::unique_ptr<EncodedLabels> open_normals() const;
 
   Volume decode_level0() const;  // original dtype and values, bit-exact
   // Per voxel the label of the node's largest mean weight (ties: the smaller label), source dtype.

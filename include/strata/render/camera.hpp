@@ -41,6 +41,11 @@ struct CameraSpec {
   // Orthographic only: world-space height of the image. 0 = the height the perspective view
   // has at the target plane (2 distance tan(fov/2)), so switching projection keeps the framing.
   double ortho_height = 0;
+  // What the default distance (orbit.distance 0) frames: a sphere of this radius (world units)
+  // about the target; 0 = the volume's bounding sphere. RenderSession sets it to the sphere
+  // about the volume centre that holds the volume's content (its non-empty bricks or voxels),
+  // so a brain with empty margins fills the view.
+  double frame_radius = 0;
 };
 
 /// @brief Limits of a CameraSpec (validate): image edges in pixels, |azimuth| in degrees (any

@@ -19,8 +19,15 @@
 #include "strata/render/image.hpp"
 #include "strata/render/label_color_map.hpp"
 #include "strata/render/label_scene.hpp"
+#include "strata/render/label_shading.hpp"
 
 namespace strata::render {
+
+/// @brief How shaded label frames are lit (paper 4, Fig. 7).
+enum class LabelLighting {
+  gradient,  ///< headlight from the gradient of the interpolated opacity, on the fly
+  normals,   ///< pre-filtered light from the file's normals graph (label_shading.hpp)
+};
 
 struct LabelRenderOptions {
   double lod_bias = 0.0;       // added to the level from the footprint; > 0 = coarser, blurrier
@@ -33,7 +40,9 @@ struct LabelRenderOptions {
   // paper §4): colour x (ambient + (1 - ambient) |n . view|). Costs 6 extra palette samples
   // per visible sample.
   bool shading = false;
+  LabelLighting lighting = LabelLighting::gradient;  // with shading
   double ambient = 0.35;
+  double specular = 0.25, shininess = 24;  // normals lighting: white highlight, specular·|n·l|^shininess
   LabelRgba background{0, 0, 0, 1};  // straight alpha
   int tile = 16;               // pixels per tile edge (tiles are the unit of parallel work)
 };
@@ -55,9 +64,11 @@ struct LabelRenderStats {
 // Renders `scene` as seen by `camera` (whose volume dims/spacing should be the scene's).
 // Calls scene.prepare() first, so the first frame decodes the needed levels' ids and later
 // frames only recompute what a colour-map change invalidated. Throws ParameterError naming the
-// LabelRenderOptions field on bad options (the step as check_step in sampling_limits.hpp).
+// LabelRenderOptions field on bad options (the step as check_step in sampling_limits.hpp), and
+// for normals lighting without `normals` (the file's normals graph). The normals light is a
+// headlight at infinity: towards the eye along the view direction.
 Image render_labels(LabelScene& scene, const Camera& camera, const LabelRenderOptions& options = {},
-                    LabelRenderStats* stats = nullptr);
+                    LabelRenderStats* stats = nullptr, LabelShading* normals = nullptr);
 
 // A frame's statistics as the JSON `strata render --stats` writes: {"render": {...}}.
 nlohmann::json stats_json(const LabelRenderStats& stats);

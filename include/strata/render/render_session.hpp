@@ -65,6 +65,13 @@ struct SessionOptions {
   std::optional<std::int64_t> volume;
 };
 
+/// @brief Label files: which light a shaded frame uses (label_raycaster.hpp, LabelLighting).
+enum class LabelLightingChoice {
+  automatic,  ///< the normals graph when the file has one, else opacity gradients
+  gradient,
+  normals,    ///< refused for a file without a normals graph
+};
+
 /// @brief Everything that may change from one frame to the next.
 struct FrameSettings {
   CameraSpec camera;
@@ -75,6 +82,7 @@ struct FrameSettings {
   /// picks each brick's rank and bounds refinement (lod/selection.hpp); 0 = off.
   double feature_scale = 0;
   double lod_bias = 0.0;                       ///< label files: added to the per-sample mip level
+  LabelLightingChoice label_lighting = LabelLightingChoice::automatic;  ///< label files, with shading
   double step = 0.5;                           ///< sample distance in voxels of the sampled level
   bool shading = true;
   FrameQuality quality = FrameQuality::exact;
@@ -160,6 +168,7 @@ class RenderSession {
   std::unique_ptr<Scalar> scalar_;
   std::unique_ptr<Labels> labels_;
   double image_scale_ = 1;  // image edge divisor of interactive frames, adapted per frame
+  double frame_radius_ = 0;  // the content's sphere about the volume centre (CameraSpec::frame_radius)
   bool calibrated_ = false;
   void adapt_image_scale(double used_scale, double frame_ms);
   void check_level(int level) const;

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "strata/core/extent.hpp"
+#include "strata/core/volume.hpp"
 
 namespace strata::ta {
 
@@ -53,5 +54,9 @@ class OctreeGeometry {
 
 // Extent of the next coarser level: ceil(d / 2) per axis.
 Extent half_extent(const Extent& d);
+/// @brief The next coarser level of an f32 volume as the octree builds it: 2×2×2 means, an odd
+/// last column, row or slice pairing with itself; a cell's non-finite voxels are left out
+/// unless all are (then its first voxel's value). Dims half_extent(v.dims()).
+Volume half_resolution(const Volume& v);
 
 }  // namespace strata::ta
