@@ -208,6 +208,11 @@ TEST_F(ServerApi, BadRenderParametersAreNamed) {
   expect_bad(dataset(kLabels, "render?tf=ct"), "tf");
   expect_bad(dataset(kPlain, "render?rank=1"), "rank");
   expect_bad(dataset(kLabels, "render?rank=1"), "rank");
+  // Lighting is for label files, and normals lighting for those with a normals graph.
+  expect_bad(dataset(kScalar, "render?lighting=gradient"), "lighting");
+  expect_bad(dataset(kLabels, "render?lighting=normals"), "lighting");
+  expect_bad(dataset(kLabels, "render?lighting=phong"), "lighting");
+  EXPECT_EQ(get(api(), dataset(kLabels, "render?w=32&h=24&lighting=gradient")).status, 200);
 }
 
 TEST_F(ServerApi, TransferFunctionText) {
