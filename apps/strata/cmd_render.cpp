@@ -146,8 +146,9 @@ render::FrameSettings frame_settings(const RenderArgs& a) {
   f.lod_bias = a.lod_bias;
   if (a.lighting == "auto") f.label_lighting = render::LabelLightingChoice::automatic;
   else if (a.lighting == "gradient") f.label_lighting = render::LabelLightingChoice::gradient;
+  else if (a.lighting == "gradient-ao") f.label_lighting = render::LabelLightingChoice::gradient_occlusion;
   else if (a.lighting == "normals") f.label_lighting = render::LabelLightingChoice::normals;
-  else throw UsageError("--lighting", "expected auto, gradient or normals, got '" + a.lighting + "'");
+  else throw UsageError("--lighting", "expected auto, gradient, gradient-ao or normals, got '" + a.lighting + "'");
   f.step = a.step;
   f.shading = a.shading == "on";
   as_usage_error([&] {
@@ -264,7 +265,8 @@ void register_render(CLI::App& app, const GlobalOptions& global) {
   cmd->add_option("--colors", a->colors, "Label files: JSON colour map (default: a hash colour per label)");
   cmd->add_option("--lighting", a->lighting,
                   "Label files, with shading: normals (the file's normals graph, `labels encode --normals`: smooth, "
-                  "pre-filtered) | gradient (opacity gradients, on the fly) | auto (normals when the file has them)")
+                  "pre-filtered) | gradient (opacity gradients, on the fly) | gradient-ao (with local ambient occlusion) | auto "
+                  "(normals when the file has them)")
       ->capture_default_str();
   cmd->add_option("--lod-bias", a->lod_bias, "Label files: added to the mip level chosen per sample (-64..64)")
       ->capture_default_str();

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <vector>
 
 #include <fmt/format.h>
@@ -148,9 +149,9 @@ Rgbaf sample(const std::vector<LevelView>& levels, const float* palette, const L
 
 Rgbaf sample(const Frame& f, const LevelChoice& c, const Vec3& u) { return sample(f.levels, f.palette, c, u); }
 
-// Headlight factor from the gradient of the interpolated opacity at level `k` (central
-// differences one level voxel apart); 1 where the opacity is locally flat (no surface).
-float headlight(const Frame& f, const LevelChoice& c, const Vec3& u, const Vec3& ray_direction) {
+// The world-space gradient of the interpolated opacity at level `k` (central differences one
+// level voxel apart).
+Vec3 opacity_gradient(const Frame& f, const LevelChoice& c, const Vec3& u) {
   const double h = f.levels[std::size_t(c.level)].size;
   double g[3];
   for (int a = 0; a < 3; ++a) {
@@ -159,11 +160,44 @@ float headlight(const Frame& f, const LevelChoice& c, const Vec3& u, const Vec3&
     g[a] = (sample(f, c, u + step).a - sample(f, c, u - step).a) / (2 * h);
   }
   // Voxel-space to world-space gradient: d/dp = d/du / spacing.
-  const Vec3 world = hadamard(Vec3{g[0], g[1], g[2]}, f.inv_spacing);
+  return hadamard(Vec3{g[0], g[1], g[2]}, f.inv_spacing);
+}
+
+// Local ambient occlusion (paper 4, Fig. 7 left, after Hernell et al.): the share of light
+// that reaches the sample along three short rays leaving the surface, the outward normal and
+// two tilted 40° from it, each accumulating the opacity of kOcclusionSteps samples one level
+// voxel apart from 1.5 voxels out. 1 in the open, less in creases and cavities.
+constexpr int kOcclusionSteps = 4;
+
+float ambient_light(const Frame& f, const LevelChoice& c, const Vec3& u, const Vec3& outward_world) {
+  // The rays in voxel space: world directions scaled by 1 / spacing.
+  const Vec3 n = normalized(outward_world);
+  const Vec3 helper = std::abs(n.x) < 0.9 ? Vec3{1, 0, 0} : Vec3{0, 1, 0};
+  const Vec3 t = normalized(cross(n, helper)), b = cross(n, t);
+  const double tilt = std::tan(40.0 * std::numbers::pi / 180);
+  const Vec3 directions[3] = {n, normalized(n + t * tilt), normalized(n - t * (0.5 * tilt) + b * (0.866 * tilt))};
+  const double h = f.levels[std::size_t(c.level)].size;
+  double light = 0;
+  for (const Vec3& d : directions) {
+    const Vec3 step = hadamard(d, f.inv_spacing) * (h * f.voxel_world);  // h level-0 voxels of world length
+    double through = 1;
+    // From 1.5 level voxels out: the sample itself lies in its surface's one-voxel opacity ramp.
+    for (int k = 1; k <= kOcclusionSteps; ++k) through *= 1 - std::min(1.0f, sample(f, c, u + step * (k + 0.5)).a);
+    light += through;
+  }
+  return float(light / 3);
+}
+
+// Headlight factor from the opacity gradient, 1 where the opacity is locally flat (no
+// surface); with occlusion, scaled by the ambient light that reaches the sample.
+float headlight(const Frame& f, const LevelChoice& c, const Vec3& u, const Vec3& ray_direction) {
+  const Vec3 world = opacity_gradient(f, c, u);
   const double norm = length(world);
   if (norm < 1e-6) return 1.0f;
   const double facing = std::abs(dot(world, ray_direction)) / norm;
-  return float(f.options.ambient + (1 - f.options.ambient) * facing);
+  const float direct = float(f.options.ambient + (1 - f.options.ambient) * facing);
+  // Opacity grows into the object: the outward normal is against the gradient.
+  return f.options.occlusion ? direct * ambient_light(f, c, u, -world) : direct;
 }
 
 // The coarsest level L >= `from` whose voxel around u is empty (no visible node in its

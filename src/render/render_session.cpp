@@ -232,8 +232,10 @@ Image RenderSession::Labels::frame(const Camera& camera, const FrameSettings& se
   options.step = settings.step;
   options.shading = settings.shading;
   // Files with a normals graph are lit from it unless the frame asks for gradients.
-  options.lighting = settings.label_lighting == LabelLightingChoice::gradient || !normals ? LabelLighting::gradient
-                                                                                           : LabelLighting::normals;
+  const bool gradients = settings.label_lighting == LabelLightingChoice::gradient ||
+                         settings.label_lighting == LabelLightingChoice::gradient_occlusion;
+  options.lighting = gradients || !normals ? LabelLighting::gradient : LabelLighting::normals;
+  options.occlusion = settings.label_lighting == LabelLightingChoice::gradient_occlusion;
   if (settings.label_lighting == LabelLightingChoice::normals && !normals)
     throw ParameterError("FrameSettings::label_lighting",
                          labels.name() + ": has no normals graph (encode it with strata labels encode --normals)");
@@ -241,7 +243,9 @@ Image RenderSession::Labels::frame(const Camera& camera, const FrameSettings& se
   LabelRenderStats st;
   Image image = render_labels(scene, camera, options, &st, normals.get());
   stats = stats_json(st);
-  stats["render"]["lighting"] = options.lighting == LabelLighting::normals ? "normals" : "gradient";
+  stats["render"]["lighting"] = options.lighting == LabelLighting::normals ? "normals"
+                                : options.occlusion                          ? "gradient-ao"
+                                                                             : "gradient";
   return image;
 }
 

@@ -56,10 +56,11 @@ FrameRequest parse_frame(const Dataset& d, const HttpRequest& r) {
   s.shading = p.choice("shading", {"0", "1"}, "1") == "1";
   if (p.has("lighting")) {
     require_kind(d, {render::DatasetKind::labels}, "lighting");
-    const std::string lighting = p.choice("lighting", {"auto", "gradient", "normals"}, "auto");
+    const std::string lighting = p.choice("lighting", {"auto", "gradient", "gradient-ao", "normals"}, "auto");
     if (lighting == "normals" && !d.description.value("normals", false))
       bad_parameter("lighting", "this label file has no normals graph (strata labels encode --normals)");
-    s.label_lighting = lighting == "gradient"  ? render::LabelLightingChoice::gradient
+    s.label_lighting = lighting == "gradient"      ? render::LabelLightingChoice::gradient
+                       : lighting == "gradient-ao" ? render::LabelLightingChoice::gradient_occlusion
                        : lighting == "normals" ? render::LabelLightingChoice::normals
                                                : render::LabelLightingChoice::automatic;
   }

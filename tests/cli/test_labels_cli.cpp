@@ -209,6 +209,13 @@ TEST(CliLabels, NormalsGraphEncodesAndLightsFrames) {
       << out;
   EXPECT_NE(out.find("--lighting: "), std::string::npos) << out;
   EXPECT_EQ(run_command(strata_cmd("render " + lit + " --lighting shiny -o " + (dir / "y.png").string()), &out), 2) << out;
+  ASSERT_EQ(run_command(strata_cmd("render " + plain + " --size 48x40 --lighting gradient-ao --stats " +
+                                   (dir / "ao.json").string() + " -o " + (dir / "ao.png").string()),
+                        &out),
+            0)
+      << out;
+  std::ifstream ao(dir / "ao.json");
+  EXPECT_EQ(nlohmann::json::parse(ao)["frames"][0]["render"]["lighting"], "gradient-ao");
   EXPECT_EQ(run_command(strata_cmd("labels encode " + in + " -o " + (dir / "z.strata").string() + " --normals --normals-radius 9"), &out), 2)
       << out;
 }

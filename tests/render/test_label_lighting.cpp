@@ -112,3 +112,63 @@ TEST(RenderLabelLighting, NormalsLightingNeedsTheGraph) {
 }
 
 }  // namespace strata::render
+
+namespace strata::render {
+namespace {
+
+// A floor (z < 8) with, on the half y < 24, walls up to z = 28 on both sides of a trench
+// x in [22, 26): seen from above, the trench floor and the open floor face the same way.
+Volume trench() {
+  Volume v(Extent{48, 48, 40}, DType::u8);
+  auto s = v.view<std::uint8_t>();
+  for (std::int64_t z = 0; z < 40; ++z)
+    for (std::int64_t y = 0; y < 48; ++y)
+      for (std::int64_t x = 0; x < 48; ++x) {
+        const bool wall = y < 24 && (x < 22 || x >= 26) && z < 28;
+        s(x, y, z) = z < 8 || wall ? 5 : 0;
+      }
+  return v;
+}
+
+// The grey level of the pixel whose ray starts nearest world (x, y) (orthographic, from above).
+double grey_at(const Image& image, const Camera& camera, double x, double y) {
+  int best_x = 0, best_y = 0;
+  double best = 1e300;
+  for (int py = 0; py < image.height(); ++py)
+    for (int px = 0; px < image.width(); ++px) {
+      const Ray r = camera.ray(px, py);
+      const double d = (r.origin.x - x) * (r.origin.x - x) + (r.origin.y - y) * (r.origin.y - y);
+      if (d < best) best = d, best_x = px, best_y = py;
+    }
+  const Rgba8 p = image.at(best_x, best_y);
+  return (double(p.r) + p.g + p.b) / 3;
+}
+
+}  // namespace
+
+// Local ambient occlusion darkens a floor between walls and leaves an open floor alone.
+TEST(RenderLabelLighting, OcclusionDarkensCreasesOnly) {
+  test::TempDir dir;
+  mixture::EncodeOptions o;
+  o.measure_error = false;
+  mixture::encode_labels(trench(), dir / "trench.strata", o);
+  const mixture::EncodedLabels labels(dir / "trench.strata");
+  LabelScene scene(labels, LabelColorMap::uniform({1, 1, 1, 1}));
+  CameraSpec spec;
+  spec.width = spec.height = 96;
+  spec.projection = Projection::orthographic;
+  spec.orbit.elevation_deg = 90;
+  spec.orbit.distance = 200;
+  spec.ortho_height = 48;
+  const Camera camera(spec, Extent{48, 48, 40}, Spacing{});
+  LabelRenderOptions plain = lit(LabelLighting::gradient), occluded = plain;
+  occluded.occlusion = true;
+  const Image a = render_labels(scene, camera, plain), b = render_labels(scene, camera, occluded);
+  const double open_plain = grey_at(a, camera, 24, 36), trench_plain = grey_at(a, camera, 24, 12);
+  const double open_occluded = grey_at(b, camera, 24, 36), trench_occluded = grey_at(b, camera, 24, 12);
+  EXPECT_NEAR(open_plain, trench_plain, 2) << "without occlusion both floors face the light alike";
+  EXPECT_NEAR(open_occluded, open_plain, 0.1 * open_plain) << "open floor: the rays escape";
+  EXPECT_LT(trench_occluded, 0.85 * open_occluded) << "the trench's walls block part of the light";
+}
+
+}  // namespace strata::render

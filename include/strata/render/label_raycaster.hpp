@@ -43,6 +43,10 @@ struct LabelRenderOptions {
   LabelLighting lighting = LabelLighting::gradient;  // with shading
   double ambient = 0.35;
   double specular = 0.25, shininess = 24;  // normals lighting: white highlight, specular·|n·l|^shininess
+  // Gradient lighting: also local ambient occlusion (paper Fig. 7, left): the light reaching a
+  // sample along three short rays off the surface (4 samples each, one level voxel apart)
+  // scales its shading. 12 more palette samples per visible sample.
+  bool occlusion = false;
   LabelRgba background{0, 0, 0, 1};  // straight alpha
   int tile = 16;               // pixels per tile edge (tiles are the unit of parallel work)
 };

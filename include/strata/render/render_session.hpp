@@ -69,6 +69,7 @@ struct SessionOptions {
 enum class LabelLightingChoice {
   automatic,  ///< the normals graph when the file has one, else opacity gradients
   gradient,
+  gradient_occlusion,  ///< opacity gradients with local ambient occlusion
   normals,    ///< refused for a file without a normals graph
 };
 
