@@ -1,8 +1,8 @@
 // The .strata container: header, metadata JSON, brick index (plain and compressed) and
 // sections, as `strata info` opens it; then, as `decompress` and `labels decode` do, the codec's
 // own metadata (TaVolume or EncodedLabels over the open container) and one decode of the
-// coarsest level (one brick for a TA file, the smallest mip level for a label file). A volume
-// set's first members are opened and read the same way.
+// coarsest level (one brick for a TA file, the smallest mip level for a label file and for its
+// nested normals graph). A volume set's first members are opened and read the same way.
 //
 // Every input is read twice: as it is, and with the header, metadata and index checksums
 // recomputed, so mutations get past the checksums to the parsers behind them (payload and
@@ -47,6 +47,13 @@ void read_codec(std::unique_ptr<strata::store::ContainerReader> reader) {
     if (top < 0) return;
     const strata::Extent dims = labels.level_dims(top);
     if (strata::fuzz::small_extent(dims.x, dims.y, dims.z, 1 << 18)) (void)labels.dominant_labels(top);
+    // The normals graph is a whole .strata file nested in a section: opened as the renderer does.
+    if (labels.has_normals()) {
+      const std::unique_ptr<strata::mixture::EncodedLabels> normals = labels.open_normals();
+      const int coarsest = normals->level_count() - 1;
+      const strata::Extent n = normals->level_dims(coarsest);
+      if (strata::fuzz::small_extent(n.x, n.y, n.z, 1 << 18)) (void)normals->dominant_labels(coarsest);
+    }
   }
 }
 

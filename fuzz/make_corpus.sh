@@ -34,6 +34,7 @@ $strata labels encode "$w/cells.nrrd" -o "$w/labels.strata"
 $strata compress "$w/prisms.nrrd" -o "$w/global.strata" --brick 8 --overlap 1 --rank 4 --codec ta-global
 $strata compress "$w/series.nrrd" -o "$w/volume_set.strata" --brick 8 --overlap 1 --psnr 40 --all-volumes
 $strata labels encode "$w/cells.nrrd" -o "$w/labels_fixed.strata" --ids fixed
+$strata labels encode "$w/cells.nrrd" -o "$w/labels_normals.strata" --normals
 
 c=fuzz/corpus
 mkdir -p $c/{nrrd,nifti,tiff,raw_sidecar,container} fuzz/data
@@ -45,7 +46,7 @@ cp tests/data/fibsem_medulla_sp_crop20.nrrd $c/nrrd/  # nan_f32.nrrd is kept: wr
 cp "$w/prisms.nii" "$w/prisms.nii.gz" "$w/cells.nii" "$w/wide_nifti2.nii.gz" $c/nifti/
 cp "$w/prisms.tif" "$w/cells.tif" "$w/sphere.tif" $c/tiff/
 for f in prisms sphere; do (cat "$w/$f.raw.json"; printf '\n--\n'; cat "$w/$f.raw") >$c/raw_sidecar/$f; done
-cp "$w"/{scalar,scalar_nozstd,coded,coded_max,labels,labels_fixed,volume_set,global}.strata $c/container/
+cp "$w"/{scalar,scalar_nozstd,coded,coded_max,labels,labels_fixed,labels_normals,volume_set,global}.strata $c/container/
 build/fuzz/fuzz/fuzz_extract_seeds $c "$w"/{scalar,scalar_nozstd,coded,coded_max,masked,masked_rank,labels,labels_fixed}.strata
 cp "$w/scalar.strata" fuzz/data/scalar.strata
 cp "$w/labels.strata" fuzz/data/labels.strata

@@ -189,10 +189,10 @@ void run_render(const RenderArgs& a, const GlobalOptions&) {
   check_outputs(a);
   render::RenderSession session(a.input, options);
   if (settings.label_lighting == render::LabelLightingChoice::normals &&
-      (session.kind() != render::DatasetKind::labels || !session.describe().value("normals", false)))
+      !session.has_normals())
     throw UsageError("--lighting", a.input + " has no normals graph: normals lighting needs a label file encoded with "
                                              "strata labels encode --normals");
-  if (a.feature_scale > 0 && session.describe()["feature_scale_ladder"].empty())
+  if (a.feature_scale > 0 && !session.has_feature_scale())
     throw UsageError("--feature-scale", a.input + " has no feature-scale table: an error target needs a ta-global file "
                                                   "(strata compress --codec ta-global)");
   if (!a.colors.empty() && session.kind() == render::DatasetKind::labels)

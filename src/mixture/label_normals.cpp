@@ -233,7 +233,7 @@ namespace {
 std::vector<Normal> estimate(const std::vector<std::uint32_t>& ids, const Extent& d, const Spacing& spacing,
                              std::optional<std::uint32_t> background, const NormalOptions& options,
                              LabelNormals* counts) {
-  options.validate();
+  // The public entry points validate `options` before any work.
   const std::vector<std::uint8_t> band = boundary_band(ids, d, options.band);
   std::vector<Normal> normals(ids.size(), Normal{0, 0, 0});
   band_normals(ids, band, d, window_taps(options.radius, spacing), background, normals);

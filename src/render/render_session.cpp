@@ -285,8 +285,9 @@ Image RenderSession::Plain::frame(const Camera& camera, const FrameSettings& set
 // then the cells the default transfer function shows.
 double RenderSession::Plain::frame_radius() const {
   const int level = frame_level(volume.dims());
-  Volume coarse = volume;
-  for (int l = 0; l < level; ++l) coarse = ta::half_resolution(coarse);
+  if (level == 0) return visible_cells_radius(volume, 0, volume.dims(), volume.spacing(), range.first, range.second);
+  Volume coarse = ta::half_resolution(volume);  // halved straight from the volume: no full-size copy
+  for (int l = 1; l < level; ++l) coarse = ta::half_resolution(coarse);
   return visible_cells_radius(coarse, level, volume.dims(), volume.spacing(), range.first, range.second);
 }
 
@@ -389,6 +390,10 @@ bool RenderSession::has_label(std::int64_t label) const {
   return labels_ && labels_->labels.label_map().id_of(label).has_value();
 }
 
+bool RenderSession::has_normals() const { return labels_ && labels_->normals != nullptr; }
+
+bool RenderSession::has_feature_scale() const { return scalar_ && !scalar_->volume.feature_scale_ladder().empty(); }
+
 nlohmann::json RenderSession::describe() const {
   const auto [lo, hi] = value_range();
   const DType dtype = plain_    ? plain_->source_dtype
@@ -411,7 +416,7 @@ nlohmann::json RenderSession::describe() const {
           {"value_range", {lo, hi}},
           {"histogram", histogram},
           {"label_count", labels_ ? labels_->labels.label_map().size() : 0u},
-          {"normals", labels_ && labels_->normals != nullptr}};
+          {"normals", has_normals()}};
 }
 
 namespace {

@@ -123,6 +123,11 @@ class RenderSession {
   std::pair<double, double> value_range() const;
   /// @brief Whether `label` occurs in a label file (false for other kinds).
   bool has_label(std::int64_t label) const;
+  /// @brief Whether a label file carries a normals graph (`labels encode --normals`).
+  bool has_normals() const;
+  /// @brief Whether a TA file carries a feature-scale table (ta-global), so frames may set
+  /// FrameSettings::feature_scale.
+  bool has_feature_scale() const;
   /// @brief {"name", "kind", "dims", "spacing", "dtype", "levels", "rank", "value_range",
   /// "histogram", "label_count"} as docs/viewer.md describes `GET /api/datasets`.
   nlohmann::json describe() const;
