@@ -20,8 +20,12 @@ PACKAGES=(
   mricron-data                                # sample MRI and brain atlases
   python3-nibabel                             # reference NIfTI reader and its test files (tests/io)
   chromium                                    # browser tests of the viewer (tests/web)
+  # The Python module `import strata` (python/, docs/python.md), built by the same CMake build for
+  # Debian's /usr/bin/python3: pybind11 and the interpreter's headers to build it, numpy for its
+  # arrays, pytest for its tests (ctest -L python).
+  python3-pybind11 python3-dev python3-numpy python3-pytest
 )
-BENCH_PACKAGES=(zfp python3-numpy python3-matplotlib)  # bench/rd only (--bench); never the library
+BENCH_PACKAGES=(zfp python3-numpy python3-matplotlib python3-pil)  # bench/ only (--bench); never the library
 # fuzz/ only (--fuzz): clang 14 (clang, clang++), libFuzzer + ASan/UBSan runtimes (only
 # recommended by clang-14, so named here) and LLVM's OpenMP runtime for clang's -fopenmp.
 # About 45 MB to download, 250 MB installed.

@@ -61,8 +61,7 @@ ta::CompressParams to_params(const CompressArgs& args) {
   if (args.rank < 0) throw UsageError("--rank", "must be positive, got " + std::to_string(args.rank));
   p.codec.target = to_target(args);
   // With a target the rank is only a cap: each brick keeps the ranks its error needs.
-  const int default_rank = p.codec.target.kind == ta::TargetKind::none ? args.brick / 2 : args.brick;
-  p.codec.rank = args.rank > 0 ? args.rank : default_rank;
+  p.codec.rank = args.rank > 0 ? args.rank : ta::default_rank(p.layout, p.codec.target.kind);
   p.codec.quant = quant::QuantScheme::parse(args.quant);
   p.codec.hooi_iterations = args.hooi;
   p.codec.zstd_level = args.zstd;

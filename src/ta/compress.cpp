@@ -306,6 +306,10 @@ std::span<const std::byte> as_bytes(const std::vector<float>& v) {
 
 }  // namespace
 
+int default_rank(const BrickLayout& layout, TargetKind target) {
+  return target == TargetKind::none ? layout.brick / 2 : layout.brick;
+}
+
 CompressReport compress_volume(io::VolumeSource& source, const std::filesystem::path& out,
                                const CompressParams& requested, ProgressSink& progress) {
   // ta-global cores are core-only bricks: the scheme's factor part is unused (f32 stores no

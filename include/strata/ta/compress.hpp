@@ -53,6 +53,10 @@ struct CompressReport {
   double global_seconds = 0;       // ta-global: time of the global fit
 };
 
+/// @brief The rank `strata compress` stores when none is given: half the brick width in
+/// fixed-rank mode; with an error target the brick width, the cap each brick's ranks stay under.
+int default_rank(const BrickLayout& layout, TargetKind target);
+
 /// @brief The ranks of the ta-global feature-scale table for bases of `rank` columns: every
 /// ⌈rank / 4⌉-th rank up to `rank` (4, 8, 12, 16 for rank 16).
 std::vector<int> feature_scale_ladder(int rank);
