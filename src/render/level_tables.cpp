@@ -9,6 +9,7 @@
 #include <utility>
 
 #include "render/ray_sampling.hpp"
+#include "render/shading.hpp"
 
 namespace strata::render::detail {
 
@@ -53,6 +54,7 @@ std::vector<LevelParams> level_params(std::vector<std::unique_ptr<LevelTables>>&
     }
     const LevelTables& t = *tables[l];
     levels[l].h = ratio * min_spacing;
+    levels[l].shade_threshold = correct_opacity(kShadeThreshold, ratio);
     // The pre-integrated table is options.table_size^2 entries (read through its cells only).
     levels[l].classify = options.preintegrated
                              ? Classifier{nullptr, options.table_size, float(options.table_size - 1), t.cells.data()}

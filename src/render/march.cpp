@@ -25,8 +25,12 @@ struct Marcher {
   // Classifies the segment from `front` to the sample at (x, y, z), `ratio` steps long
   // (1 inside a block; other values only where a segment meets an entry, exit or level
   // change), shades it and composites it under `acc`. Returns the sample's normalised value.
+  // `half_step` is half of one step in local voxels: the segment is shaded by the gradient at
+  // its midpoint, (x, y, z) - ratio * half_step. Shading it by its back sample's gradient
+  // would shift the lighting half a step along the ray, an error proportional to the step.
   [[gnu::always_inline]] static inline float segment(const Sampler& sample, const Block& b, const LevelParams& lp, const MarchParams& mp,
-                       const RayContext& ray, float x, float y, float z, float front, double ratio, Rgbaf& acc) {
+                       const RayContext& ray, float x, float y, float z, float front, double ratio,
+                       const float half_step[3], Rgbaf& acc) {
     const float v = normalised_sample(sample, x, y, z, mp.value_lo, mp.value_scale);
     // NaN or infinite voxels (masked cells, outside a field of view) are empty space, and so is a
     // segment that starts or ends in them.
@@ -37,10 +41,12 @@ struct Marcher {
     if (ratio != 1.0) c = rescale_segment(c, ratio);
     if (c.a <= 0.0f) return v;
     if constexpr (Shade) {
-      if (c.a > kShadeThreshold) {
+      if (c.a > lp.shade_threshold) {
         float g[3];
-        sample.gradient(x, y, z, g);
-        if (!std::isfinite(g[0]) || !std::isfinite(g[1]) || !std::isfinite(g[2])) sample.finite_gradient(x, y, z, g);
+        const float r = float(ratio);
+        const float mx = x - half_step[0] * r, my = y - half_step[1] * r, mz = z - half_step[2] * r;
+        sample.gradient(mx, my, mz, g);
+        if (!std::isfinite(g[0]) || !std::isfinite(g[1]) || !std::isfinite(g[2])) sample.finite_gradient(mx, my, mz, g);
         g[0] *= b.gradient_scale[0];
         g[1] *= b.gradient_scale[1];
         g[2] *= b.gradient_scale[2];
@@ -80,6 +86,7 @@ struct Marcher {
     float p[3], dp[3];
     local_position(b, ray, double(k0) * h, p);
     for (int a = 0; a < 3; ++a) dp[a] = float(ray.dir[a] * h * b.scale[a]);
+    const float half_step[3] = {0.5f * dp[0], 0.5f * dp[1], 0.5f * dp[2]};
     const double t0 = double(k0) * h;
     float front;
     double first_ratio = 1.0;
@@ -107,7 +114,7 @@ struct Marcher {
     if constexpr (std::is_same_v<Sampler, GridSampler> && Preint)  // gather indices are 32-bit
       simd_block = mp.simd && std::int64_t(b.n[0]) * b.n[1] * b.n[2] < (std::int64_t(1) << 31);
     if (k < k1 && !(simd_block && first_ratio == 1.0)) {  // the first segment, peeled
-      front = segment(sample, b, lp, mp, ray, p[0], p[1], p[2], front, first_ratio, acc);
+      front = segment(sample, b, lp, mp, ray, p[0], p[1], p[2], front, first_ratio, half_step, acc);
       ++taken;
       last = k;
       ++k;
@@ -127,7 +134,8 @@ struct Marcher {
       const std::int64_t k_loop = k;
       for (; k < k1 && acc.a <= mp.termination; ++k) {
         const float j = float(k - k0);
-        front = segment(sample, b, lp, mp, ray, p[0] + dp[0] * j, p[1] + dp[1] * j, p[2] + dp[2] * j, front, 1.0, acc);
+        front = segment(sample, b, lp, mp, ray, p[0] + dp[0] * j, p[1] + dp[1] * j, p[2] + dp[2] * j, front, 1.0,
+                        half_step, acc);
       }
       taken += std::uint64_t(k - k_loop);
       if (k > k_loop) last = k - 1;
@@ -140,7 +148,7 @@ struct Marcher {
           front = normalised_sample(sample, x - dp[0], y - dp[1], z - dp[2], mp.value_lo, mp.value_scale);
           ++taken;
         }
-        front = segment(sample, b, lp, mp, ray, x, y, z, front, 1.0, acc);
+        front = segment(sample, b, lp, mp, ray, x, y, z, front, 1.0, half_step, acc);
         ++taken;
         last = k;
       }
@@ -194,7 +202,9 @@ struct Marcher {
       front = normalised_sample(sample, p[0], p[1], p[2], mp.value_lo, mp.value_scale);
     }
     local_position(b, ray, t_end, p);
-    segment(sample, b, lp, mp, ray, p[0], p[1], p[2], front, ratio, st.acc);
+    float half_step[3];
+    for (int a = 0; a < 3; ++a) half_step[a] = 0.5f * float(ray.dir[a] * lp.h * b.scale[a]);
+    segment(sample, b, lp, mp, ray, p[0], p[1], p[2], front, ratio, half_step, st.acc);
     ++st.samples;
   }
 };

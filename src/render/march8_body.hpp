@@ -152,39 +152,62 @@ STRATA_MARCH8_ATTRS std::int64_t STRATA_MARCH8_NAME(const GridSampler& s, const 
       ca = _mm256_and_ps(ca, live);
     }
     if constexpr (Shade) {
-      const unsigned want = unsigned(_mm256_movemask_ps(_mm256_cmp_ps(ca, _mm256_set1_ps(kShadeThreshold), _CMP_GT_OQ)));
+      const unsigned want = unsigned(_mm256_movemask_ps(_mm256_cmp_ps(ca, _mm256_set1_ps(lp.shade_threshold), _CMP_GT_OQ)));
       if (want) {
-        // Gradients (GridSampler::gradient): the 32-voxel stencil for lanes inside the grid's
-        // interior, by masked gathers (its centre taps are the value's); other lanes scalar.
-        const __m256 xu = _mm256_load_ps(xs), yu = _mm256_load_ps(ys), zu = _mm256_load_ps(zs);
+        // Gradients at the segments' midpoints, half a step back (Marcher::segment): the 32-voxel
+        // stencil (GridSampler::gradient) for lanes inside the grid's interior, by masked
+        // gathers, the midpoint's trilinear taps gathered afresh; other lanes scalar.
+        const __m256 half = _mm256_set1_ps(0.5f);
+        alignas(32) float mxs[8], mys[8], mzs[8];
+        const __m256 xu = _mm256_sub_ps(_mm256_load_ps(xs), _mm256_mul_ps(_mm256_set1_ps(dp[0]), half));
+        const __m256 yu = _mm256_sub_ps(_mm256_load_ps(ys), _mm256_mul_ps(_mm256_set1_ps(dp[1]), half));
+        const __m256 zu = _mm256_sub_ps(_mm256_load_ps(zs), _mm256_mul_ps(_mm256_set1_ps(dp[2]), half));
+        _mm256_store_ps(mxs, xu);
+        _mm256_store_ps(mys, yu);
+        _mm256_store_ps(mzs, zu);
         const __m256 in = _mm256_and_ps(
             _mm256_and_ps(_mm256_and_ps(_mm256_cmp_ps(xu, one, _CMP_GE_OQ), _mm256_cmp_ps(yu, one, _CMP_GE_OQ)),
                           _mm256_and_ps(_mm256_cmp_ps(zu, one, _CMP_GE_OQ), _mm256_cmp_ps(xu, _mm256_set1_ps(float(s.nx - 2)), _CMP_LT_OQ))),
             _mm256_and_ps(_mm256_cmp_ps(yu, _mm256_set1_ps(float(s.ny - 2)), _CMP_LT_OQ),
                           _mm256_cmp_ps(zu, _mm256_set1_ps(float(s.nz - 2)), _CMP_LT_OQ)));
-        // (a few lanes are cheaper one by one than 24 gathers)
+        // (a few lanes are cheaper one by one than 32 gathers)
         const unsigned inside = __builtin_popcount(want & unsigned(_mm256_movemask_ps(in))) > 2
                                     ? unsigned(_mm256_movemask_ps(in))
                                     : 0u;
         __m256 gx = zero, gy = zero, gz = zero;
         if (inside) {
-#define STRATA_G(off) _mm256_mask_i32gather_ps(zero, s.data, _mm256_add_epi32(base, _mm256_set1_epi32(off)), in, 4)
+          // Lanes outside `in` take index 0 (their taps are masked out, their gradients unused).
+          const __m256i in_i = _mm256_castps_si256(in);
+          const __m256i mix = _mm256_cvttps_epi32(xu), miy = _mm256_cvttps_epi32(yu), miz = _mm256_cvttps_epi32(zu);
+          const __m256 mfx = _mm256_sub_ps(xu, _mm256_cvtepi32_ps(mix)), mfy = _mm256_sub_ps(yu, _mm256_cvtepi32_ps(miy)),
+                       mfz = _mm256_sub_ps(zu, _mm256_cvtepi32_ps(miz));
+          const __m256i mbase = _mm256_and_si256(
+              _mm256_add_epi32(_mm256_add_epi32(_mm256_mullo_epi32(mix, sx), _mm256_mullo_epi32(miy, sy)), _mm256_mullo_epi32(miz, sz)),
+              in_i);
+#define STRATA_G(off) _mm256_mask_i32gather_ps(zero, s.data, _mm256_add_epi32(mbase, _mm256_set1_epi32(off)), in, 4)
 #define STRATA_LERP(a, b, w) _mm256_add_ps((a), _mm256_mul_ps((w), _mm256_sub_ps((b), (a))))
-#define STRATA_LIN(off) lin_pair(s.data, base, (off), in_i, fx)
-#define STRATA_ROWD(off, b_, c_) row_diff(STRATA_G((off) - 1), (b_), (c_), STRATA_G((off) + 2), fx)
+#define STRATA_LIN(off) lin_pair(s.data, mbase, (off), in_i, mfx)
+#define STRATA_ROWD(off, b_, c_) row_diff(STRATA_G((off) - 1), (b_), (c_), STRATA_G((off) + 2), mfx)
 #define STRATA_DIFF(f, lo_m, l0, l1, hi_p) \
   STRATA_LERP(_mm256_sub_ps((l1), (lo_m)), _mm256_sub_ps((hi_p), (l0)), (f))
-          const __m256i in_i = _mm256_castps_si256(in);
-          const __m256 d00 = STRATA_ROWD(0, p000, p100), d10 = STRATA_ROWD(oy, p010, p110);
-          const __m256 d01 = STRATA_ROWD(oz, p001, p101), d11 = STRATA_ROWD(oy + oz, p011, p111);
-          const __m256 gx0 = STRATA_LERP(d00, d10, fy), gx1 = STRATA_LERP(d01, d11, fy);
-          gx = STRATA_LERP(gx0, gx1, fz);
-          const __m256 gy0 = STRATA_DIFF(fy, STRATA_LIN(-oy), c00, c10, STRATA_LIN(2 * oy));
-          const __m256 gy1 = STRATA_DIFF(fy, STRATA_LIN(oz - oy), c01, c11, STRATA_LIN(oz + 2 * oy));
-          gy = STRATA_LERP(gy0, gy1, fz);
-          const __m256 gz0 = STRATA_DIFF(fz, STRATA_LIN(-oz), c00, c01, STRATA_LIN(2 * oz));
-          const __m256 gz1 = STRATA_DIFF(fz, STRATA_LIN(oy - oz), c10, c11, STRATA_LIN(oy + 2 * oz));
-          gz = STRATA_LERP(gz0, gz1, fy);
+          // The midpoint's eight trilinear taps, as rows of pairs along x (the stencil's centre).
+          __m256 q000, q100, q010, q110, q001, q101, q011, q111;
+          gather_pairs(s.data, mbase, in_i, q000, q100);
+          gather_pairs(s.data, _mm256_add_epi32(mbase, _mm256_set1_epi32(oy)), in_i, q010, q110);
+          gather_pairs(s.data, _mm256_add_epi32(mbase, _mm256_set1_epi32(oz)), in_i, q001, q101);
+          gather_pairs(s.data, _mm256_add_epi32(mbase, _mm256_set1_epi32(oy + oz)), in_i, q011, q111);
+          const __m256 m00 = STRATA_LERP(q000, q100, mfx), m10 = STRATA_LERP(q010, q110, mfx);
+          const __m256 m01 = STRATA_LERP(q001, q101, mfx), m11 = STRATA_LERP(q011, q111, mfx);
+          const __m256 d00 = STRATA_ROWD(0, q000, q100), d10 = STRATA_ROWD(oy, q010, q110);
+          const __m256 d01 = STRATA_ROWD(oz, q001, q101), d11 = STRATA_ROWD(oy + oz, q011, q111);
+          const __m256 gx0 = STRATA_LERP(d00, d10, mfy), gx1 = STRATA_LERP(d01, d11, mfy);
+          gx = STRATA_LERP(gx0, gx1, mfz);
+          const __m256 gy0 = STRATA_DIFF(mfy, STRATA_LIN(-oy), m00, m10, STRATA_LIN(2 * oy));
+          const __m256 gy1 = STRATA_DIFF(mfy, STRATA_LIN(oz - oy), m01, m11, STRATA_LIN(oz + 2 * oy));
+          gy = STRATA_LERP(gy0, gy1, mfz);
+          const __m256 gz0 = STRATA_DIFF(mfz, STRATA_LIN(-oz), m00, m01, STRATA_LIN(2 * oz));
+          const __m256 gz1 = STRATA_DIFF(mfz, STRATA_LIN(oy - oz), m10, m11, STRATA_LIN(oy + 2 * oz));
+          gz = STRATA_LERP(gz0, gz1, mfy);
 #undef STRATA_DIFF
 #undef STRATA_ROWD
 #undef STRATA_LIN
@@ -205,8 +228,8 @@ STRATA_MARCH8_ATTRS std::int64_t STRATA_MARCH8_NAME(const GridSampler& s, const 
           for (int l = 0; l < n; ++l)
             if (((rest | broken) >> l) & 1u) {
               float g[3] = {gxs[l], gys[l], gzs[l]};
-              if ((rest >> l) & 1u) s.gradient(xs[l], ys[l], zs[l], g);
-              if (!std::isfinite(g[0]) || !std::isfinite(g[1]) || !std::isfinite(g[2])) s.finite_gradient(xs[l], ys[l], zs[l], g);
+              if ((rest >> l) & 1u) s.gradient(mxs[l], mys[l], mzs[l], g);
+              if (!std::isfinite(g[0]) || !std::isfinite(g[1]) || !std::isfinite(g[2])) s.finite_gradient(mxs[l], mys[l], mzs[l], g);
               gxs[l] = g[0];
               gys[l] = g[1];
               gzs[l] = g[2];
@@ -240,7 +263,7 @@ STRATA_MARCH8_ATTRS std::int64_t STRATA_MARCH8_NAME(const GridSampler& s, const 
         const __m256 spec = _mm256_mul_ps(_mm256_mul_ps(_mm256_set1_ps(mp.light.specular), pw), ca);
         // Only lanes asking for shading with a non-zero gradient are shaded (the others may hold
         // garbage here).
-        const __m256 lit = _mm256_and_ps(_mm256_cmp_ps(ca, _mm256_set1_ps(kShadeThreshold), _CMP_GT_OQ),
+        const __m256 lit = _mm256_and_ps(_mm256_cmp_ps(ca, _mm256_set1_ps(lp.shade_threshold), _CMP_GT_OQ),
                                          _mm256_cmp_ps(len2, _mm256_set1_ps(1e-12f), _CMP_GT_OQ));
         cr = _mm256_blendv_ps(cr, _mm256_add_ps(_mm256_mul_ps(cr, diff), spec), lit);
         cg = _mm256_blendv_ps(cg, _mm256_add_ps(_mm256_mul_ps(cg, diff), spec), lit);

@@ -39,6 +39,7 @@ struct RayState {
 struct LevelParams {
   double h = 1;                // world step of the level
   Classifier classify;
+  float shade_threshold = 0;   // kShadeThreshold corrected to the level's step (shading.hpp)
 };
 
 struct MarchParams {

@@ -6,7 +6,10 @@
 // give the same bits; the ray caster's 8-lane march repeats that sequence on vectors.
 namespace strata::render::detail {
 
-// Samples below this opacity skip the gradient (six extra trilinear taps).
+// Segments below this opacity per level-0 voxel of length skip the gradient (the stencil's extra
+// taps). Each level's threshold is this one corrected to its step (LevelParams::shade_threshold),
+// so whether a material is lit does not depend on the step: a fixed per-segment threshold left
+// low-opacity material unlit at small steps, a bias that no step refinement removed.
 inline constexpr float kShadeThreshold = 1.0f / 1024.0f;
 
 inline float power(float x, int n) {  // x^n, n >= 0, by repeated squaring

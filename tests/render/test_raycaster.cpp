@@ -8,6 +8,7 @@
 #include <limits>
 #include <optional>
 #include <cstdio>
+#include <utility>
 #include <nlohmann/json.hpp>
 
 #include "render/occupancy.hpp"
@@ -441,6 +442,66 @@ TEST(RenderRayCaster, SkippingEmptyCellsDoesNotChangeTheImage) {
         EXPECT_EQ(again.cell_ranges_built, 0u);
         EXPECT_EQ(repeat.pixels(), bricks_on.pixels());
       }
+}
+
+// Root-mean-square difference of the colour channels, in 8-bit levels.
+double rms_diff(const Image& a, const Image& b) {
+  double sum = 0;
+  for (int y = 0; y < a.height(); ++y)
+    for (int x = 0; x < a.width(); ++x) {
+      const Rgba8 p = a.at(x, y), q = b.at(x, y);
+      sum += double(p.r - q.r) * (p.r - q.r) + double(p.g - q.g) * (p.g - q.g) + double(p.b - q.b) * (p.b - q.b);
+    }
+  return std::sqrt(sum / (3.0 * a.width() * a.height()));
+}
+
+TEST(RenderRayCaster, ShadingAddsLittleToTheStepError) {
+  // Two rules keep the lighting from adding an error of its own that grows with the step:
+  //  - each pre-integrated segment is lit by the gradient at its midpoint (lit by its back
+  //    sample's, the lighting of every segment lay half a step behind it along the ray);
+  //  - the opacity below which a segment is not lit is corrected to the step (a fixed
+  //    per-segment threshold left low-opacity material unlit at small steps only).
+  // Measured against the same renderer at 1/16 voxel, as a multiple of the unshaded image's
+  // error at the same step (RMS over the colour channels), on this volume and these two views:
+  //   step 0.5: 1.2 with both rules; 1.8-2.0 with midpoints alone; 3.0-3.4 with neither;
+  //   step 1:   1.2 with both; 1.3-1.4 with midpoints alone; 2.1 with neither.
+  const Volume v = prisms_volume();
+  const BrickedVolume b(v, 16, 2);
+  for (double az : {30.0, 120.0}) {
+    const Camera cam = perspective_camera(v.dims(), az, 20, 192, 144);
+    auto error = [&](bool shading, double step) {
+      RayCaster fine(TransferFunction::preset("ct"), options(1.0 / 16, true, shading));
+      RayCaster coarse(TransferFunction::preset("ct"), options(step, true, shading));
+      return rms_diff(fine.render(cam, b.frame(v, 0, 65535)), coarse.render(cam, b.frame(v, 0, 65535)));
+    };
+    for (double step : {0.5, 1.0}) {
+      const double shaded = error(true, step), unshaded = error(false, step);
+      SCOPED_TRACE("azimuth " + std::to_string(az) + ", step " + std::to_string(step));
+      EXPECT_GT(unshaded, 0.5);  // the step matters at all
+      EXPECT_LT(shaded, 1.5 * unshaded);
+    }
+  }
+}
+
+TEST(RenderRayCaster, FaintMaterialIsLitAtEveryStep) {
+  // A linear ramp along x under a transfer function of constant colour and opacity 0.01 per
+  // voxel: every segment has the same gradient, so the image hardly depends on the step. Its
+  // segments are 0.0006 opaque at step 1/16 and 0.005 at step 1/2, on either side of a fixed
+  // 1/1024 threshold; corrected to the step, the threshold lights both alike.
+  const Extent d{24, 24, 24};
+  Volume v(d, DType::f32, {});
+  auto samples = v.samples<float>();
+  for (std::int64_t z = 0; z < d.z; ++z)
+    for (std::int64_t y = 0; y < d.y; ++y)
+      for (std::int64_t x = 0; x < d.x; ++x) samples[std::size_t((z * d.y + y) * d.x + x)] = float(x);
+  const std::array<float, 4> faint{1, 1, 1, 0.01f};
+  const TransferFunction tf({{0, faint}, {1, faint}});
+  const Camera cam = perspective_camera(d, 30, 20, 64, 48);
+  const Image fine = RayCaster(tf, options(1.0 / 16, true, true)).render(cam, v, 0, float(d.x - 1));
+  const Image coarse = RayCaster(tf, options(0.5, true, true)).render(cam, v, 0, float(d.x - 1));
+  const Image unlit = RayCaster(tf, options(1.0 / 16, true, false)).render(cam, v, 0, float(d.x - 1));
+  EXPECT_LE(max_diff(fine, coarse).max, 2);
+  EXPECT_GT(max_diff(fine, unlit).max, 8);  // lighting changes this image at all
 }
 
 // The 8-lane march, per instruction-set level it is compiled for.
