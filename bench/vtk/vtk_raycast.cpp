@@ -3,7 +3,10 @@
 // function, sample distance and shading as `strata render --orbit`. Prints one JSON object
 // with CPU seconds and wall seconds per frame.
 //   vtk_raycast VOLUME --size 1024x768 --orbit 24 --tf ct --step 0.5 --shading on --threads 2
-//               [--azimuth 30 --elevation 20] [-o first.png]
+//               [--azimuth 30 --elevation 20 --distance D] [-o first.png] [--frames-dir DIR]
+// --distance (world units, 0 = strata's bounding-sphere fit) takes the distance `strata render
+// --stats` reports, so both frame a volume alike; --frames-dir writes every frame as
+// DIR/frame_NNNN.png (strata's naming) for image-error comparisons.
 // The camera and transfer function come from strata's own classes, so both programs agree.
 #include <algorithm>
 #include <cstring>
@@ -39,9 +42,9 @@ namespace {
 using namespace strata;
 
 struct Args {
-  std::string input, tf = "ct", png;
+  std::string input, tf = "ct", png, frames_dir;
   int width = 1024, height = 768, frames = 24, threads = 2;
-  double step = 0.5, azimuth = 30, elevation = 20;  // strata render's defaults
+  double step = 0.5, azimuth = 30, elevation = 20, distance = 0;  // strata render's defaults
   bool shading = true;
 };
 
@@ -64,6 +67,8 @@ Args parse(int argc, char** argv) {
     else if (k == "--elevation") a.elevation = std::stod(value());
     else if (k == "--shading") a.shading = value() == "on";
     else if (k == "--threads") a.threads = std::stoi(value());
+    else if (k == "--distance") a.distance = std::stod(value());
+    else if (k == "--frames-dir") a.frames_dir = value();
     else if (k == "-o") a.png = value();
     else if (a.input.empty()) a.input = k;
     else throw std::runtime_error("unexpected argument " + k);
@@ -110,6 +115,16 @@ void set_transfer_function(vtkVolumeProperty* p, const render::TransferFunction&
   p->SetColor(color);
   p->SetScalarOpacity(opacity);
   p->SetScalarOpacityUnitDistance(unit);
+}
+
+// The window's current image (RGB, outside the frame timing).
+void write_png(vtkRenderWindow* window, const std::string& path) {
+  vtkNew<vtkWindowToImageFilter> grab;
+  grab->SetInput(window);
+  vtkNew<vtkPNGWriter> writer;
+  writer->SetFileName(path.c_str());
+  writer->SetInputConnection(grab->GetOutputPort());
+  writer->Write();
 }
 
 }  // namespace
@@ -161,6 +176,7 @@ int main(int argc, char** argv) try {
     spec.height = args.height;
     spec.orbit.azimuth_deg = args.azimuth + 360.0 * f / args.frames;  // as strata render --orbit
     spec.orbit.elevation_deg = args.elevation;
+    spec.orbit.distance = args.distance;
     const render::Camera cam(spec, volume.dims(), sp);
     vtkCamera* c = renderer->GetActiveCamera();
     c->SetPosition(cam.eye().x, cam.eye().y, cam.eye().z);
@@ -177,13 +193,11 @@ int main(int argc, char** argv) try {
     cpu_total += cpu;
     wall_total += wall;
     frames.push_back({{"frame", f}, {"cpu_s", cpu}, {"wall_s", wall}});
-    if (f == 0 && !args.png.empty()) {
-      vtkNew<vtkWindowToImageFilter> grab;
-      grab->SetInput(window);
-      vtkNew<vtkPNGWriter> writer;
-      writer->SetFileName(args.png.c_str());
-      writer->SetInputConnection(grab->GetOutputPort());
-      writer->Write();
+    if (f == 0 && !args.png.empty()) write_png(window, args.png);
+    if (!args.frames_dir.empty()) {
+      char name[32];
+      std::snprintf(name, sizeof name, "/frame_%04d.png", f);
+      write_png(window, args.frames_dir + name);
     }
   }
   const nlohmann::json out{{"renderer", "vtkFixedPointVolumeRayCastMapper"},

@@ -463,6 +463,7 @@ Image RenderSession::frame(const FrameSettings& settings, nlohmann::json& stats)
   stats["frame_ms"] = ms;
   stats["cpu_s"] = cpu_seconds() - c0;
   stats["image_scale"] = scale;
+  stats["distance"] = camera.distance();  // resolved: the default framing, so other renderers can match it
   if (options_.target_fps > 0) adapt_image_scale(scale, adaptive ? ms : ray_cast_ms(stats, ms));
   return image;
 }
