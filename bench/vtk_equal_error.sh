@@ -47,8 +47,8 @@ ERROR="$ROOT/bench/image_error.py"
 PYTHON=${PYTHON:-/usr/bin/python3}
 
 json() { "$PYTHON" -c "import json,sys; d=json.load(open(sys.argv[1])); print(eval(sys.argv[2], {'d': d}))" "$1" "$2"; }
-after_first_vtk() { json "$1" "sum(f['cpu_s'] for f in d['per_frame'][1:]) / (len(d['per_frame']) - 1)"; }
-after_first() { json "$1" "d['summary']['after_first']['cpu_s_per_frame']"; }
+after_first_vtk() { json "$1" "'%.3f' % (sum(f['cpu_s'] for f in d['per_frame'][1:]) / (len(d['per_frame']) - 1))"; }
+after_first() { json "$1" "'%.3f' % d['summary']['after_first']['cpu_s_per_frame']"; }
 bits_per_voxel() { "$PYTHON" -c "import os,sys; print(f'{8 * os.path.getsize(sys.argv[1]) / int(sys.argv[2]):.3f}')" "$1" "$2"; }
 load() { cut -d' ' -f1 /proc/loadavg; }
 
