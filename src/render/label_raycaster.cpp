@@ -40,9 +40,8 @@ struct Layer {
 
 // Everything a ray needs, fixed for the frame.
 struct Frame {
-  std::vector<LevelView> levels;
-  const float* palette = nullptr;
-  Layer light;  // normals lighting: the pre-filtered diffuse (r) and specular (g) factors
+  Layer labels;  // the label colours
+  Layer light;   // normals lighting: the pre-filtered diffuse (r) and specular (g) factors
   Vec3 inv_spacing;
   Vec3 dims0;                // level-0 box in voxel coordinates
   double voxel_world = 1;    // level-0 voxel size (geometric mean of the spacing)
@@ -88,8 +87,8 @@ std::int64_t clamp_floor(double v, std::int64_t n) {
 
 // Trilinear interpolation of the palette colours of the 8 voxels of level `k` around the
 // level-0 voxel-space point u (voxel centres at integer + 0.5; clamp to the edge).
-Rgbaf sample_level(const std::vector<LevelView>& levels, const float* palette, int k, const Vec3& u) {
-  const LevelView& L = levels[std::size_t(k)];
+Rgbaf sample_level(const Layer& layer, int k, const Vec3& u) {
+  const LevelView& L = layer.levels[std::size_t(k)];
   const double v[3] = {u.x * L.scale - 0.5, u.y * L.scale - 0.5, u.z * L.scale - 0.5};
   const std::int64_t n[3] = {L.nx, L.ny, L.nz};
   std::int64_t lo[3], hi[3];
@@ -107,13 +106,13 @@ Rgbaf sample_level(const std::vector<LevelView>& levels, const float* palette, i
   }
   // Inside a uniform region all 8 nodes agree: one palette read instead of eight, no weights.
   if (std::all_of(ids + 1, ids + 8, [&](std::uint32_t id) { return id == ids[0]; })) {
-    const float* p = palette + std::size_t(ids[0]) * 4;
+    const float* p = layer.palette + std::size_t(ids[0]) * 4;
     return {p[0], p[1], p[2], p[3]};
   }
   Rgbaf s;
   for (int c = 0; c < 8; ++c) {
     const float weight = float((c & 1 ? w[0] : 1 - w[0]) * (c & 2 ? w[1] : 1 - w[1]) * (c & 4 ? w[2] : 1 - w[2]));
-    const float* p = palette + std::size_t(ids[c]) * 4;
+    const float* p = layer.palette + std::size_t(ids[c]) * 4;
     s.r += weight * p[0];
     s.g += weight * p[1];
     s.b += weight * p[2];
@@ -139,20 +138,20 @@ LevelChoice choose_level(const Frame& f, double lod) {
   return {k, k == f.top ? 0.0f : float(clamped - k)};
 }
 
-Rgbaf sample(const std::vector<LevelView>& levels, const float* palette, const LevelChoice& c, const Vec3& u) {
-  Rgbaf s = sample_level(levels, palette, c.level, u);
+Rgbaf sample(const Layer& layer, const LevelChoice& c, const Vec3& u) {
+  Rgbaf s = sample_level(layer, c.level, u);
   if (c.next_weight <= 0) return s;
-  const Rgbaf t = sample_level(levels, palette, c.level + 1, u);
+  const Rgbaf t = sample_level(layer, c.level + 1, u);
   const float w = c.next_weight;
   return {s.r + w * (t.r - s.r), s.g + w * (t.g - s.g), s.b + w * (t.b - s.b), s.a + w * (t.a - s.a)};
 }
 
-Rgbaf sample(const Frame& f, const LevelChoice& c, const Vec3& u) { return sample(f.levels, f.palette, c, u); }
+Rgbaf sample(const Frame& f, const LevelChoice& c, const Vec3& u) { return sample(f.labels, c, u); }
 
 // The world-space gradient of the interpolated opacity at level `k` (central differences one
 // level voxel apart).
 Vec3 opacity_gradient(const Frame& f, const LevelChoice& c, const Vec3& u) {
-  const double h = f.levels[std::size_t(c.level)].size;
+  const double h = f.labels.levels[std::size_t(c.level)].size;
   double g[3];
   for (int a = 0; a < 3; ++a) {
     Vec3 step;
@@ -176,7 +175,7 @@ float ambient_light(const Frame& f, const LevelChoice& c, const Vec3& u, const V
   const Vec3 t = normalized(cross(n, helper)), b = cross(n, t);
   const double tilt = std::tan(40.0 * std::numbers::pi / 180);
   const Vec3 directions[3] = {n, normalized(n + t * tilt), normalized(n - t * (0.5 * tilt) + b * (0.866 * tilt))};
-  const double h = f.levels[std::size_t(c.level)].size;
+  const double h = f.labels.levels[std::size_t(c.level)].size;
   double light = 0;
   for (const Vec3& d : directions) {
     const Vec3 step = hadamard(d, f.inv_spacing) * (h * f.voxel_world);  // h level-0 voxels of world length
@@ -207,7 +206,7 @@ float headlight(const Frame& f, const LevelChoice& c, const Vec3& u, const Vec3&
 int find_empty_cube(const Frame& f, int from, const Vec3& u, std::int64_t cube[3]) {
   int found = -1;
   for (int l = std::max(from, LabelScene::kFinestSkipLevel); l <= f.top; ++l) {
-    const LevelView& L = f.levels[std::size_t(l)];
+    const LevelView& L = f.labels.levels[std::size_t(l)];
     const std::int64_t x = clamp_floor(u.x * L.scale, L.nx), y = clamp_floor(u.y * L.scale, L.ny),
                        z = clamp_floor(u.z * L.scale, L.nz);
     if (L.occupied[std::size_t((z * L.ny + y) * L.nx + x)]) break;
@@ -300,14 +299,14 @@ Rgbaf march(const Frame& f, const Ray& ray, RayCounters& counters) {
       const int from = level.next_weight > 0 ? level.level + 1 : level.level;
       const int l = find_empty_cube(f, from, o + d * t, cube);
       if (l >= 0) {
-        t = std::max(cube_exit(o, d, cube, f.levels[std::size_t(l)].size), t) + nudge;
+        t = std::max(cube_exit(o, d, cube, f.labels.levels[std::size_t(l)].size), t) + nudge;
         ++counters.skipped;
         continue;
       }
     }
     // The step grows with the level (paper §4); the last one is clipped to the box so an
     // object's total opacity does not depend on where the steps fall.
-    const double dt = std::min(f.options.step * f.levels[std::size_t(level.level)].size * f.voxel_world, t_end - t);
+    const double dt = std::min(f.options.step * f.labels.levels[std::size_t(level.level)].size * f.voxel_world, t_end - t);
     const Vec3 at = o + d * (t + 0.5 * dt);
     Rgbaf s = sample(f, level, at);
     ++counters.samples;
@@ -316,7 +315,7 @@ Rgbaf march(const Frame& f, const Ray& ray, RayCounters& counters) {
     if (f.options.shading && f.light.palette) {
       // Pre-filtered light of the same footprint: diffuse scales the colour, specular adds
       // white in proportion to the opacity (premultiplied).
-      const Rgbaf light = sample(f.light.levels, f.light.palette, level, at);
+      const Rgbaf light = sample(f.light, level, at);
       s.r = s.r * light.r + s.a * light.g, s.g = s.g * light.r + s.a * light.g, s.b = s.b * light.r + s.a * light.g;
     } else if (f.options.shading) {
       const float light = headlight(f, level, at, ray.direction);
@@ -359,7 +358,6 @@ Frame make_frame(const LabelScene& scene, const Camera& camera, const LabelRende
   f.options = options;
   f.top = scene.level_count() - 1;
   f.ortho_lod = label_lod(f.view, 1.0, f.voxel_world, options.lod_bias);
-  f.levels.resize(std::size_t(scene.level_count()));
   return f;
 }
 
@@ -379,8 +377,11 @@ int frame_finest_level(const Frame& f, const Spacing& s) {
   return int(std::clamp(k, double(f.options.finest_level), double(f.top)));
 }
 
-// The levels finest..top of `scene` as the marcher reads them (skip grids with `skip`).
-void bind_levels(const Frame& f, const LabelScene& scene, bool skip, std::vector<LevelView>& levels) {
+// The palette and levels finest..top of `scene` as the marcher reads them (skip grids with
+// `skip`).
+void bind_levels(const Frame& f, const LabelScene& scene, bool skip, Layer& layer) {
+  layer.palette = scene.palette().data();
+  std::vector<LevelView>& levels = layer.levels;
   levels.resize(std::size_t(scene.level_count()));
   for (int l = f.finest; l <= f.top; ++l) {
     LevelView& v = levels[std::size_t(l)];
@@ -428,8 +429,7 @@ Image render_labels(LabelScene& scene, const Camera& camera, const LabelRenderOp
     throw ParameterError("LabelRenderOptions::lighting", "the normals graph's levels differ from the labels'");
 
   LabelPrepareReport prepared = scene.prepare(f.finest, options.skip_empty);
-  f.palette = scene.palette().data();
-  bind_levels(f, scene, options.skip_empty, f.levels);
+  bind_levels(f, scene, options.skip_empty, f.labels);
   if (lit) {
     // A headlight at infinity: towards the eye, against the view direction.
     normals->set_light({-f.view.forward, options.ambient, options.specular, options.shininess});
@@ -437,8 +437,7 @@ Image render_labels(LabelScene& scene, const Camera& camera, const LabelRenderOp
     prepared.palette_ms += light.palette_ms;
     prepared.ids_ms += light.ids_ms;
     prepared.id_voxels_decoded += light.id_voxels_decoded;
-    f.light.palette = normals->scene().palette().data();
-    bind_levels(f, normals->scene(), false, f.light.levels);
+    bind_levels(f, normals->scene(), false, f.light);
   }
 
   LabelRenderStats local;

@@ -32,7 +32,6 @@ class CasterSlot {
   std::unique_ptr<RayCaster> caster_;
 };
 
-// A TA file: LOD cut -> brick provider -> ray caster.
 // What the default camera frames (CameraSpec::frame_radius): the sphere about the volume's
 // centre that holds every box added, in world units; the boxes are where the volume shows
 // something under its default look (the "ct" preset, or every label but 0).
@@ -53,6 +52,7 @@ struct FrameSphere {
 // The coarsest level (halving as the octree does) at most FrameSphere::kWidest wide.
 int frame_level(Extent dims);
 
+// A TA file: LOD cut -> brick provider -> ray caster.
 struct RenderSession::Scalar {
   ta::TaVolume volume;
   lod::BrickProvider provider;

@@ -23,6 +23,16 @@ constexpr int kPixels = 160;  // over kN world units: 4 pixels per voxel
 // A ball of label 7 in background 0, centred off the voxel grid.
 Volume ball() { return test::label_ball(kN, kRadius, kCentre, 7); }
 
+// `labels` encoded into dir/name (without the error report), with or without a normals graph.
+std::unique_ptr<mixture::EncodedLabels> encoded(const Volume& labels, const test::TempDir& dir, const char* name,
+                                                bool normals) {
+  mixture::EncodeOptions o;
+  o.measure_error = false;
+  o.normals = normals;
+  mixture::encode_labels(labels, dir / name, o);
+  return std::make_unique<mixture::EncodedLabels>(dir / name);
+}
+
 // Orthographic, looking along +y: pixel column px sees world x = (px + 0.5) / 4.
 Camera front() {
   CameraSpec spec;
@@ -38,13 +48,7 @@ Camera front() {
 struct BallFile {
   test::TempDir dir;
   std::unique_ptr<mixture::EncodedLabels> labels;
-  BallFile() {
-    mixture::EncodeOptions o;
-    o.measure_error = false;
-    o.normals = true;
-    mixture::encode_labels(ball(), dir / "ball.strata", o);
-    labels = std::make_unique<mixture::EncodedLabels>(dir / "ball.strata");
-  }
+  BallFile() : labels(encoded(ball(), dir, "ball.strata", true)) {}
 };
 
 LabelRenderOptions lit(LabelLighting lighting) {
@@ -102,18 +106,12 @@ TEST(RenderLabelLighting, NormalsShadeABallSmoothlyWhereGradientsShowTheVoxels) 
 
 TEST(RenderLabelLighting, NormalsLightingNeedsTheGraph) {
   test::TempDir dir;
-  mixture::EncodeOptions o;
-  o.measure_error = false;
-  mixture::encode_labels(ball(), dir / "plain.strata", o);
-  const mixture::EncodedLabels labels(dir / "plain.strata");
-  LabelScene scene(labels, LabelColorMap::uniform({1, 1, 1, 1}));
+  const auto labels = encoded(ball(), dir, "plain.strata", false);
+  LabelScene scene(*labels, LabelColorMap::uniform({1, 1, 1, 1}));
   EXPECT_EQ(test::parameter_of([&] { render_labels(scene, front(), lit(LabelLighting::normals)); }),
             "LabelRenderOptions::lighting");
 }
 
-}  // namespace strata::render
-
-namespace strata::render {
 namespace {
 
 // A floor (z < 8) with, on the half y < 24, walls up to z = 28 on both sides of a trench
@@ -149,11 +147,8 @@ double grey_at(const Image& image, const Camera& camera, double x, double y) {
 // Local ambient occlusion darkens a floor between walls and leaves an open floor alone.
 TEST(RenderLabelLighting, OcclusionDarkensCreasesOnly) {
   test::TempDir dir;
-  mixture::EncodeOptions o;
-  o.measure_error = false;
-  mixture::encode_labels(trench(), dir / "trench.strata", o);
-  const mixture::EncodedLabels labels(dir / "trench.strata");
-  LabelScene scene(labels, LabelColorMap::uniform({1, 1, 1, 1}));
+  const auto labels = encoded(trench(), dir, "trench.strata", false);
+  LabelScene scene(*labels, LabelColorMap::uniform({1, 1, 1, 1}));
   CameraSpec spec;
   spec.width = spec.height = 96;
   spec.projection = Projection::orthographic;
