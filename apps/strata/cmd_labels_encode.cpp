@@ -20,6 +20,7 @@ struct LabelsEncodeArgs {
   bool no_error = false, json = false, normals = false;
   int normals_radius = 3, normals_diffusion = 0, normals_band = 1;
   std::string normals_dither = "on";
+  std::string memory_limit;
   RawInputArgs raw;
   bool all_volumes = false;
 };
@@ -69,6 +70,7 @@ void run_labels_encode(const LabelsEncodeArgs& args, const GlobalOptions& global
   if (args.normals_dither != "on" && args.normals_dither != "off")
     throw UsageError("--normals-dither", "expected on or off, got '" + args.normals_dither + "'");
   o.normal_options.error_diffusion = args.normals_dither == "on";
+  if (!args.memory_limit.empty()) o.memory_limit = parse_byte_size(args.memory_limit, "--memory-limit");
   as_usage_error([&] { o.normal_options.validate(); });
   auto progress = global.make_progress();
   io::ReadOptions read = args.raw.to_read_options();
@@ -125,6 +127,9 @@ void register_labels_encode(CLI::App& labels, const GlobalOptions& global) {
   cmd->add_option("--normals-radius", args->normals_radius,
                   "Half-width in voxels of the window the normals are estimated from (1..4; larger is smoother)")
       ->capture_default_str();
+  cmd->add_option("--memory-limit", args->memory_limit,
+                  "Bound on the streamed stages' memory, e.g. 4G: the coarser mip levels' ids plus input slabs, "
+                  "which shrink to fit (the table of distinct mixtures and the factorisation come on top)");
   cmd->add_flag("--json", args->json, "Print the report as JSON");
   args->raw.add_to(*cmd);
   add_all_volumes_flag(*cmd, args->all_volumes);

@@ -19,6 +19,7 @@ constexpr ParameterFlag kParameterFlags[] = {
     {"BrickLayout::overlap", "--overlap"},
     {"CodecParams::rank", "--rank"},
     {"CompressParams::memory_limit", "--memory-limit"},
+    {"EncodeOptions::memory_limit", "--memory-limit"},
     {"ErrorTarget::coarse_growth", "--coarse-growth"},
     {"CameraSpec::fov_deg", "--fov"},
     {"CameraSpec::height", "--size"},

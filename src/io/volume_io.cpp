@@ -118,6 +118,31 @@ Volume VolumeSource::read_slab(std::int64_t z0, std::int64_t z1) {
 
 Volume VolumeSource::read_all() { return read_box(Box::whole(info().dims)); }
 
+namespace {
+
+class MemorySource final : public VolumeSource {
+ public:
+  MemorySource(const Volume& volume, std::filesystem::path name) : volume_(volume), name_(std::move(name)) {}
+  const VolumeInfo& info() const override { return volume_.info(); }
+  const std::filesystem::path& path() const override { return name_; }
+  Volume read_box(const Box& box) override {
+    if (box.empty() || !Box::whole(volume_.dims()).contains(box))
+      throw Error(fmt::format("{}: box {} is not inside the volume {}", name_.string(), box.to_string(),
+                              volume_.dims().to_string()));
+    return volume_.crop(box);
+  }
+
+ private:
+  const Volume& volume_;
+  std::filesystem::path name_;
+};
+
+}  // namespace
+
+std::unique_ptr<VolumeSource> memory_source(const Volume& volume, std::filesystem::path name) {
+  return std::make_unique<MemorySource>(volume, std::move(name));
+}
+
 std::unique_ptr<VolumeSource> open_volume(const std::filesystem::path& path, const ReadOptions& options) {
   const FileFormat format = detect_format(path);
   // Every format needs some bytes; an empty file is reported as such, not as a bad header.

@@ -1,15 +1,22 @@
 // encode_labels(): a label volume -> histogram mipmap -> Mixture Graph -> .strata file (graph
 // bitstream, label map, per-level node ids, metadata). Layout: docs/format.md, "Codec mixture-graph".
+//
+// The volume is streamed in z-slabs, twice: a first pass collects the label values (the label
+// map), a second maps each slab to source ids, which go straight into level 0's id section and
+// into level 1 of the mipmap. Level 0 (one u32 per voxel, 7/8 of the mipmap) is therefore never
+// held whole; the coarser levels, the table of distinct mixtures and the factorisation are.
 #include "strata/mixture/encoded_labels.hpp"
 
 #include <algorithm>
 #include <chrono>
 #include <optional>
+#include <variant>
 
 #include "mixture/encoded_labels_format.hpp"
 #include "strata/core/bytes.hpp"
 #include "strata/core/error.hpp"
 #include "strata/io/files.hpp"
+#include "strata/io/slab_stream.hpp"
 #include "strata/io/volume_io.hpp"
 #include "strata/mixture/histogram_mipmap.hpp"
 #include "strata/store/container.hpp"
@@ -19,12 +26,113 @@ namespace strata::mixture {
 
 namespace {
 
+// Allowance within a memory limit for what is not proportional to the volume: code, the label
+// map, level 0's id storage (a few bits per voxel), allocator slack.
+constexpr std::uint64_t kBaselineBytes = 64ull << 20;
+
+// Slabs are whole 8-slice block rows of level 0's block-palette ids (and so an even number of
+// slices, as level 1 of the mipmap needs).
+constexpr std::int64_t kSlabMultiple = BlockPaletteIds::kBlock;
+
+// Levels 1.. of the mipmap: one u32 per voxel, held until the ids are stored.
+std::uint64_t coarse_ids_bytes(const Extent& dims) {
+  std::uint64_t bytes = 0;
+  const std::vector<Extent> levels = mip_level_dims(dims);
+  for (std::size_t l = 1; l < levels.size(); ++l) bytes += 4 * std::uint64_t(levels[l].voxel_count());
+  return bytes;
+}
+
+std::string mib(std::uint64_t bytes) { return std::to_string((bytes + (1 << 20) - 1) >> 20) + " MiB"; }
+
+}  // namespace
+
+std::int64_t label_slab_slices(const VolumeInfo& info, std::uint64_t memory_limit) {
+  // A slab costs its samples and one u32 source id per voxel.
+  const std::uint64_t per_slice = std::uint64_t(info.dims.x * info.dims.y) * (dtype_size(info.dtype) + 4);
+  const std::int64_t fewest = std::min<std::int64_t>(kSlabMultiple, info.dims.z);
+  std::uint64_t budget = io::kDefaultSlabBytes;
+  if (memory_limit > 0) {
+    const std::uint64_t fixed = kBaselineBytes + coarse_ids_bytes(info.dims);
+    const std::uint64_t needed = fixed + std::uint64_t(fewest) * per_slice;
+    if (memory_limit < needed)
+      throw ParameterError("EncodeOptions::memory_limit",
+                           "encoding labels of " + info.dims.to_string() + " needs at least " + mib(needed) + " (" +
+                               mib(coarse_ids_bytes(info.dims)) + " for the ids of the coarser mip levels, " +
+                               mib(std::uint64_t(fewest) * per_slice) + " for one slab of " + std::to_string(fewest) +
+                               " slices), got " + mib(memory_limit));
+    budget = std::min(budget, memory_limit - fixed);
+  }
+  const std::int64_t slices = std::int64_t(budget / per_slice) / kSlabMultiple * kSlabMultiple;
+  return std::clamp<std::int64_t>(slices, fewest, std::max<std::int64_t>(fewest, info.dims.z));
+}
+
+namespace {
+
 // Share of level-0 voxels whose original label is 0 (Table 2's "background"); 0 when absent.
-double background_fraction(const MipLevel& level0, const LabelMap& map) {
-  const std::optional<std::uint32_t> zero = map.id_of(0);
-  if (!zero || level0.ids.empty()) return 0.0;
-  const auto n = std::count(level0.ids.begin(), level0.ids.end(), *zero);
-  return double(n) / double(level0.ids.size());
+double background_fraction(std::uint64_t zero_voxels, std::uint64_t voxels) {
+  return voxels ? double(zero_voxels) / double(voxels) : 0.0;
+}
+
+// The bytes of one ids_L<n> section: the serialized id storage, zstd-compressed if asked.
+template <class Ids>
+std::vector<std::byte> id_section(const Ids& ids, const EncodeOptions& options) {
+  std::vector<std::byte> bytes = ids.serialize();
+  if (options.ids_zstd > 0) bytes = store::zstd_compress(bytes, options.ids_zstd);
+  return bytes;
+}
+
+std::vector<std::byte> id_section(std::span<const std::uint32_t> ids, const Extent& dims, const EncodeOptions& options) {
+  return options.ids == IdsMode::fixed ? id_section(FixedRateIds(ids, dims), options)
+                                       : id_section(BlockPaletteIds(ids, dims), options);
+}
+
+// What the streaming passes produce: the label map, the mipmap without level 0, level 0's id
+// section and the count of background voxels.
+struct StreamedLabels {
+  LabelMap map;
+  HistogramMipmap mipmap;
+  std::vector<std::byte> level0_section;
+  std::uint64_t zero_voxels = 0;
+};
+
+LabelMap collect_label_map(io::VolumeSource& source, std::int64_t slab, ProgressSink& progress) {
+  const VolumeInfo& info = source.info();
+  LabelValueCollector values(info.dtype);
+  ProgressTask task(progress, "label values", std::uint64_t(info.dims.voxel_count()), "vox");
+  for (std::int64_t z0 = 0; z0 < info.dims.z; z0 += slab) {
+    const Volume v = source.read_slab(z0, std::min(info.dims.z, z0 + slab));
+    values.add(v);
+    task.advance(std::uint64_t(v.voxel_count()));
+  }
+  return values.finish();
+}
+
+StreamedLabels stream_labels(io::VolumeSource& source, const EncodeOptions& options, ProgressSink& progress) {
+  const VolumeInfo& info = source.info();
+  const std::int64_t slab = label_slab_slices(info, options.memory_limit);
+  StreamedLabels out;
+  out.map = collect_label_map(source, slab, progress);
+  const std::uint32_t sources = out.map.size();
+  HistogramMipmap::StreamBuilder mipmap(info.dims, sources);
+  std::variant<BlockPaletteIds::Builder, FixedRateIds::Builder> level0 =
+      options.ids == IdsMode::fixed ? decltype(level0)(FixedRateIds::Builder(info.dims, 0, sources - 1))
+                                    : decltype(level0)(BlockPaletteIds::Builder(info.dims));
+  const std::optional<std::uint32_t> zero = out.map.id_of(0);
+  std::vector<std::uint32_t> ids;
+  {
+    ProgressTask task(progress, "level 0", std::uint64_t(info.dims.voxel_count()), "vox");
+    for (std::int64_t z0 = 0; z0 < info.dims.z; z0 += slab) {
+      assign_source_ids(source.read_slab(z0, std::min(info.dims.z, z0 + slab)), out.map, ids);
+      mipmap.append(ids);
+      std::visit([&](auto& b) { b.append(ids); }, level0);
+      if (zero) out.zero_voxels += std::uint64_t(std::count(ids.begin(), ids.end(), *zero));
+      task.advance(ids.size());
+    }
+  }
+  ids = {};
+  out.mipmap = mipmap.finish(progress);
+  out.level0_section = std::visit([&](auto& b) { return id_section(b.finish(), options); }, level0);
+  return out;
 }
 
 // The normals graph: the label volume's quantized normal codes encoded as labels of their own
@@ -54,25 +162,30 @@ nlohmann::json add_normals(const Volume& labels, const std::filesystem::path& ou
           {"seconds", rep.normals_seconds}};
 }
 
-}  // namespace
-
-EncodeReport encode_labels(const Volume& labels, const std::filesystem::path& out, const EncodeOptions& options,
-                           ProgressSink& progress) {
-  using clock = std::chrono::steady_clock;
-  const auto t0 = clock::now();
+void check_options(const EncodeOptions& options) {
   if (options.ids_zstd < 0 || options.ids_zstd > 22)
     throw Error("ids zstd level: must be 0..22, got " + std::to_string(options.ids_zstd));
   if (options.bits < 1 || options.bits > 16) throw Error("bits: must be 1..16, got " + std::to_string(options.bits));
-  LabelMap map;
-  HistogramMipmap h = HistogramMipmap::from_labels(labels, &map, progress);
+}
+
+// Streams `source` and writes the file; `whole` is the same volume in memory when the normals
+// graph needs it (null otherwise).
+EncodeReport encode_streamed(io::VolumeSource& source, const Volume* whole, const std::filesystem::path& out,
+                             const EncodeOptions& options, ProgressSink& progress) {
+  using clock = std::chrono::steady_clock;
+  const auto t0 = clock::now();
+  check_options(options);
+  const VolumeInfo info = source.info();
+  StreamedLabels s = stream_labels(source, options, progress);
+  HistogramMipmap& h = s.mipmap;
   const MipmapStats ms = h.stats();
   const int mip_levels = h.level_count();
-  const double background = background_fraction(h.level(0), map);
   FactorOptions fo;
   fo.score = options.strategy;
   fo.bits = options.bits;
   fo.bins = options.bins;
   fo.tau = options.tau;
+  fo.park_dir = out.has_parent_path() ? out.parent_path() : std::filesystem::path(".");
   // Consumes the mipmap's id arrays (the largest buffers) instead of copying them; only its
   // table is needed afterwards.
   Factorization f = factorize(std::move(h), fo, progress);
@@ -88,27 +201,27 @@ EncodeReport encode_labels(const Volume& labels, const std::filesystem::path& ou
   rep.mip_voxels = ms.voxels;
   rep.nnz_per_voxel = ms.nnz_per_voxel;
   rep.raw_histogram_bytes = ms.nnz_total * 8;
-  rep.background_fraction = background;
+  rep.level0_voxels = std::uint64_t(info.dims.voxel_count());
+  rep.background_fraction = background_fraction(s.zero_voxels, rep.level0_voxels);
   rep.factor_seconds = f.stats.seconds;
-  rep.level0_voxels = std::uint64_t(labels.dims().voxel_count());
 
-  std::vector<std::byte> graph_bytes = write_graph_bitstream(f.graph, h.fractional(), labels.dims());
+  std::vector<std::byte> graph_bytes = write_graph_bitstream(f.graph, h.fractional(), info.dims);
   if (options.measure_error) {
     // Measured on the graph as stored (20-bit codebook), i.e. what a reader reconstructs.
     f.graph = read_graph_bitstream(graph_bytes, out.string());
-    const Schedule s = make_schedule(f.graph);
-    const MixtureLookup lut = MixtureLookup::build(f.graph, s);
+    const Schedule sched = make_schedule(f.graph);
+    const MixtureLookup lut = MixtureLookup::build(f.graph, sched);
     rep.max_l1 = measure_error(h, f, lut).max_l1;
   }
 
   store::ContainerWriter writer(out);
   std::optional<nlohmann::json> normals_meta;
-  if (options.normals) normals_meta = add_normals(labels, out, options, writer, rep);
+  if (options.normals) normals_meta = add_normals(*whole, out, options, writer, rep);
   writer.add_section("mixture_graph", graph_bytes);
   rep.graph_bytes = graph_bytes.size();
   ByteWriter lm;
-  lm.put(std::uint32_t(map.size()));
-  for (std::int64_t v : map.values()) lm.put(v);
+  lm.put(std::uint32_t(s.map.size()));
+  for (std::int64_t v : s.map.values()) lm.put(v);
   const std::vector<std::byte> label_map_bytes = lm.take();
   writer.add_section("label_map", label_map_bytes);
   rep.label_map_bytes = label_map_bytes.size();
@@ -117,10 +230,10 @@ EncodeReport encode_labels(const Volume& labels, const std::filesystem::path& ou
   {
     ProgressTask task(progress, "store ids", f.levels.size(), "levels");
     for (std::size_t l = 0; l < f.levels.size(); ++l) {
-      const MipLevel& lv = f.levels[l];
-      std::vector<std::byte> bytes = options.ids == IdsMode::fixed ? FixedRateIds(lv.ids, lv.dims).serialize()
-                                                                   : BlockPaletteIds(lv.ids, lv.dims).serialize();
-      if (options.ids_zstd > 0) bytes = store::zstd_compress(bytes, options.ids_zstd);
+      MipLevel& lv = f.levels[l];
+      // Level 0 was stored as it streamed past; the others are released once stored.
+      const std::vector<std::byte> bytes = l == 0 ? std::move(s.level0_section) : id_section(lv.ids, lv.dims, options);
+      lv.ids = {};
       writer.add_section(detail::level_section(int(l)), bytes);
       rep.ids_bytes.push_back(bytes.size());
       levels.push_back({{"dims", detail::extent_json(lv.dims)}, {"ids_bytes", bytes.size()}});
@@ -128,7 +241,7 @@ EncodeReport encode_labels(const Volume& labels, const std::filesystem::path& ou
     }
   }
 
-  const Spacing sp = labels.spacing();
+  const Spacing sp = info.spacing;
   nlohmann::json stats{{"nodes", rep.nodes},
                        {"internal_nodes", rep.internal_nodes},
                        {"sources", rep.sources},
@@ -140,8 +253,8 @@ EncodeReport encode_labels(const Volume& labels, const std::filesystem::path& ou
   nlohmann::json meta{{"codec", kMixtureCodecName},
                       {"mixture_graph_version", detail::kFormatVersion},
                       {"source",
-                       {{"dims", detail::extent_json(labels.dims())},
-                        {"dtype", std::string(dtype_name(labels.dtype()))},
+                       {{"dims", detail::extent_json(info.dims)},
+                        {"dtype", std::string(dtype_name(info.dtype))},
                         {"spacing", {sp.x, sp.y, sp.z}}}},
                       {"levels", levels},
                       {"ids", std::string(ids_mode_name(options.ids))},
@@ -159,11 +272,20 @@ EncodeReport encode_labels(const Volume& labels, const std::filesystem::path& ou
   return rep;
 }
 
+}  // namespace
+
+EncodeReport encode_labels(const Volume& labels, const std::filesystem::path& out, const EncodeOptions& options,
+                           ProgressSink& progress) {
+  const std::unique_ptr<io::VolumeSource> source = io::memory_source(labels);
+  return encode_streamed(*source, &labels, out, options, progress);
+}
+
 EncodeReport encode_labels(io::VolumeSource& labels, const std::filesystem::path& out, const EncodeOptions& options,
                            ProgressSink& progress) {
-  // The histogram mipmap needs every level-0 id in memory anyway (one u32 per voxel).
-  const Volume v = labels.read_all();
-  return encode_labels(v, out, options, progress);
+  if (!options.normals) return encode_streamed(labels, nullptr, out, options, progress);
+  // The normals are estimated over the whole volume (a window around every boundary voxel).
+  const Volume whole = labels.read_all();
+  return encode_streamed(labels, &whole, out, options, progress);
 }
 
 }  // namespace strata::mixture

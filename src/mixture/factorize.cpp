@@ -29,11 +29,15 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <string>
+
+#include <unistd.h>
 
 #include "strata/core/check.hpp"
 #include "strata/core/error.hpp"
 #include "strata/core/threads.hpp"
+#include "strata/io/files.hpp"
 #include "strata/mixture/flat_hash.hpp"
 #include "strata/mixture/schedule.hpp"
 
@@ -550,8 +554,43 @@ std::uint32_t merge_children(NodeCounts& pending, std::uint64_t mult, NodeStore&
   return pending.front().second;
 }
 
+// The mip levels' ids, parked in an unnamed temporary file while the greedy search holds its
+// tables, so that the two largest structures of an encoding never share memory.
+class ParkedLevels {
+ public:
+  ParkedLevels(std::vector<MipLevel>& levels, const std::filesystem::path& dir)
+      : levels_(levels), file_(dir, ".strata-mip-levels") {
+    for (MipLevel& L : levels_) {
+      file_.write(L.ids.data(), L.ids.size() * sizeof(std::uint32_t));
+      counts_.push_back(L.ids.size());
+      L.ids = {};
+    }
+  }
+
+  void restore() {
+    off_t at = 0;
+    for (std::size_t l = 0; l < levels_.size(); ++l) {
+      std::vector<std::uint32_t>& ids = levels_[l].ids;
+      ids.resize(counts_[l]);
+      auto* bytes = reinterpret_cast<char*>(ids.data());
+      std::size_t left = ids.size() * sizeof(std::uint32_t);
+      while (left > 0) {
+        const ssize_t n = ::pread(file_.descriptor(), bytes, left, at);
+        if (n <= 0) throw Error("mixture factorisation: cannot read back the mip levels parked in " + file_.dir().string());
+        bytes += n, left -= std::size_t(n), at += n;
+      }
+    }
+  }
+
+ private:
+  std::vector<MipLevel>& levels_;
+  io::UnnamedTempFile file_;
+  std::vector<std::size_t> counts_;
+};
+
 // Shared driver. `levels` (mixture ids per voxel) enables the dense shortcut; may be null.
-Factorization run_factorize(const MixtureTable& table, const std::vector<MipLevel>* levels, const FactorOptions& opt,
+// With opt.park_dir set they wait in a temporary file there during the greedy search.
+Factorization run_factorize(const MixtureTable& table, std::vector<MipLevel>* levels, const FactorOptions& opt,
                             ProgressSink& progress) {
   check_options(opt);
   const auto t0 = std::chrono::steady_clock::now();
@@ -560,34 +599,45 @@ Factorization run_factorize(const MixtureTable& table, const std::vector<MipLeve
   f.graph.num_sources = N;
   f.node_of_mixture.assign(table.size(), kNone);
   NodeStore store(N, opt.bits, opt.bins);
-  Greedy greedy(opt, store, N);
 
   std::vector<std::uint32_t> dense;
-  for (std::uint32_t id = 0; id < table.size(); ++id) {
-    const std::uint32_t k = table.nnz(id);
-    f.stats.input_pairs += std::uint64_t(k) * (k - 1) / 2;
-    if (k == 1) {
-      f.node_of_mixture[id] = table.index(id)[0];
-      continue;
-    }
-    const bool use_children = levels && opt.dense_threshold > 0 && k > opt.dense_threshold && table.first_level(id) > 0 &&
-                              table.first_voxel(id) != MixtureTable::kNoVoxel;
-    if (use_children) {
-      dense.push_back(id);
-    } else {
-      greedy.add(id, table.index(id), table.mass(id), table.multiplicity(id));
-    }
-  }
-  f.stats.greedy_mixtures = greedy.size();
-  f.stats.dense_mixtures = dense.size();
   {
-    ProgressTask task(progress, "factorize", greedy.total_merges(), "merges");
-    greedy.run(task);
+    std::optional<Greedy> greedy(std::in_place, opt, store, N);
+    for (std::uint32_t id = 0; id < table.size(); ++id) {
+      const std::uint32_t k = table.nnz(id);
+      f.stats.input_pairs += std::uint64_t(k) * (k - 1) / 2;
+      if (k == 1) {
+        f.node_of_mixture[id] = table.index(id)[0];
+        continue;
+      }
+      // A streamed mipmap holds no level-0 ids, so level-1 mixtures cannot be rebuilt from their
+      // children there (with the default threshold they never qualify: 8 children give nnz <= 8).
+      const bool use_children = levels && opt.dense_threshold > 0 && k > opt.dense_threshold &&
+                                table.first_level(id) > 0 && table.first_voxel(id) != MixtureTable::kNoVoxel &&
+                                !(*levels)[std::size_t(table.first_level(id)) - 1].ids.empty();
+      if (use_children) {
+        dense.push_back(id);
+      } else {
+        greedy->add(id, table.index(id), table.mass(id), table.multiplicity(id));
+      }
+    }
+    f.stats.greedy_mixtures = greedy->size();
+    f.stats.dense_mixtures = dense.size();
+    std::optional<ParkedLevels> parked;
+    if (levels && !opt.park_dir.empty()) parked.emplace(*levels, opt.park_dir);
+    {
+      ProgressTask task(progress, "factorize", greedy->total_merges(), "merges");
+      greedy->run(task);
+    }
+    for (std::size_t k = 0; k < greedy->size(); ++k) f.node_of_mixture[greedy->table_id(k)] = greedy->result(k);
+    f.stats.steps = greedy->steps();
+    f.stats.merges = greedy->merges();
+    f.stats.reused = greedy->reused();
+    if (parked) {
+      greedy.reset();  // its tables go before the levels come back
+      parked->restore();
+    }
   }
-  for (std::size_t k = 0; k < greedy.size(); ++k) f.node_of_mixture[greedy.table_id(k)] = greedy.result(k);
-  f.stats.steps = greedy.steps();
-  f.stats.merges = greedy.merges();
-  f.stats.reused = greedy.reused();
 
   // Dense mixtures: average of the children's nodes, coarse levels after finer ones.
   std::stable_sort(dense.begin(), dense.end(),
@@ -621,15 +671,17 @@ void remap_levels(std::vector<MipLevel>& levels, const std::vector<std::uint32_t
 }  // namespace
 
 Factorization factorize(const HistogramMipmap& h, const FactorOptions& options, ProgressSink& progress) {
-  Factorization f = run_factorize(h.table(), &h.levels(), options, progress);
-  f.levels = h.levels();
+  std::vector<MipLevel> levels = h.levels();
+  Factorization f = run_factorize(h.table(), &levels, options, progress);
+  f.levels = std::move(levels);
   remap_levels(f.levels, f.node_of_mixture);
   return f;
 }
 
 Factorization factorize(HistogramMipmap&& h, const FactorOptions& options, ProgressSink& progress) {
-  Factorization f = run_factorize(h.table(), &h.levels(), options, progress);
-  f.levels = h.release_levels();
+  std::vector<MipLevel> levels = h.release_levels();
+  Factorization f = run_factorize(h.table(), &levels, options, progress);
+  f.levels = std::move(levels);
   remap_levels(f.levels, f.node_of_mixture);
   return f;
 }

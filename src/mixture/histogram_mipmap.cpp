@@ -99,6 +99,7 @@ HistogramMipmap HistogramMipmap::from_source_ids(Extent dims, std::vector<std::u
   h.table_ = MixtureTable(num_sources, true);
   h.levels_.push_back({dims, std::move(ids)});
   h.build_levels(progress);
+  h.count_multiplicities({});
   return h;
 }
 
@@ -145,82 +146,137 @@ HistogramMipmap HistogramMipmap::from_fractional(const FractionalVoxels& in, Pro
   }
   h.levels_.push_back(std::move(l0));
   h.build_levels(progress);
+  h.count_multiplicities({});
   return h;
 }
 
-void HistogramMipmap::build_levels(ProgressSink& progress) {
-  const auto dims = mip_level_dims(levels_[0].dims);
-  std::uint64_t total = 0;
-  for (std::size_t l = 1; l < dims.size(); ++l) total += std::uint64_t(dims[l].voxel_count());
-  ProgressTask task(progress, "histogram mipmap", total, "voxels");
+namespace {
+
+// Parent slices [z0, z1) of a level of dims P from its children (dims C), whose slices from
+// `child_z0` on start at `child`; the ids go to `parent` (the whole parent level). Batches of
+// slices are combined in parallel, then interned sequentially in z order, so the table (and
+// everything downstream) is the same whatever the batches or the slabs that feed them.
+void build_parent_slices(MixtureTable& table, const std::uint32_t* child, std::int64_t child_z0, Extent C, Extent P,
+                         std::int64_t z0, std::int64_t z1, int level, std::uint32_t* parent, ProgressTask* task) {
   const int nt = thread_count();
-  for (std::size_t l = 1; l < dims.size(); ++l) {
-    const Extent P = dims[l];
-    const Extent C = dims[l - 1];
-    MipLevel level{P, std::vector<std::uint32_t>(std::size_t(P.voxel_count()))};
-    const std::uint32_t* child = levels_[l - 1].ids.data();
-    // Batches of parent slices: parallel combine, then sequential interning in z order so
-    // the table (and everything downstream) is deterministic.
-    const std::int64_t batch = std::max<std::int64_t>(1, std::min<std::int64_t>(P.z, 4 * nt));
-    std::vector<SliceBuffer> buffers(static_cast<std::size_t>(batch));
-    std::string error;  // exceptions must not leave an OpenMP region
-    for (std::int64_t z0 = 0; z0 < P.z; z0 += batch) {
-      const std::int64_t z1 = std::min(P.z, z0 + batch);
+  const std::int64_t batch = std::max<std::int64_t>(1, std::min<std::int64_t>(z1 - z0, 4 * nt));
+  std::vector<SliceBuffer> buffers(static_cast<std::size_t>(batch));
+  std::string error;  // exceptions must not leave an OpenMP region
+  for (std::int64_t b0 = z0; b0 < z1; b0 += batch) {
+    const std::int64_t b1 = std::min(z1, b0 + batch);
 #pragma omp parallel num_threads(nt)
-      {
-        std::vector<SparseEntry> scratch;
+    {
+      std::vector<SparseEntry> scratch;
 #pragma omp for schedule(dynamic, 1)
-        for (std::int64_t z = z0; z < z1; ++z) {
-          SliceBuffer& out = buffers[std::size_t(z - z0)];
-          out.clear();
-          const std::int64_t cz0 = 2 * z, cz1 = std::min(C.z, 2 * z + 2);
-          for (std::int64_t y = 0; y < P.y; ++y) {
-            const std::int64_t cy0 = 2 * y, cy1 = std::min(C.y, 2 * y + 2);
-            for (std::int64_t x = 0; x < P.x; ++x) {
-              const std::int64_t cx0 = 2 * x, cx1 = std::min(C.x, 2 * x + 2);
-              std::uint32_t c[8] = {};
-              int n = 0;
-              for (std::int64_t cz = cz0; cz < cz1; ++cz)
-                for (std::int64_t cy = cy0; cy < cy1; ++cy) {
-                  const std::uint32_t* row = child + (cz * C.y + cy) * C.x;
-                  for (std::int64_t cx = cx0; cx < cx1; ++cx) c[n++] = row[cx];
-                }
-              const std::uint64_t v = std::uint64_t((z * P.y + y) * P.x + x);
-              bool same = true;
-              for (int i = 1; i < n; ++i) same = same && c[i] == c[0];
-              if (same) {
-                level.ids[v] = c[0];
-              } else {
-                try {
-                  combine_children(table_, c, n, scratch, out, v);
-                } catch (const std::exception& e) {
+      for (std::int64_t z = b0; z < b1; ++z) {
+        SliceBuffer& out = buffers[std::size_t(z - b0)];
+        out.clear();
+        const std::int64_t cz0 = 2 * z, cz1 = std::min(C.z, 2 * z + 2);
+        for (std::int64_t y = 0; y < P.y; ++y) {
+          const std::int64_t cy0 = 2 * y, cy1 = std::min(C.y, 2 * y + 2);
+          for (std::int64_t x = 0; x < P.x; ++x) {
+            const std::int64_t cx0 = 2 * x, cx1 = std::min(C.x, 2 * x + 2);
+            std::uint32_t c[8] = {};
+            int n = 0;
+            for (std::int64_t cz = cz0; cz < cz1; ++cz)
+              for (std::int64_t cy = cy0; cy < cy1; ++cy) {
+                const std::uint32_t* row = child + ((cz - child_z0) * C.y + cy) * C.x;
+                for (std::int64_t cx = cx0; cx < cx1; ++cx) c[n++] = row[cx];
+              }
+            const std::uint64_t v = std::uint64_t((z * P.y + y) * P.x + x);
+            bool same = true;
+            for (int i = 1; i < n; ++i) same = same && c[i] == c[0];
+            if (same) {
+              parent[v] = c[0];
+            } else {
+              try {
+                combine_children(table, c, n, scratch, out, v);
+              } catch (const std::exception& e) {
 #pragma omp critical(strata_mixture_mipmap_error)
-                  error = e.what();
-                }
+                error = e.what();
               }
             }
           }
         }
       }
-      if (!error.empty()) throw Error(error);
-      for (std::int64_t z = z0; z < z1; ++z) {
-        const SliceBuffer& b = buffers[std::size_t(z - z0)];
-        for (const Pending& p : b.pending)
-          level.ids[p.voxel] = table_.intern({b.index.data() + p.offset, p.length}, {b.mass.data() + p.offset, p.length},
-                                             p.hash, int(l), p.voxel);
-      }
-      task.advance(std::uint64_t((z1 - z0) * P.y * P.x));
     }
-    levels_.push_back(std::move(level));
+    if (!error.empty()) throw Error(error);
+    for (std::int64_t z = b0; z < b1; ++z) {
+      const SliceBuffer& b = buffers[std::size_t(z - b0)];
+      for (const Pending& p : b.pending)
+        parent[p.voxel] = table.intern({b.index.data() + p.offset, p.length}, {b.mass.data() + p.offset, p.length},
+                                       p.hash, level, p.voxel);
+    }
+    if (task) task->advance(std::uint64_t((b1 - b0) * P.y * P.x));
   }
-  count_multiplicities();
 }
 
-void HistogramMipmap::count_multiplicities() {
+}  // namespace
+
+void HistogramMipmap::build_levels(ProgressSink& progress) {
+  const auto dims = mip_level_dims(levels_[0].dims);
+  std::uint64_t total = 0;
+  for (std::size_t l = levels_.size(); l < dims.size(); ++l) total += std::uint64_t(dims[l].voxel_count());
+  ProgressTask task(progress, "histogram mipmap", total, "voxels");
+  for (std::size_t l = levels_.size(); l < dims.size(); ++l) {
+    const Extent P = dims[l];
+    const Extent C = dims[l - 1];
+    MipLevel level{P, std::vector<std::uint32_t>(std::size_t(P.voxel_count()))};
+    build_parent_slices(table_, levels_[l - 1].ids.data(), 0, C, P, 0, P.z, int(l), level.ids.data(), &task);
+    levels_.push_back(std::move(level));
+  }
+}
+
+void HistogramMipmap::count_multiplicities(std::span<const std::uint64_t> streamed_level0) {
   std::vector<std::uint64_t> m(table_.size(), 0);
   for (const auto& L : levels_)
     for (std::uint32_t id : L.ids) ++m[id];
+  for (std::size_t id = 0; id < streamed_level0.size(); ++id) m[id] += streamed_level0[id];
   table_.set_multiplicities(std::move(m));
+  table_.compact();  // complete: nothing is interned any more
+}
+
+// ---------------------------------------------------------------------------------------------
+// StreamBuilder
+
+HistogramMipmap::StreamBuilder::StreamBuilder(Extent dims, std::uint32_t num_sources) : dims_(mip_level_dims(dims)) {
+  h_.fractional_ = false;
+  h_.table_ = MixtureTable(num_sources, true);
+  level0_counts_.assign(num_sources, 0);
+  h_.levels_.push_back({dims, {}});
+  if (dims_.size() > 1) h_.levels_.push_back({dims_[1], std::vector<std::uint32_t>(std::size_t(dims_[1].voxel_count()))});
+}
+
+void HistogramMipmap::StreamBuilder::append(std::span<const std::uint32_t> ids) {
+  const Extent C = dims_[0];
+  const std::size_t slice = std::size_t(C.x * C.y);
+  const std::int64_t n = std::int64_t(ids.size() / slice);
+  if (ids.size() % slice != 0 || slices_ + n > C.z)
+    throw Error("histogram mipmap: " + std::to_string(ids.size()) + " ids after " + std::to_string(slices_) +
+                " slices are not whole slices within dims " + C.to_string());
+  if (slices_ % 2 != 0)
+    throw Error("histogram mipmap: a slab after an odd number of slices (" + std::to_string(slices_) +
+                "); only the last slab may be odd");
+  const std::uint32_t sources = h_.table_.num_sources();
+  for (const std::uint32_t id : ids) {
+    if (id >= sources)
+      throw Error("histogram mipmap: source id " + std::to_string(id) + " >= number of sources " + std::to_string(sources));
+    ++level0_counts_[id];
+  }
+  const std::int64_t z0 = slices_;
+  slices_ += n;
+  if (dims_.size() < 2 || n == 0) return;
+  build_parent_slices(h_.table_, ids.data(), z0, C, dims_[1], z0 / 2, (slices_ + 1) / 2, 1, h_.levels_[1].ids.data(),
+                      nullptr);
+}
+
+HistogramMipmap HistogramMipmap::StreamBuilder::finish(ProgressSink& progress) {
+  if (slices_ != dims_[0].z)
+    throw Error("histogram mipmap: " + std::to_string(slices_) + " slices streamed for dims " + dims_[0].to_string());
+  h_.build_levels(progress);
+  h_.count_multiplicities(level0_counts_);
+  level0_counts_.clear();
+  return std::move(h_);
 }
 
 MipmapStats HistogramMipmap::stats() const {

@@ -47,16 +47,62 @@ Extent read_dims(ByteReader& r) {
 // ---------------------------------------------------------------------------------------------
 // FixedRateIds
 
-FixedRateIds::FixedRateIds(std::span<const std::uint32_t> ids, const Extent& dims) : dims_(dims) {
+FixedRateIds::FixedRateIds(std::span<const std::uint32_t> ids, const Extent& dims) {
   check_ids(ids, dims, "FixedRateIds");
   const auto [lo, hi] = std::minmax_element(ids.begin(), ids.end());
-  min_ = *lo;
-  bits_ = bits_for(std::uint64_t(*hi) - *lo + 1);
-  if (bits_ == 0) return;
-  std::vector<std::uint32_t> codes(ids.size());
-  for (std::size_t i = 0; i < ids.size(); ++i) codes[i] = ids[i] - min_;
-  packed_.resize(quant::packed_size(codes.size(), bits_));
-  quant::pack_codes(codes, bits_, packed_);
+  Builder b(dims, *lo, *hi);
+  b.append(ids);
+  *this = b.finish();
+}
+
+FixedRateIds::Builder::Builder(const Extent& dims, std::uint32_t min_id, std::uint32_t max_id) : max_(max_id) {
+  if (dims.x < 1 || dims.y < 1 || dims.z < 1) throw Error("FixedRateIds: invalid dims " + dims.to_string());
+  if (max_id < min_id)
+    throw Error("FixedRateIds: id range [" + std::to_string(min_id) + ", " + std::to_string(max_id) + "] is empty");
+  out_.dims_ = dims;
+  out_.min_ = min_id;
+  out_.bits_ = bits_for(std::uint64_t(max_id) - min_id + 1);
+  if (out_.bits_ > 0) out_.packed_.reserve(quant::packed_size(std::size_t(dims.voxel_count()), out_.bits_));
+}
+
+void FixedRateIds::Builder::append(std::span<const std::uint32_t> ids) {
+  if (count_ + ids.size() > std::uint64_t(out_.dims_.voxel_count()))
+    throw Error("FixedRateIds: more than " + std::to_string(out_.dims_.voxel_count()) + " ids for dims " +
+                out_.dims_.to_string());
+  for (const std::uint32_t id : ids)
+    if (id < out_.min_ || id > max_)
+      throw Error("FixedRateIds: id " + std::to_string(id) + " outside the declared range [" + std::to_string(out_.min_) +
+                  ", " + std::to_string(max_) + "]");
+  count_ += ids.size();
+  if (out_.bits_ == 0) return;
+  // Ids are packed 8 at a time (8 codes fill whole bytes), so the runs need not be aligned.
+  if (!pending_.empty()) {
+    const std::size_t take = std::min(ids.size(), 8 - pending_.size());
+    pending_.insert(pending_.end(), ids.begin(), ids.begin() + std::ptrdiff_t(take));
+    ids = ids.subspan(take);
+    if (pending_.size() < 8) return;
+    pack(pending_);
+    pending_.clear();
+  }
+  const std::size_t whole = ids.size() / 8 * 8;
+  pack(ids.first(whole));
+  pending_.assign(ids.begin() + std::ptrdiff_t(whole), ids.end());
+}
+
+void FixedRateIds::Builder::pack(std::span<const std::uint32_t> ids) {
+  codes_.resize(ids.size());
+  for (std::size_t i = 0; i < ids.size(); ++i) codes_[i] = ids[i] - out_.min_;
+  const std::size_t start = out_.packed_.size();
+  out_.packed_.resize(start + quant::packed_size(codes_.size(), out_.bits_));
+  quant::pack_codes(codes_, out_.bits_, std::span(out_.packed_).subspan(start));
+}
+
+FixedRateIds FixedRateIds::Builder::finish() {
+  if (count_ != std::uint64_t(out_.dims_.voxel_count()))
+    throw Error("FixedRateIds: " + std::to_string(count_) + " ids for dims " + out_.dims_.to_string());
+  if (!pending_.empty()) pack(pending_);
+  pending_.clear();
+  return std::move(out_);
 }
 
 std::uint32_t FixedRateIds::at(std::int64_t x, std::int64_t y, std::int64_t z) const {
@@ -96,42 +142,90 @@ FixedRateIds FixedRateIds::deserialize(std::span<const std::byte> bytes) {
 // ---------------------------------------------------------------------------------------------
 // BlockPaletteIds
 
-BlockPaletteIds::BlockPaletteIds(std::span<const std::uint32_t> ids, const Extent& dims) : dims_(dims) {
+BlockPaletteIds::BlockPaletteIds(std::span<const std::uint32_t> ids, const Extent& dims) {
   check_ids(ids, dims, "BlockPaletteIds");
+  Builder b(dims);
+  b.append(ids);
+  *this = b.finish();
+}
+
+BlockPaletteIds::Builder::Builder(const Extent& dims) {
+  if (dims.x < 1 || dims.y < 1 || dims.z < 1) throw Error("BlockPaletteIds: invalid dims " + dims.to_string());
+  out_.dims_ = dims;
+  out_.grid_ = block_grid(dims);
+  out_.blocks_.resize(std::size_t(out_.grid_.voxel_count()));
+}
+
+void BlockPaletteIds::Builder::append(std::span<const std::uint32_t> ids) {
+  const Extent& d = out_.dims_;
+  const std::size_t slice = std::size_t(d.x * d.y);
+  if (ids.size() % slice != 0 || slices_ + std::int64_t(ids.size() / slice) > d.z)
+    throw Error("BlockPaletteIds: " + std::to_string(ids.size()) + " ids after " + std::to_string(slices_) +
+                " slices are not whole slices within dims " + d.to_string());
+  slices_ += std::int64_t(ids.size() / slice);
+  const std::size_t row = slice * kBlock;  // ids of one block row
+  if (!pending_.empty()) {
+    const std::size_t take = std::min(ids.size(), row - pending_.size());
+    pending_.insert(pending_.end(), ids.begin(), ids.begin() + std::ptrdiff_t(take));
+    ids = ids.subspan(take);
+    if (pending_.size() < row && slices_ < d.z) return;
+    encode_block_row(pending_);
+    pending_.clear();
+  }
+  while (ids.size() >= row) {
+    encode_block_row(ids.first(row));
+    ids = ids.subspan(row);
+  }
+  if (ids.empty()) return;
+  if (slices_ == d.z) {
+    encode_block_row(ids);  // the last, shorter block row
+  } else {
+    pending_.assign(ids.begin(), ids.end());
+  }
+}
+
+void BlockPaletteIds::Builder::encode_block_row(std::span<const std::uint32_t> slices) {
+  const Extent& dims = out_.dims_;
+  const Extent& grid = out_.grid_;
   const std::int64_t b = kBlock;
-  grid_ = block_grid(dims);
-  blocks_.resize(std::size_t(grid_.voxel_count()));
-  std::map<std::vector<std::uint32_t>, std::uint32_t> palette_offsets;  // dedupe identical palettes
+  const std::int64_t depth = std::int64_t(slices.size() / std::size_t(dims.x * dims.y));
+  const std::int64_t bz = block_rows_++;
   std::vector<std::uint32_t> block_ids(std::size_t(b * b * b)), codes(block_ids.size()), palette;
-  for (std::int64_t bz = 0; bz < grid_.z; ++bz)
-    for (std::int64_t by = 0; by < grid_.y; ++by)
-      for (std::int64_t bx = 0; bx < grid_.x; ++bx) {
-        // Gather the block (edge blocks repeat their last voxel so every block has b^3 entries).
-        for (std::int64_t k = 0; k < b; ++k)
-          for (std::int64_t j = 0; j < b; ++j)
-            for (std::int64_t i = 0; i < b; ++i) {
-              const std::int64_t x = std::min(bx * b + i, dims.x - 1), y = std::min(by * b + j, dims.y - 1),
-                                 z = std::min(bz * b + k, dims.z - 1);
-              block_ids[std::size_t((k * b + j) * b + i)] = ids[std::size_t((z * dims.y + y) * dims.x + x)];
-            }
-        palette = block_ids;
-        std::sort(palette.begin(), palette.end());
-        palette.erase(std::unique(palette.begin(), palette.end()), palette.end());
-        BlockHeader& h = blocks_[std::size_t((bz * grid_.y + by) * grid_.x + bx)];
-        auto [it, inserted] = palette_offsets.emplace(palette, std::uint32_t(palettes_.size()));
-        if (inserted) palettes_.insert(palettes_.end(), palette.begin(), palette.end());
-        h.palette_offset = it->second;
-        h.palette_size = std::uint32_t(palette.size());
-        h.bits = std::uint8_t(bits_for(palette.size()));
-        h.bit_offset = std::uint64_t(indices_.size()) * 8;
-        if (h.bits == 0) continue;
-        for (std::size_t v = 0; v < block_ids.size(); ++v)
-          codes[v] = std::uint32_t(std::lower_bound(palette.begin(), palette.end(), block_ids[v]) - palette.begin());
-        const std::size_t start = indices_.size();
-        indices_.resize(start + quant::packed_size(codes.size(), h.bits));
-        quant::pack_codes(codes, h.bits, std::span(indices_).subspan(start));
-      }
-  indices_.resize(indices_.size() + kIndexPadding);
+  for (std::int64_t by = 0; by < grid.y; ++by)
+    for (std::int64_t bx = 0; bx < grid.x; ++bx) {
+      // Gather the block (edge blocks repeat their last voxel so every block has b^3 entries).
+      for (std::int64_t k = 0; k < b; ++k)
+        for (std::int64_t j = 0; j < b; ++j)
+          for (std::int64_t i = 0; i < b; ++i) {
+            const std::int64_t x = std::min(bx * b + i, dims.x - 1), y = std::min(by * b + j, dims.y - 1),
+                               z = std::min(k, depth - 1);
+            block_ids[std::size_t((k * b + j) * b + i)] = slices[std::size_t((z * dims.y + y) * dims.x + x)];
+          }
+      palette = block_ids;
+      std::sort(palette.begin(), palette.end());
+      palette.erase(std::unique(palette.begin(), palette.end()), palette.end());
+      BlockHeader& h = out_.blocks_[std::size_t((bz * grid.y + by) * grid.x + bx)];
+      auto [it, inserted] = palette_offsets_.emplace(palette, std::uint32_t(out_.palettes_.size()));
+      if (inserted) out_.palettes_.insert(out_.palettes_.end(), palette.begin(), palette.end());
+      h.palette_offset = it->second;
+      h.palette_size = std::uint32_t(palette.size());
+      h.bits = std::uint8_t(bits_for(palette.size()));
+      h.bit_offset = std::uint64_t(out_.indices_.size()) * 8;
+      if (h.bits == 0) continue;
+      for (std::size_t v = 0; v < block_ids.size(); ++v)
+        codes[v] = std::uint32_t(std::lower_bound(palette.begin(), palette.end(), block_ids[v]) - palette.begin());
+      const std::size_t start = out_.indices_.size();
+      out_.indices_.resize(start + quant::packed_size(codes.size(), h.bits));
+      quant::pack_codes(codes, h.bits, std::span(out_.indices_).subspan(start));
+    }
+}
+
+BlockPaletteIds BlockPaletteIds::Builder::finish() {
+  if (slices_ != out_.dims_.z || !pending_.empty())
+    throw Error("BlockPaletteIds: " + std::to_string(slices_) + " slices for dims " + out_.dims_.to_string());
+  out_.indices_.resize(out_.indices_.size() + kIndexPadding);
+  palette_offsets_.clear();
+  return std::move(out_);
 }
 
 const BlockPaletteIds::BlockHeader& BlockPaletteIds::block_of(std::int64_t x, std::int64_t y, std::int64_t z) const {

@@ -52,7 +52,13 @@ std::uint64_t MixtureTable::hash_of(std::span<const std::uint32_t> index, std::s
 }
 
 void MixtureTable::grow_hash() {
-  std::size_t cap = slots_.empty() ? 64 : slots_.size() * 2;
+  if (hash_.size() != total_.size()) {  // after compact(): the hashes again
+    hash_.resize(total_.size());
+    for (std::uint32_t id = 0; id < size(); ++id) hash_[id] = hash_of(index(id), mass(id));
+  }
+  std::size_t cap = 64;
+  while (cap < 2 * (std::size_t(size()) + 1)) cap <<= 1;
+  cap = std::max(cap, slots_.size() * 2);
   slots_.assign(cap, kEmpty);
   const std::size_t mask = cap - 1;
   for (std::uint32_t id = 0; id < size(); ++id) {
@@ -64,7 +70,7 @@ void MixtureTable::grow_hash() {
 
 std::uint32_t MixtureTable::intern(std::span<const std::uint32_t> index, std::span<const double> mass, std::uint64_t hash,
                                    int level, std::uint64_t voxel) {
-  if (2 * (std::size_t(size()) + 1) > slots_.size()) grow_hash();
+  if (2 * (std::size_t(size()) + 1) > slots_.size() || hash_.size() != total_.size()) grow_hash();
   const std::size_t mask = slots_.size() - 1;
   std::size_t i = hash & mask;
   for (;; i = (i + 1) & mask) {
@@ -100,6 +106,18 @@ SparseMixture MixtureTable::mixture(std::uint32_t id) const {
   const double t = total_[id];
   for (std::size_t i = 0; i < ix.size(); ++i) e[i] = {ix[i], ms[i] / t};
   return SparseMixture::from_sorted(std::move(e));
+}
+
+void MixtureTable::compact() {
+  slots_ = {};
+  hash_ = {};
+  offsets_.shrink_to_fit();
+  index_.shrink_to_fit();
+  mass_.shrink_to_fit();
+  total_.shrink_to_fit();
+  multiplicity_.shrink_to_fit();
+  first_level_.shrink_to_fit();
+  first_voxel_.shrink_to_fit();
 }
 
 }  // namespace strata::mixture

@@ -138,3 +138,41 @@ TEST(MixtureIdStorage, BlockPaletteDecodesEveryIndexWidth) {
           ASSERT_EQ(out[i++], ids[std::size_t((z * d.y + y) * d.x + x)]) << box.to_string() << " at " << x << "," << y << "," << z;
   }
 }
+
+TEST(MixtureIdStorage, BuildersFedInPiecesEqualTheWholeConstruction) {
+  const Extent d{21, 17, 29};  // partial blocks on every axis; 29 slices = 3 block rows + 5
+  const auto ids = coherent_ids(d, 4);
+  const std::size_t slice = std::size_t(d.x * d.y);
+  const auto whole_blocks = BlockPaletteIds(ids, d).serialize();
+  for (const std::vector<std::size_t>& pieces :
+       std::vector<std::vector<std::size_t>>{{29}, {8, 8, 8, 5}, {3, 5, 11, 1, 9}, {1, 27, 1}}) {
+    BlockPaletteIds::Builder b(d);
+    std::size_t at = 0;
+    for (const std::size_t slices : pieces) {
+      b.append(std::span(ids).subspan(at, slices * slice));
+      at += slices * slice;
+    }
+    EXPECT_EQ(b.finish().serialize(), whole_blocks) << pieces.size() << " pieces";
+  }
+  const auto [lo, hi] = std::minmax_element(ids.begin(), ids.end());
+  const auto whole_fixed = FixedRateIds(ids, d).serialize();
+  for (const std::size_t run : {std::size_t(1), std::size_t(7), std::size_t(13), ids.size()}) {
+    FixedRateIds::Builder b(d, *lo, *hi);
+    for (std::size_t at = 0; at < ids.size(); at += run) b.append(std::span(ids).subspan(at, std::min(run, ids.size() - at)));
+    EXPECT_EQ(b.finish().serialize(), whole_fixed) << "runs of " << run;
+  }
+}
+
+TEST(MixtureIdStorage, BuildersRefuseWrongCountsAndRanges) {
+  const Extent d{9, 9, 9};
+  const std::vector<std::uint32_t> ids(std::size_t(d.voxel_count()), 5);
+  BlockPaletteIds::Builder blocks(d);
+  EXPECT_THROW(blocks.append(std::span(ids).first(10)), Error);  // not whole slices
+  blocks.append(std::span(ids).first(81 * 4));
+  EXPECT_THROW(blocks.finish(), Error);  // 4 of 9 slices
+  FixedRateIds::Builder fixed(d, 0, 4);
+  EXPECT_THROW(fixed.append(ids), Error);  // 5 is outside [0, 4]
+  FixedRateIds::Builder short_of(d, 5, 5);
+  short_of.append(std::span(ids).first(100));
+  EXPECT_THROW(short_of.finish(), Error);
+}

@@ -55,6 +55,9 @@ class VolumeSource {
 };
 
 std::unique_ptr<VolumeSource> open_volume(const std::filesystem::path& path, const ReadOptions& options = {});
+/// @brief A volume in memory served as a source (boxes are copied out), so code written for
+/// streamed files takes it too; `volume` must outlive the source. `name` is shown in errors.
+std::unique_ptr<VolumeSource> memory_source(const Volume& volume, std::filesystem::path name = "<memory>");
 Volume read_volume(const std::filesystem::path& path, const ReadOptions& options = {});
 
 // Sequential writer: slabs are appended in z order; finish() flushes and renames

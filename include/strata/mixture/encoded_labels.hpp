@@ -61,7 +61,17 @@ struct EncodeOptions {
   // kept whole as section "normals" (a complete nested .strata file, docs/format.md).
   bool normals = false;
   NormalOptions normal_options;
+  // Bound in bytes on what the streamed encoding holds besides the table of distinct mixtures
+  // and the factorisation (0 = 64 MiB slabs): the coarser mip levels' ids (one u32 per voxel,
+  // 1/7 of level 0) plus the input slabs, whose size shrinks to fit. Throws ParameterError if
+  // even one 8-slice slab cannot fit. With `normals` the whole volume is read as well.
+  std::uint64_t memory_limit = 0;
 };
+
+/// @brief Slices per input slab of encode_labels() under `memory_limit` (0 = none): a multiple
+/// of 8 (all slices when fewer). Throws ParameterError("EncodeOptions::memory_limit") when the
+/// limit cannot hold the coarser levels' ids and one slab.
+std::int64_t label_slab_slices(const VolumeInfo& info, std::uint64_t memory_limit);
 
 struct EncodeReport {
   std::uint64_t nodes = 0, internal_nodes = 0, sources = 0;
@@ -83,6 +93,9 @@ struct EncodeReport {
   double normals_seconds = 0.0;      // estimating, quantizing and encoding them
 };
 
+/// @brief Encodes a label volume (integer samples) into `out`, written atomically. Both overloads
+/// stream the volume in z-slabs (twice: label values, then ids), so a file source is never read
+/// whole unless `options.normals` asks for the normals graph; they write identical files.
 EncodeReport encode_labels(const Volume& labels, const std::filesystem::path& out, const EncodeOptions& options = {},
                            ProgressSink& progress = silent_progress());
 EncodeReport encode_labels(io::VolumeSource& labels, const std::filesystem::path& out,

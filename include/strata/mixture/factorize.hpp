@@ -9,6 +9,7 @@
 /// have smaller ids than the node, so the list is a DAG in topological order.
 /// Design notes: docs/mixture-graph.md#factorisation
 #include <cstdint>
+#include <filesystem>
 #include <string_view>
 #include <utility>
 #include <vector>
@@ -56,6 +57,10 @@ struct FactorOptions {
   // Mixtures with more ids than this (at levels >= 1) are built from their children's nodes
   // (Eq. 4; docs/mixture-graph.md#dense-mixtures). 0 = greedy for every mixture (the paper's way).
   std::uint32_t dense_threshold = 8;
+  // When set, the mipmap overloads park the mip levels' ids in an unnamed temporary file in
+  // this folder during the greedy search (whose pair tables are then the largest structure),
+  // so peak memory is the larger of the two rather than their sum. Same result either way.
+  std::filesystem::path park_dir;
 };
 
 // Weight bins. Pure functions, safe from any thread; `bits` is not checked (use 1..16).

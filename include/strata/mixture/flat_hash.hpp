@@ -31,10 +31,12 @@ class FlatMap {
   bool empty() const { return size_ == 0; }
   std::size_t capacity() const { return slots_.size(); }
 
-  // Capacity for n entries at a load factor of at most 1/2.
+  // Capacity for n entries at a load factor of at most 3/4 (linear probing still finds a key
+  // in a few probes there; the maps of a large factorisation hold tens of millions of entries,
+  // so a lower bound would cost gigabytes).
   void reserve(std::size_t n) {
     std::size_t cap = 16;
-    while (cap < 2 * n) cap <<= 1;
+    while (3 * cap < 4 * n) cap <<= 1;
     if (cap > slots_.size()) rehash(cap);
   }
 
@@ -51,7 +53,7 @@ class FlatMap {
   // Returns the value slot for k, inserting `init` when absent; .second tells whether it was
   // inserted. The pointer is valid until the next insertion.
   std::pair<Value*, bool> insert(const Key& k, const Value& init) {
-    if (2 * (size_ + 1) > slots_.size()) rehash(slots_.empty() ? 16 : slots_.size() * 2);
+    if (4 * (size_ + 1) > 3 * slots_.size()) rehash(slots_.empty() ? 16 : slots_.size() * 2);
     for (std::size_t i = home(k);; i = (i + 1) & mask_) {
       Slot& s = slots_[i];
       if (s.key == k) return {&s.value, false};

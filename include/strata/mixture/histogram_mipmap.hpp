@@ -52,6 +52,8 @@ struct MipmapStats {
 
 class HistogramMipmap {
  public:
+  class StreamBuilder;
+
   HistogramMipmap() = default;
 
   // Single-label input given as dense source ids (< num_sources). Exact (integral table).
@@ -69,6 +71,7 @@ class HistogramMipmap {
   bool fractional() const { return fractional_; }
   int level_count() const { return int(levels_.size()); }
   int max_level() const { return int(levels_.size()) - 1; }
+  // Level 0 of a mipmap from a StreamBuilder has its dims but no ids (they are the source ids).
   const MipLevel& level(int l) const { return levels_.at(std::size_t(l)); }
   const std::vector<MipLevel>& levels() const { return levels_; }
   const MixtureTable& table() const { return table_; }
@@ -89,12 +92,36 @@ class HistogramMipmap {
   std::vector<MipLevel> release_levels() { return std::move(levels_); }
 
  private:
-  void build_levels(ProgressSink& progress);
-  void count_multiplicities();
+  void build_levels(ProgressSink& progress);  // the levels after the last one held
+  // Multiplicities over every level held, plus per source id the counts of a streamed level 0.
+  void count_multiplicities(std::span<const std::uint64_t> streamed_level0);
 
   bool fractional_ = false;
   std::vector<MipLevel> levels_;
   MixtureTable table_;
+};
+
+/// @brief Builds a single-label mipmap from level-0 source ids streamed in z-slabs, so level 0
+/// (the largest array, one u32 per voxel) is never held: level 1 is built as the slabs arrive
+/// and the coarser levels from it at finish(). The result equals from_source_ids() on the whole
+/// volume (same table, same ids) except that level(0).ids is empty; level-0 multiplicities are
+/// counted as the slabs pass.
+class HistogramMipmap::StreamBuilder {
+ public:
+  StreamBuilder(Extent dims, std::uint32_t num_sources);
+  /// @brief The next whole slices of source ids (x fastest). Every slab but the last must have
+  /// an even number of slices (a level-1 slice needs both its children). Throws Error on an id
+  /// >= num_sources, a partial slice, too many slices or an odd slab followed by another.
+  void append(std::span<const std::uint32_t> ids);
+  /// @brief Builds the coarser levels (progress task "histogram mipmap"). Throws Error unless
+  /// every slice was appended.
+  HistogramMipmap finish(ProgressSink& progress = silent_progress());
+
+ private:
+  std::vector<Extent> dims_;
+  HistogramMipmap h_;
+  std::vector<std::uint64_t> level0_counts_;
+  std::int64_t slices_ = 0;
 };
 
 }  // namespace strata::mixture

@@ -9,6 +9,7 @@
 // Both decode any voxel in O(1) and serialize to a self-describing little-endian byte string.
 #include <cstddef>
 #include <cstdint>
+#include <map>
 #include <span>
 #include <vector>
 
@@ -18,6 +19,8 @@ namespace strata::mixture {
 
 class FixedRateIds {
  public:
+  class Builder;
+
   FixedRateIds() = default;
   FixedRateIds(std::span<const std::uint32_t> ids, const Extent& dims);  // x-fastest ids
 
@@ -40,6 +43,7 @@ class FixedRateIds {
 class BlockPaletteIds {
  public:
   static constexpr int kBlock = 8;
+  class Builder;
 
   BlockPaletteIds() = default;
   BlockPaletteIds(std::span<const std::uint32_t> ids, const Extent& dims);  // x-fastest ids
@@ -73,6 +77,45 @@ class BlockPaletteIds {
   std::vector<BlockHeader> blocks_;
   std::vector<std::uint32_t> palettes_;
   std::vector<std::byte> indices_;  // packed indices of every block, then kIndexPadding zeros
+};
+
+/// @brief Builds a FixedRateIds from consecutive runs of x-fastest ids (e.g. z-slabs), so the
+/// whole level never has to be in memory. The id range is given up front: every id appended
+/// must lie in [min_id, max_id], and the result equals FixedRateIds(all ids, dims) when min_id
+/// and max_id are the ids' true extremes.
+class FixedRateIds::Builder {
+ public:
+  Builder(const Extent& dims, std::uint32_t min_id, std::uint32_t max_id);
+  /// @brief Appends the next ids. Throws Error for an id outside the range or past dims.
+  void append(std::span<const std::uint32_t> ids);
+  /// @brief The storage; throws Error unless exactly dims.voxel_count() ids were appended.
+  FixedRateIds finish();
+
+ private:
+  void pack(std::span<const std::uint32_t> ids);  // a multiple of 8 ids: whole bytes
+  FixedRateIds out_;
+  std::uint64_t count_ = 0;
+  std::uint32_t max_ = 0;
+  std::vector<std::uint32_t> pending_, codes_;  // < 8 ids not yet packed; scratch
+};
+
+/// @brief Builds a BlockPaletteIds from consecutive z-slabs of ids, one 8-slice block row at a
+/// time, so the whole level never has to be in memory; the result equals BlockPaletteIds(all
+/// ids, dims). Slabs of a multiple of 8 slices are encoded without a copy.
+class BlockPaletteIds::Builder {
+ public:
+  explicit Builder(const Extent& dims);
+  /// @brief Appends the next whole slices (x fastest). Throws Error for a partial slice or past dims.z.
+  void append(std::span<const std::uint32_t> ids);
+  /// @brief The storage; throws Error unless dims.z slices were appended.
+  BlockPaletteIds finish();
+
+ private:
+  void encode_block_row(std::span<const std::uint32_t> slices);  // kBlock slices (fewer at the end)
+  BlockPaletteIds out_;
+  std::map<std::vector<std::uint32_t>, std::uint32_t> palette_offsets_;  // dedupe identical palettes
+  std::vector<std::uint32_t> pending_;  // slices of a block row not yet complete
+  std::int64_t slices_ = 0, block_rows_ = 0;
 };
 
 }  // namespace strata::mixture

@@ -41,6 +41,27 @@ struct SourceIds {
   std::vector<std::uint32_t> ids;  // dense id per voxel, x fastest
 };
 
+/// @brief The distinct values of an integer label volume, gathered slab by slab (the first pass
+/// of a streamed encoding). Throws Error for a float dtype (at construction) and for a slab of
+/// another dtype than the first.
+class LabelValueCollector {
+ public:
+  explicit LabelValueCollector(DType dtype);
+  /// @brief Adds the values of `slab` (parallel; O(voxels)).
+  void add(const Volume& slab);
+  /// @brief The map of every value added, ascending. Throws Error beyond 2^32 - 2 labels.
+  LabelMap finish();
+
+ private:
+  DType dtype_;
+  std::vector<unsigned char> seen_;    // dtypes of <= 16 bits: presence per value
+  std::vector<std::int64_t> values_;   // wider dtypes: sorted, distinct
+};
+
+/// @brief Dense ids of the voxels of `labels` under `map` into `ids` (resized; x fastest;
+/// parallel). Throws Error naming the value when one is not in the map, or on a dtype mismatch.
+void assign_source_ids(const Volume& labels, const LabelMap& map, std::vector<std::uint32_t>& ids);
+
 // Maps every voxel of an integer label volume to its dense id (parallel; O(voxels)).
 // Throws Error for float dtypes and for more than 2^32 - 1 distinct labels.
 SourceIds to_source_ids(const Volume& labels);

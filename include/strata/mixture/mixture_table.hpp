@@ -64,6 +64,10 @@ class MixtureTable {
 
   // Used by the mipmap builder once all levels are known.
   void set_multiplicities(std::vector<std::uint64_t> m) { multiplicity_ = std::move(m); }
+  // Used by the mipmap builder once the table is complete: frees the hash index and the arrays'
+  // spare capacity (a large table is otherwise held at up to twice its size through the
+  // factorisation). intern() still works afterwards; it rebuilds the index first.
+  void compact();
 
  private:
   void grow_hash();
