@@ -20,6 +20,7 @@ PACKAGES=(
   mricron-data                                # sample MRI and brain atlases
   python3-nibabel                             # reference NIfTI reader and its test files (tests/io)
   chromium                                    # browser tests of the viewer (tests/web)
+  libopenmpi-dev openmpi-bin                  # strata-mpi, distributed compression (ctest -L mpi)
   # The Python module `import strata` (python/, docs/python.md), built by the same CMake build for
   # Debian's /usr/bin/python3: pybind11 and the interpreter's headers to build it, numpy for its
   # arrays, pytest for its tests (ctest -L python).

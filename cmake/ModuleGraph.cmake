@@ -1,7 +1,8 @@
 # The module graph, in one place: every library module with the modules it uses directly
 # (docs/architecture.md draws it). The build and the test `ModuleGraph` check every include
 # against it (cmake/CheckModuleGraph.cmake). `gen` is used only by the apps, tests and benchmarks.
-set(STRATA_MODULES core io gen tensor quant store ta mixture lod render server)
+# `dist` (MPI) is built only when MPI is found, and only `strata-mpi` links it (apps/strata-mpi).
+set(STRATA_MODULES core io gen tensor quant store ta mixture lod render server dist)
 set(STRATA_DEPS_core "")
 set(STRATA_DEPS_io core)
 set(STRATA_DEPS_gen core io)
@@ -13,6 +14,7 @@ set(STRATA_DEPS_mixture core io quant store)
 set(STRATA_DEPS_lod core tensor quant store ta)
 set(STRATA_DEPS_render core io store ta mixture lod)
 set(STRATA_DEPS_server core io store ta mixture lod render)
+set(STRATA_DEPS_dist core io store ta)
 
 # Fails with the file and the include when a module includes a module it does not depend on.
 function(strata_check_module_includes source_dir name deps)

@@ -27,6 +27,9 @@ function(strata_add_module name deps)
   if(name STREQUAL "render")
     target_link_libraries(strata_${name} PRIVATE strata_spng PkgConfig::TURBOJPEG)
   endif()
+  if(name STREQUAL "dist")  # MPI only here: the `strata` program never links it
+    target_link_libraries(strata_${name} PUBLIC MPI::MPI_CXX)
+  endif()
   if(name STREQUAL "server")
     # PUBLIC: whatever includes httplib.h (the server, its tests' HTTP clients) must be compiled
     # with the library's -DCPPHTTPLIB_* flags, or its classes' layouts differ from the library's.

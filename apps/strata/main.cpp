@@ -1,17 +1,13 @@
 // `strata`: the command line. Exit codes: 0 ok, 1 runtime error, 2 usage error.
 #include <algorithm>
 #include <cstdio>
-#include <exception>
-#include <filesystem>
-#include <new>
 #include <string>
 #include <thread>
-#if defined(__GLIBC__)
-#include <malloc.h>
-#endif
 
 #include "cli_checks.hpp"
 #include "commands.hpp"
+#include "error_exit.hpp"
+#include "malloc_tuning.hpp"
 #include "strata/core/error.hpp"
 #include "strata/core/isa.hpp"
 #include "strata/core/threads.hpp"
@@ -24,19 +20,6 @@ void apply_isa_option(const std::string& name) {
   using namespace strata;
   if (name.empty()) active_isa();
   else set_isa_limit(*parse_isa(name));  // CLI::IsMember admitted only known names
-}
-
-// The codecs allocate and free brick-sized buffers (B^3 floats = 128 KiB at B = 32, glibc's
-// default mmap threshold) on every worker thread for every brick. With glibc's defaults those
-// come from fresh mappings or from arena memory just returned to the kernel, and each brick pays
-// its page faults again: on a 35 Mvoxel MRI the error-target encoder took 76 k page faults and
-// 4.9 s of CPU, against 16.5 k and 3.7 s with the thresholds below (perf stat, same output).
-// Large buffers (volumes, slabs) are still mapped and returned.
-void keep_brick_buffers_mapped() {
-#if defined(__GLIBC__)
-  mallopt(M_MMAP_THRESHOLD, 64 << 20);
-  mallopt(M_TRIM_THRESHOLD, 256 << 20);
-#endif
 }
 
 void apply_thread_option(int threads) {
@@ -55,6 +38,10 @@ std::string memory_hint(const std::string& command) {
   if (command == "generate") return "give a smaller --size or --count";
   if (command == "render") return "give a smaller --size, --cache or --max-bricks, or render the .strata file instead";
   if (command == "serve") return "give a smaller --cache-mb or serve fewer or smaller volumes";
+  if (command == "labels encode")
+    return "the coarser mip levels, the table of distinct mixtures or the factorisation did not fit: set "
+           "--memory-limit to the memory this machine can spare (the input slabs shrink to fit), or encode "
+           "without --normals (which reads the whole volume)";
   if (command.starts_with("labels")) return "the label volume's histogram mipmap did not fit: use a smaller volume";
   return "use fewer --threads or a smaller input";
 }
@@ -63,7 +50,7 @@ std::string memory_hint(const std::string& command) {
 
 int main(int argc, char** argv) {
   using namespace strata;
-  keep_brick_buffers_mapped();
+  cli::keep_brick_buffers_mapped();
   CLI::App app{"Strata: compressed multiresolution volumes — store, explore and query.", "strata"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "strata 0.1.0");
@@ -103,33 +90,8 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     std::fprintf(stderr, "error: %s\nRun with --help for more information.\n", e.what());
     return 2;
-  } catch (const cli::UsageError& e) {
-    std::fprintf(stderr, "error: %s\n", cli::cli_message(e, app).c_str());
-    return 2;
-  } catch (const ParameterError& e) {
-    std::fprintf(stderr, "error: %s\n", cli::cli_message(e, app).c_str());
-    return 1;
-  } catch (const Error& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
-    return 1;
-  } catch (const std::bad_alloc&) {
-    const std::string command = cli::running_command_name(app);
-    std::fprintf(stderr, "error: out of memory while running '%s': %s\n", command.c_str(), memory_hint(command).c_str());
-    return 1;
-  } catch (const std::length_error&) {
-    const std::string command = cli::running_command_name(app);
-    std::fprintf(stderr, "error: '%s' needs a buffer larger than this machine can address: %s\n", command.c_str(),
-                 memory_hint(command).c_str());
-    return 1;
-  } catch (const std::filesystem::filesystem_error& e) {
-    const std::string path = e.path1().empty() ? std::string("a file") : e.path1().string();
-    std::fprintf(stderr, "error: %s: %s\n", path.c_str(), e.code().message().c_str());
-    return 1;
-  } catch (const std::exception& e) {
-    // Library code reports through strata::Error; anything else is a failure it did not expect.
-    std::fprintf(stderr, "error: '%s' failed unexpectedly (%s); please report this with the command line\n",
-                 cli::running_command_name(app).c_str(), e.what());
-    return 1;
+  } catch (...) {
+    return cli::print_error(app, memory_hint(cli::running_command_name(app)));
   }
   return 0;
 }

@@ -13,6 +13,7 @@
 #include "strata/io/slab_stream.hpp"
 #include "strata/store/container.hpp"
 #include "strata/ta/target_codec.hpp"
+#include "ta/compress_steps.hpp"
 #include "ta/level_pipeline.hpp"
 #include "ta/metadata.hpp"
 #include "ta/step_calibration.hpp"
@@ -25,43 +26,10 @@ using Clock = std::chrono::steady_clock;
 // The value range, and the level-0 spectrum for `calibrator` when there is one.
 HistogramRange value_range(io::VolumeSource& source, ProgressSink& progress, std::uint64_t slab_bytes,
                            StepCalibrator* calibrator) {
-  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-  io::for_each_slab(source, [&](const Volume& slab, std::int64_t) {
-    visit_dtype(slab.dtype(), [&](auto tag) {
-      using T = decltype(tag);
-      const auto values = slab.samples<T>();
-      if (values.empty()) return;
-      // Branch-free min/max in the sample type (vectorised), widened once per slab. NaN and
-      // infinite samples are left out: the bricks keep them in a mask (ta/non_finite.hpp).
-      if constexpr (std::is_floating_point_v<T>) {
-        T mn = std::numeric_limits<T>::infinity(), mx = -mn;
-        for (T v : values) {
-          const bool finite = std::abs(v) <= std::numeric_limits<T>::max();
-          mn = finite && v < mn ? v : mn;
-          mx = finite && v > mx ? v : mx;
-        }
-        if (mn <= mx) {
-          lo = std::min(lo, double(mn));
-          hi = std::max(hi, double(mx));
-        }
-      } else {
-        T mn = values[0], mx = values[0];
-        for (T v : values) {
-          mn = v < mn ? v : mn;
-          mx = v > mx ? v : mx;
-        }
-        lo = std::min(lo, double(mn));
-        hi = std::max(hi, double(mx));
-      }
-      const std::size_t slice_size = std::size_t(slab.dims().x * slab.dims().y);
-      for (std::int64_t z = 0; calibrator && z < slab.dims().z; ++z) {
-        const T* src = values.data() + std::size_t(z) * slice_size;
-        calibrator->push_slice(std::vector<float>(src, src + slice_size));
-      }
-    });
-  }, progress, "scan range", slab_bytes);
-  if (!(lo <= hi)) return {0, 0};  // no finite sample: every brick is a constant NaN or infinity
-  return {lo, hi};
+  RangeScan scan;
+  io::for_each_slab(source, [&](const Volume& slab, std::int64_t) { scan.widen(slab, calibrator); }, progress,
+                    "scan range", slab_bytes);
+  return scan.range();
 }
 
 // The largest sample magnitude the codec takes: an orthonormal Tucker core of a B^3 brick holds
@@ -76,6 +44,8 @@ double largest_codable_magnitude(int brick) {
 // a range of 1/128 of the magnitude the file already lost ~1 dB PSNR to it (3 dB at 1/300,
 // 10 dB at 1/1000). The error-target modes code each brick about its mean and have no floor.
 constexpr double kFixedRankSmallestRelativeRange = 1.0 / 128;
+
+}  // namespace
 
 void check_codable(const HistogramRange& range, const std::filesystem::path& file, const CompressParams& params) {
   const double magnitude = std::max(std::abs(range.lo), std::abs(range.hi));
@@ -106,6 +76,8 @@ void push_slab_to_level0(const Volume& slab, LevelPipeline& level0) {
   });
 }
 
+namespace {
+
 // Allowance for everything not proportional to the volume: code, per-thread brick scratch,
 // container index entries, allocator slack.
 constexpr std::uint64_t kBaselineBytes = 48ull << 20;
@@ -135,18 +107,10 @@ EncodedLevels encode_levels(io::VolumeSource& source, const std::filesystem::pat
   std::mutex report_mutex;
   ProgressTask bricks_task(progress, "compress", std::uint64_t(geometry.total_bricks()), "bricks");
   BrickSink sink = [&](const store::BrickKey& key, const EncodedBrick& b, float lo, float hi, std::uint64_t hist) {
-    store::BrickEntry entry{key, b.kind, 0, 0, 0, lo, hi, hist};
-    if (b.kind == store::PayloadKind::constant) entry.min = entry.max = b.constant_value;
-    writer.add_brick(entry, b.payload);
+    writer.add_brick(index_entry(key, b, lo, hi, hist), b.payload);
     {
       std::lock_guard lock(report_mutex);
-      LevelCounts& counts = report.levels[key.level];
-      ++counts.bricks;
-      counts.constant += b.kind == store::PayloadKind::constant;
-      counts.hosvd_trials += b.block_dct_bytes > 0;
-      report.core_bytes += b.core_bytes;
-      report.factor_bytes += b.factor_bytes;
-      report.brick_header_bytes += b.header_bytes;
+      count_brick(report, key, b);
       if (global && !b.rank_errors.empty())
         std::copy(b.rank_errors.begin(), b.rank_errors.end(),
                   global->table.begin() +
@@ -306,6 +270,65 @@ std::span<const std::byte> as_bytes(const std::vector<float>& v) {
 
 }  // namespace
 
+void RangeScan::widen(const Volume& slab, StepCalibrator* calibrator) {
+  visit_dtype(slab.dtype(), [&](auto tag) {
+    using T = decltype(tag);
+    const auto values = slab.samples<T>();
+    if (values.empty()) return;
+    // Branch-free min/max in the sample type (vectorised), widened once per slab. NaN and
+    // infinite samples are left out: the bricks keep them in a mask (ta/non_finite.hpp).
+    if constexpr (std::is_floating_point_v<T>) {
+      T mn = std::numeric_limits<T>::infinity(), mx = -mn;
+      for (T v : values) {
+        const bool finite = std::abs(v) <= std::numeric_limits<T>::max();
+        mn = finite && v < mn ? v : mn;
+        mx = finite && v > mx ? v : mx;
+      }
+      if (mn <= mx) {
+        lo = std::min(lo, double(mn));
+        hi = std::max(hi, double(mx));
+      }
+    } else {
+      T mn = values[0], mx = values[0];
+      for (T v : values) {
+        mn = v < mn ? v : mn;
+        mx = v > mx ? v : mx;
+      }
+      lo = std::min(lo, double(mn));
+      hi = std::max(hi, double(mx));
+    }
+    const std::size_t slice_size = std::size_t(slab.dims().x * slab.dims().y);
+    for (std::int64_t z = 0; calibrator && z < slab.dims().z; ++z) {
+      const T* src = values.data() + std::size_t(z) * slice_size;
+      calibrator->push_slice(std::vector<float>(src, src + slice_size));
+    }
+  });
+}
+
+void check_compress_params(const CompressParams& params) {
+  if (params.codec.rank < 1 || params.codec.rank > params.layout.brick)
+    throw ParameterError("CodecParams::rank", "must be between 1 and the brick width " + std::to_string(params.layout.brick) +
+                                                  ", got " + std::to_string(params.codec.rank));
+  check_target(params.codec.target);
+}
+
+store::BrickEntry index_entry(const store::BrickKey& key, const EncodedBrick& b, float lo, float hi,
+                              std::uint64_t histogram) {
+  store::BrickEntry entry{key, b.kind, 0, 0, 0, lo, hi, histogram};
+  if (b.kind == store::PayloadKind::constant) entry.min = entry.max = b.constant_value;
+  return entry;
+}
+
+void count_brick(CompressReport& report, const store::BrickKey& key, const EncodedBrick& b) {
+  LevelCounts& counts = report.levels[key.level];
+  ++counts.bricks;
+  counts.constant += b.kind == store::PayloadKind::constant;
+  counts.hosvd_trials += b.block_dct_bytes > 0;
+  report.core_bytes += b.core_bytes;
+  report.factor_bytes += b.factor_bytes;
+  report.brick_header_bytes += b.header_bytes;
+}
+
 int default_rank(const BrickLayout& layout, TargetKind target) {
   return target == TargetKind::none ? layout.brick / 2 : layout.brick;
 }
@@ -321,10 +344,7 @@ CompressReport compress_volume(io::VolumeSource& source, const std::filesystem::
   }
   const auto start = Clock::now();
   const VolumeInfo& info = source.info();
-  if (params.codec.rank < 1 || params.codec.rank > params.layout.brick)
-    throw ParameterError("CodecParams::rank", "must be between 1 and the brick width " + std::to_string(params.layout.brick) +
-                                                  ", got " + std::to_string(params.codec.rank));
-  check_target(params.codec.target);
+  check_compress_params(params);
   const OctreeGeometry geometry(info.dims, params.layout);
   CompressReport report;
   report.input_voxels = std::uint64_t(info.dims.voxel_count());

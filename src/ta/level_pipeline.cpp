@@ -119,8 +119,19 @@ bool LevelPipeline::brick_tries_hosvd(std::int64_t row, std::int64_t index) cons
 LevelPipeline::LevelPipeline(const OctreeGeometry& geometry, int level, const CodecParams& codec,
                              std::optional<BrickTarget> target, HistogramRange range, BrickSink sink, LevelPipeline* next)
     : geometry_(geometry), level_(level), dims_(geometry.level(level)), codec_(codec), target_(target), range_(range),
-      sink_(std::move(sink)), next_(next),
+      sink_(std::move(sink)), next_(next), end_row_(dims_.bricks.z),
       hosvd_all_(next ? next->hosvd_all_ : std::make_shared<HosvdEvidence>()) {}
+
+void LevelPipeline::restrict_rows(std::int64_t first, std::int64_t end) {
+  const BrickLayout& l = geometry_.layout();
+  if (slices_received_ != 0 || first < 0 || end <= first || end > dims_.bricks.z || (first * l.core()) % 2 != 0)
+    throw Error("compress: level " + std::to_string(level_) + ": cannot restrict to brick rows [" +
+                std::to_string(first) + ", " + std::to_string(end) + ")");
+  next_row_ = first;
+  end_row_ = end;
+  window_z0_ = slices_received_ = std::max<std::int64_t>(0, first * l.core() - l.overlap);
+  decoded_slices_ = first * l.core();
+}
 
 CoreRegion LevelPipeline::core_region(std::int64_t bx, std::int64_t by, std::int64_t bz) const {
   const Box core = geometry_.brick_core_box(level_, bx, by, bz);
@@ -145,7 +156,7 @@ void LevelPipeline::push_slice(std::vector<float> slice) {
   if (global_ && level_ == 0 && next_) emit_reference(slice.data(), nullptr);
   window_.push_back(std::move(slice));
   ++slices_received_;
-  while (next_row_ < dims_.bricks.z && row_ready(next_row_)) {
+  while (next_row_ < end_row_ && row_ready(next_row_)) {
     encode_row(next_row_);
     ++next_row_;
     drop_unneeded_slices(next_row_);
@@ -194,10 +205,13 @@ double LevelPipeline::gather_reference(std::int64_t bx, std::int64_t by, std::in
 }
 
 void LevelPipeline::finish() {
-  if (slices_received_ != dims_.dims.z)
+  // The slices rows [.., end_row_) read: the whole level unless restrict_rows() said otherwise.
+  const BrickLayout& l = geometry_.layout();
+  const std::int64_t expected = std::min(dims_.dims.z, end_row_ * l.core() + l.overlap);
+  if (slices_received_ != expected)
     throw Error("compress: level " + std::to_string(level_) + " received " + std::to_string(slices_received_) +
-                " slices, expected " + std::to_string(dims_.dims.z));
-  while (next_row_ < dims_.bricks.z) {
+                " slices, expected " + std::to_string(expected));
+  while (next_row_ < end_row_) {
     encode_row(next_row_);
     ++next_row_;
   }
@@ -325,7 +339,7 @@ bool LevelPipeline::encode_and_decode(std::int64_t bx, std::int64_t by, std::int
       }
       for (double e : errors) encoded.rank_errors.push_back(float(e));
     }
-    if (!constant || next_)
+    if (!constant || has_next())
       decode_brick(encoded.kind, encoded.payload, encoded.constant_value, codec_.quant, geometry_.layout().brick,
                    geometry_.layout().brick, reconstructor, scratch, decoded, "compress", &bases);
     return constant;
@@ -338,7 +352,7 @@ bool LevelPipeline::encode_and_decode(std::int64_t bx, std::int64_t by, std::int
   }
   encoded = encode_brick(samples, codec_);
   const bool constant = encoded.kind == store::PayloadKind::constant;
-  if (!constant || next_)
+  if (!constant || has_next())
     decode_brick(encoded.kind, encoded.payload, encoded.constant_value, codec_.quant, geometry_.layout().brick,
                  codec_.rank, reconstructor, scratch, decoded, "compress");
   return constant;
@@ -350,10 +364,10 @@ void LevelPipeline::encode_row(std::int64_t row) {
   const std::int64_t z0 = row * l.core(), z1 = std::min(d.z, (row + 1) * l.core());
   // Buffers for the next level are kept between rows (no page faults for a fresh multi-megabyte
   // allocation per row) and need no clearing: every voxel lies in exactly one brick core.
-  const bool per_brick = next_ && l.core() % 2 == 0;
+  const bool per_brick = has_next() && l.core() % 2 == 0;
   const Extent half = half_extent(d);
   if (per_brick) next_slices_.resize(std::size_t((z1 - z0 + 1) / 2 * half.x * half.y));
-  else if (next_) decoded_row_.resize(std::size_t((z1 - z0) * d.x * d.y));
+  else if (has_next()) decoded_row_.resize(std::size_t((z1 - z0) * d.x * d.y));
   const std::int64_t bricks_in_row = dims_.bricks.x * dims_.bricks.y;
   // Results are handed to the sink in brick order after the parallel loop, so the file's bytes
   // do not depend on which thread finishes first; errors are carried out of the OpenMP region
@@ -414,7 +428,7 @@ void LevelPipeline::encode_row(std::int64_t row) {
         }
         if (per_brick) {
           downsample_core(decoded, bx, by, row);
-        } else if (next_) {
+        } else if (has_next()) {
           // Keep the decoded core for the parent level.
           const Box core = geometry_.brick_core_box(level_, bx, by, row);
           for (std::int64_t z = core.lo.z; z < core.hi.z; ++z)
@@ -453,10 +467,10 @@ void LevelPipeline::encode_row(std::int64_t row) {
     const std::size_t half_size = std::size_t(half.x * half.y);
     for (std::int64_t hz = 0; hz < (z1 - z0 + 1) / 2; ++hz) {
       const float* s = next_slices_.data() + std::size_t(hz) * half_size;
-      next_->push_slice(std::vector<float>(s, s + half_size));
+      hand_on(std::vector<float>(s, s + half_size));
     }
     decoded_slices_ += z1 - z0;
-  } else if (next_) {
+  } else if (has_next()) {
     emit_decoded_slices(z0, z1);
   }
 }
@@ -476,7 +490,7 @@ void LevelPipeline::emit_decoded_slices(std::int64_t z0, std::int64_t z1) {
       pending_decoded_.resize(half_size);
       downsample_xy(slice, d, pending_decoded_.data());
       // An odd last slice has no partner: it stands for itself in the coarser level.
-      if (decoded_slices_ == d.z) next_->push_slice(std::exchange(pending_decoded_, {}));
+      if (decoded_slices_ == d.z) hand_on(std::exchange(pending_decoded_, {}));
       continue;
     }
     downsample_xy(slice, d, h.data());
@@ -484,7 +498,7 @@ void LevelPipeline::emit_decoded_slices(std::int64_t z0, std::int64_t z1) {
       const float mean = 0.5f * (pending_decoded_[i] + h[i]);
       pending_decoded_[i] = std::isfinite(mean) ? mean : finite_mean({pending_decoded_[i], h[i]});
     }
-    next_->push_slice(std::exchange(pending_decoded_, {}));
+    hand_on(std::exchange(pending_decoded_, {}));
   }
 }
 

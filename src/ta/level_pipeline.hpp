@@ -41,6 +41,15 @@ class LevelPipeline {
   // Makes this level a level of the global-basis codec (`coding` outlives the pipeline).
   void use_global_bases(const GlobalCoding* coding) { global_ = coding; }
 
+  // Distributed compression (src/dist): this pipeline encodes only brick rows [first, end) of its
+  // level. Its first pushed slice is then the first slice those rows read (first * core -
+  // overlap, clamped at 0); first * core must be even, so that no 2x2x2 block of the next level
+  // straddles two ranges. The bytes of each brick are those of the whole-volume pipeline.
+  void restrict_rows(std::int64_t first, std::int64_t end);
+  // Hands the next level's slices (in z order, from slice first * core / 2 on) to `forward`
+  // instead of a next pipeline (`next` must be null).
+  void forward_slices(std::function<void(std::vector<float>)> forward) { forward_ = std::move(forward); }
+
   // Appends the next slice (dims.x * dims.y floats) of this level.
   void push_slice(std::vector<float> slice);
 
@@ -77,6 +86,8 @@ class LevelPipeline {
   // the brick's index only: the same on any thread count.
   bool brick_tries_hosvd(std::int64_t row, std::int64_t index) const;
   void gather_samples(std::int64_t bx, std::int64_t by, std::int64_t bz, tensor::Tensor3& out) const;
+  bool has_next() const { return next_ != nullptr || forward_ != nullptr; }
+  void hand_on(std::vector<float> slice) { next_ ? next_->push_slice(std::move(slice)) : forward_(std::move(slice)); }
   // Feeds decoded slices [z0, z1) (in decoded_row_) to `next` as 2x2x2 averages.
   void emit_decoded_slices(std::int64_t z0, std::int64_t z1);
   // With an even core width every 2x2x2 block lies in one brick core: the brick writes its share
@@ -100,10 +111,12 @@ class LevelPipeline {
   HistogramRange range_;
   BrickSink sink_;
   LevelPipeline* next_;
+  std::function<void(std::vector<float>)> forward_;  // instead of next_ (restrict_rows)
   const GlobalCoding* global_ = nullptr;
 
   std::deque<std::vector<float>> window_;  // input slices [window_z0_, window_z0_ + size)
   std::int64_t window_z0_ = 0, slices_received_ = 0, next_row_ = 0;
+  std::int64_t end_row_;  // rows [next_row_, end_row_) are still to encode
   std::vector<float> decoded_row_;        // decoded brick cores of the current row (odd core), reused
   std::vector<float> next_slices_;        // the row's 2x2x2 averages for `next` (even core), reused
   std::vector<float> pending_decoded_;     // one decoded slice (2x2 averaged) awaiting its partner

@@ -1,0 +1,137 @@
+// `strata-mpi compress IN -o OUT.strata [the flags of strata compress]`, started by mpirun:
+// distributed compression (docs/distributed.md). The same flags, checks and report as
+// `strata compress` (apps/strata/compress_flags.hpp), and the same file. Exit codes: 0 success,
+// 1 runtime error, 2 usage error, agreed by all ranks; one rank prints the error.
+#include <mpi.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <exception>
+#include <filesystem>
+#include <memory>
+#include <string>
+
+#include "cli_checks.hpp"
+#include "commands.hpp"
+#include "compress_flags.hpp"
+#include "error_exit.hpp"
+#include "malloc_tuning.hpp"
+#include "strata/core/error.hpp"
+#include "strata/core/threads.hpp"
+#include "strata/dist/compress.hpp"
+#include "strata/ta/compress.hpp"
+
+namespace {
+
+using namespace strata;
+
+constexpr const char* kMemoryHint = "use more ranks, a smaller --brick or fewer --threads";
+
+// Ranks that share this node (they share its cores).
+int ranks_on_this_node() {
+  MPI_Comm node;
+  MPI_Comm_split_type(MPI_COMM_WORLD, MPI_COMM_TYPE_SHARED, 0, MPI_INFO_NULL, &node);
+  int n = 1;
+  MPI_Comm_size(node, &n);
+  MPI_Comm_free(&node);
+  return n;
+}
+
+// strata-mpi runs the fixed-rank ta-bricked codec only (dist::compress_distributed says why).
+void check_supported(const cli::CompressArgs& args) {
+  if (args.codec != "ta-bricked")
+    throw cli::UsageError("--codec", "strata-mpi writes ta-bricked only (ta-global fits its bases to the whole "
+                                     "volume first); use `strata compress --codec ta-global`");
+  for (const auto& [value, flag] : {std::pair{args.psnr, "--psnr"}, {args.rmse, "--rmse"}, {args.max_error, "--max-error"}})
+    if (value)
+      throw cli::UsageError(flag, "strata-mpi compresses at a fixed rank only (an error target's per-brick "
+                                  "choices depend on every earlier row); use `strata compress`");
+}
+
+void print_distributed_report(const dist::DistributedReport& r) {
+  std::uint64_t sent = 0;
+  for (std::size_t k = 0; k < r.ranks.size(); ++k) {
+    const dist::RankStats& s = r.ranks[k];
+    sent += s.sent_bytes;
+    std::printf("rank %zu: %lld level-0 brick rows, %lld bricks, read %s, sent %s, received %s of decoded slices, "
+                "encoded %s; scan %.2f s, encode %.2f s, exchange %.2f s, write %.2f s\n",
+                k, (long long)s.level0_rows, (long long)s.bricks, cli::human_bytes(s.input_bytes).c_str(),
+                cli::human_bytes(s.sent_bytes).c_str(), cli::human_bytes(s.received_bytes).c_str(),
+                cli::human_bytes(s.payload_bytes).c_str(), s.scan_seconds, s.encode_seconds, s.exchange_seconds,
+                s.write_seconds);
+  }
+  std::printf("%zu ranks: %s of decoded slices exchanged\n", r.ranks.size(), cli::human_bytes(sent).c_str());
+}
+
+// Parses and runs; returns this rank's exit code. Every rank takes the same collective steps.
+int run(int argc, char** argv, int rank) {
+  const bool speaks = rank == 0;
+  CLI::App app{"strata-mpi: distributed compression over MPI (run under mpirun; docs/distributed.md)", "strata-mpi"};
+  app.require_subcommand(1);
+  int threads = 0;
+  app.add_option("--threads", threads,
+                 "Worker threads per rank (default: the hardware threads of the node divided by its ranks)")
+      ->check(cli::kNonNegativeInteger);
+  auto args = std::make_shared<cli::CompressArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "compress", "Compress a volume into a bricked tensor-approximation octree (.strata) across the MPI ranks; the "
+                  "file is byte-identical to `strata compress` with the same flags (fixed rank, ta-bricked)");
+  cli::add_compress_flags(*cmd, *args);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::Success& e) {
+    return speaks ? app.exit(e) : 0;
+  } catch (const CLI::ParseError& e) {
+    if (speaks) std::fprintf(stderr, "error: %s\nRun with --help for more information.\n", e.what());
+    return 2;
+  }
+  try {
+    ta::CompressParams params;
+    std::exception_ptr error;
+    try {
+      if (threads > max_thread_count())
+        throw cli::UsageError("--threads", "at most " + std::to_string(max_thread_count()));
+      set_thread_count(threads > 0 ? threads : std::max(1, hardware_threads() / ranks_on_this_node()));
+      check_supported(*args);
+      params = cli::to_params(*args);
+      // Only rank 0 writes the output.
+      if (rank == 0) cli::check_output_file(args->output, "--output", {args->input}, {".strata"});
+    } catch (...) {
+      error = std::current_exception();
+    }
+    dist::agree(MPI_COMM_WORLD, error);
+    const dist::DistributedReport report =
+        dist::compress_distributed(MPI_COMM_WORLD, args->input, args->raw.to_read_options(), args->output, params);
+    if (speaks) {
+      cli::print_compress_report(args->output, params, report.report);
+      print_distributed_report(report);
+    }
+    return 0;
+  } catch (const dist::PeerFailure&) {
+    return 1;  // the rank that failed reports
+  } catch (const Error&) {
+    return cli::print_error(app, kMemoryHint);  // agreed: every rank leaves the same step
+  } catch (const std::filesystem::filesystem_error&) {
+    return cli::print_error(app, kMemoryHint);
+  } catch (...) {
+    // Out of memory or a failure nobody expected, possibly outside an agreed step (an exchange
+    // buffer): the other ranks may wait in a collective, so the run ends here.
+    cli::print_error(app, kMemoryHint);
+    MPI_Abort(MPI_COMM_WORLD, 1);
+    return 1;
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  strata::cli::keep_brick_buffers_mapped();
+  MPI_Init(&argc, &argv);
+  int rank = 0;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  int code = run(argc, argv, rank);
+  // The exit code all ranks agree on: usage (2) over runtime (1) over success.
+  MPI_Allreduce(MPI_IN_PLACE, &code, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+  MPI_Finalize();
+  return code;
+}
