@@ -151,13 +151,18 @@ constexpr std::uint32_t kNone = ~0u;
 
 std::uint64_t pair_key(std::uint32_t a, std::uint32_t b) { return (std::uint64_t(a) << 32) | b; }
 
+// A node (or a pair's bin) by its predecessor pair and bin. Three u32 rather than a u64 and a
+// u32: 12 bytes with 4-byte alignment, so a hash slot with its u32 value is 16 bytes, not 24
+// (the node and bin maps of a large factorisation hold tens of millions of slots).
 struct NodeKey {
-  std::uint64_t pair;
-  std::uint32_t bin;
+  std::uint32_t hi, lo, bin;
+  NodeKey(std::uint64_t pair, std::uint32_t bin_) : hi(std::uint32_t(pair >> 32)), lo(std::uint32_t(pair)), bin(bin_) {}
+  std::uint64_t pair() const { return (std::uint64_t(hi) << 32) | lo; }
   bool operator==(const NodeKey&) const = default;
 };
+static_assert(sizeof(detail::FlatMap<NodeKey, std::uint32_t>::Slot) == 16);
 struct NodeKeyHash {
-  std::uint64_t operator()(const NodeKey& k) const { return splitmix64(k.pair ^ (std::uint64_t(k.bin) << 47) ^ k.bin); }
+  std::uint64_t operator()(const NodeKey& k) const { return splitmix64(k.pair() ^ (std::uint64_t(k.bin) << 47) ^ k.bin); }
 };
 
 // Nodes, their dedupe map and the per-bin statistics of the codebook.
@@ -462,7 +467,7 @@ class Greedy {
     ix[out] = n;
     ms[out] = ma + mb;
     w.length = new_len;
-    postings_[n].push_back(k);
+    if (new_len > 1) postings_[n].push_back(k);  // a finished mixture takes part in no more merges
     w.voter = stays_voter;
     if (stays_voter) {
       const std::uint64_t phi_new = phi_weight(w, new_len);
