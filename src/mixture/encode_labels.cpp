@@ -59,7 +59,7 @@ std::int64_t label_slab_slices(const VolumeInfo& info, std::uint64_t memory_limi
                            "encoding labels of " + info.dims.to_string() + " needs at least " + mib(needed) + " (" +
                                mib(coarse_ids_bytes(info.dims)) + " for the ids of the coarser mip levels, " +
                                mib(std::uint64_t(fewest) * per_slice) + " for one slab of " + std::to_string(fewest) +
-                               " slices), got " + mib(memory_limit));
+                               " slices, " + mib(kBaselineBytes) + " for the rest), got " + mib(memory_limit));
     budget = std::min(budget, memory_limit - fixed);
   }
   const std::int64_t slices = std::int64_t(budget / per_slice) / kSlabMultiple * kSlabMultiple;
