@@ -14,7 +14,7 @@ set(STRATA_DEPS_mixture core io quant store)
 set(STRATA_DEPS_lod core tensor quant store ta)
 set(STRATA_DEPS_render core io store ta mixture lod)
 set(STRATA_DEPS_server core io store ta mixture lod render)
-set(STRATA_DEPS_dist core io store ta)
+set(STRATA_DEPS_dist core io store ta mixture)
 
 # Fails with the file and the include when a module includes a module it does not depend on.
 function(strata_check_module_includes source_dir name deps)

@@ -1,6 +1,8 @@
-// `strata-mpi compress IN -o OUT.strata [the flags of strata compress]`, started by mpirun:
-// distributed compression (docs/distributed.md). The same flags, checks and report as
-// `strata compress` (apps/strata/compress_flags.hpp), and the same file. Exit codes: 0 success,
+// `strata-mpi compress IN -o OUT.strata [the flags of strata compress]` and
+// `strata-mpi labels encode IN -o OUT.strata [the flags of strata labels encode]`, started by
+// mpirun: distributed compression and label encoding (docs/distributed.md). The same flags,
+// checks and report as `strata compress` and `strata labels encode` (apps/strata/
+// compress_flags.hpp, labels_encode_flags.hpp), and the same files. Exit codes: 0 success,
 // 1 runtime error, 2 usage error, agreed by all ranks; one rank prints the error.
 #include <mpi.h>
 
@@ -14,11 +16,13 @@
 #include "cli_checks.hpp"
 #include "commands.hpp"
 #include "compress_flags.hpp"
+#include "labels_encode_flags.hpp"
 #include "error_exit.hpp"
 #include "malloc_tuning.hpp"
 #include "strata/core/error.hpp"
 #include "strata/core/threads.hpp"
 #include "strata/dist/compress.hpp"
+#include "strata/dist/labels.hpp"
 #include "strata/ta/compress.hpp"
 
 namespace {
@@ -63,12 +67,48 @@ void print_distributed_report(const dist::DistributedReport& r) {
   std::printf("%zu ranks: %s of decoded slices exchanged\n", r.ranks.size(), cli::human_bytes(sent).c_str());
 }
 
+// strata-mpi labels encode cannot estimate the normals (they need the whole volume on one process).
+void check_supported(const cli::LabelsEncodeArgs& args) {
+  if (args.normals)
+    throw cli::UsageError("--normals", "strata-mpi cannot store a normals graph (the normals are estimated over the "
+                                       "whole volume on one process); use `strata labels encode --normals`");
+}
+
+void print_label_ranks(const dist::DistributedLabelsReport& r) {
+  std::uint64_t sent = 0;
+  for (std::size_t k = 0; k < r.ranks.size(); ++k) {
+    const dist::LabelRankStats& s = r.ranks[k];
+    if (k > 0) sent += s.part_bytes;
+    std::printf("rank %zu: slices [%lld, %lld), read %s, part %s (%llu level-1 mixtures); values %.2f s, ids %.2f s, ",
+                k, (long long)s.z_begin, (long long)s.z_end, cli::human_bytes(s.input_bytes).c_str(),
+                cli::human_bytes(s.part_bytes).c_str(), (unsigned long long)s.part_mixtures, s.values_seconds,
+                s.ids_seconds);
+    if (k == 0) {
+      std::printf("merge %.2f s, factorise and write %.2f s\n", s.merge_seconds, s.write_seconds);
+    } else {
+      std::printf("send %.2f s\n", s.merge_seconds);
+    }
+  }
+  std::printf("%zu ranks: %s of parts sent to rank 0\n", r.ranks.size(), cli::human_bytes(sent).c_str());
+}
+
+// Sets the worker threads of this rank: `threads`, or the node's hardware threads divided by
+// the ranks on it.
+void set_rank_threads(int threads) {
+  if (threads > max_thread_count()) throw cli::UsageError("--threads", "at most " + std::to_string(max_thread_count()));
+  set_thread_count(threads > 0 ? threads : std::max(1, hardware_threads() / ranks_on_this_node()));
+}
+
 // Parses and runs; returns this rank's exit code. Every rank takes the same collective steps.
 int run(int argc, char** argv, int rank) {
   const bool speaks = rank == 0;
   CLI::App app{"strata-mpi: distributed compression over MPI (run under mpirun; docs/distributed.md)", "strata-mpi"};
   app.require_subcommand(1);
   int threads = 0;
+  std::string progress_mode = "auto";
+  app.add_option("--progress", progress_mode, "Progress display of rank 0 (labels encode): auto, bar, json, none")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"auto", "bar", "json", "none"}));
   app.add_option("--threads", threads,
                  "Worker threads per rank (default: the hardware threads of the node divided by its ranks)")
       ->check(cli::kNonNegativeInteger);
@@ -77,6 +117,13 @@ int run(int argc, char** argv, int rank) {
       "compress", "Compress a volume into a bricked tensor-approximation octree (.strata) across the MPI ranks; the "
                   "file is byte-identical to `strata compress` with the same flags (fixed rank, ta-bricked)");
   cli::add_compress_flags(*cmd, *args);
+  auto label_args = std::make_shared<cli::LabelsEncodeArgs>();
+  CLI::App* labels = app.add_subcommand("labels", "Label (segmentation) volumes");
+  labels->require_subcommand(1);
+  CLI::App* encode = labels->add_subcommand(
+      "encode", "Encode a label volume as a Mixture Graph (.strata) across the MPI ranks: each reads and encodes its "
+                "slices, rank 0 merges the parts and factorises; the file equals `strata labels encode`'s");
+  cli::add_labels_encode_flags(*encode, *label_args);
   try {
     app.parse(argc, argv);
   } catch (const CLI::Success& e) {
@@ -86,20 +133,32 @@ int run(int argc, char** argv, int rank) {
     return 2;
   }
   try {
+    if (encode->parsed()) {
+      mixture::EncodeOptions options;
+      dist::agree_on(MPI_COMM_WORLD, [&] {
+        set_rank_threads(threads);
+        check_supported(*label_args);
+        options = cli::to_encode_options(*label_args);
+        if (rank == 0) cli::check_output_file(label_args->output, "--output", {label_args->input}, {".strata"});
+      });
+      const std::unique_ptr<ProgressSink> progress =
+          make_progress_sink(rank == 0 ? parse_progress_mode(progress_mode) : ProgressMode::silent);
+      const dist::DistributedLabelsReport report = dist::encode_labels_distributed(
+          MPI_COMM_WORLD, label_args->input, label_args->raw.to_read_options(), label_args->output, options, *progress);
+      if (speaks) {
+        cli::print_encode_report(label_args->output, report.dims, options, *label_args, report.report);
+        if (!label_args->json) print_label_ranks(report);
+      }
+      return 0;
+    }
     ta::CompressParams params;
-    std::exception_ptr error;
-    try {
-      if (threads > max_thread_count())
-        throw cli::UsageError("--threads", "at most " + std::to_string(max_thread_count()));
-      set_thread_count(threads > 0 ? threads : std::max(1, hardware_threads() / ranks_on_this_node()));
+    dist::agree_on(MPI_COMM_WORLD, [&] {
+      set_rank_threads(threads);
       check_supported(*args);
       params = cli::to_params(*args);
       // Only rank 0 writes the output.
       if (rank == 0) cli::check_output_file(args->output, "--output", {args->input}, {".strata"});
-    } catch (...) {
-      error = std::current_exception();
-    }
-    dist::agree(MPI_COMM_WORLD, error);
+    });
     const dist::DistributedReport report =
         dist::compress_distributed(MPI_COMM_WORLD, args->input, args->raw.to_read_options(), args->output, params);
     if (speaks) {

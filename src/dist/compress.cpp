@@ -8,6 +8,7 @@
 #include <memory>
 #include <optional>
 
+#include "dist/transfer.hpp"
 #include "strata/core/progress.hpp"
 #include "strata/io/slab_stream.hpp"
 #include "strata/store/container.hpp"
@@ -19,23 +20,8 @@ namespace strata::dist {
 
 namespace {
 
-int comm_rank(MPI_Comm comm) {
-  int r = 0;
-  MPI_Comm_rank(comm, &r);
-  return r;
-}
-
-int comm_size(MPI_Comm comm) {
-  int n = 1;
-  MPI_Comm_size(comm, &n);
-  return n;
-}
-
 // Slices [begin, end) of one level.
-struct SliceRange {
-  std::int64_t begin = 0, end = 0;
-  std::int64_t size() const { return std::max<std::int64_t>(0, end - begin); }
-};
+using SliceRange = io::SliceSpan;
 
 SliceRange intersect(const SliceRange& a, const SliceRange& b) {
   return {std::max(a.begin, b.begin), std::min(a.end, b.end)};
@@ -97,26 +83,6 @@ void write_bricks(store::ContainerWriter& writer, std::span<const std::byte> blo
   }
 }
 
-// Point-to-point transfer of one row's bricks to rank 0, in pieces MPI's int counts can hold.
-constexpr int kRowTag = 17;
-constexpr std::uint64_t kPiece = 1ull << 30;
-
-void send_blob(MPI_Comm comm, const std::vector<std::byte>& blob) {
-  std::uint64_t size = blob.size();
-  MPI_Send(&size, 1, MPI_UINT64_T, 0, kRowTag, comm);
-  for (std::uint64_t at = 0; at < size; at += kPiece)
-    MPI_Send(blob.data() + at, int(std::min(kPiece, size - at)), MPI_BYTE, 0, kRowTag, comm);
-}
-
-std::vector<std::byte> receive_blob(MPI_Comm comm, int source) {
-  std::uint64_t size = 0;
-  MPI_Recv(&size, 1, MPI_UINT64_T, source, kRowTag, comm, MPI_STATUS_IGNORE);
-  std::vector<std::byte> blob(size);
-  for (std::uint64_t at = 0; at < size; at += kPiece)
-    MPI_Recv(blob.data() + at, int(std::min(kPiece, size - at)), MPI_BYTE, source, kRowTag, comm, MPI_STATUS_IGNORE);
-  return blob;
-}
-
 void check_distributable(const ta::CompressParams& params) {
   if (params.kind != ta::CodecKind::bricked)
     throw ParameterError("CompressParams::kind",
@@ -135,17 +101,13 @@ class Run {
   Run(MPI_Comm comm, const std::filesystem::path& input, const io::ReadOptions& read, const std::filesystem::path& out,
       const ta::CompressParams& params)
       : comm_(comm), rank_(comm_rank(comm)), ranks_(comm_size(comm)), out_(out), params_(params) {
-    std::exception_ptr error;
-    try {
+    agree_on(comm_, [&] {
       check_distributable(params_);
       ta::check_compress_params(params_);
       source_ = io::open_volume(input, read);
       geometry_.emplace(source_->info().dims, params_.layout);
       slab_bytes_ = ta::input_slab_bytes(*geometry_, source_->info(), params_);
-    } catch (...) {
-      error = std::current_exception();
-    }
-    agree(comm_, error);
+    });
     report_.report.levels.assign(std::size_t(geometry_->level_count()), ta::LevelCounts{});
     report_.report.input_voxels = std::uint64_t(source_->info().dims.voxel_count());
     stats_.level0_rows = rows(0).end - rows(0).begin;
@@ -158,13 +120,7 @@ class Run {
     for (int level = 0; level < geometry_->level_count(); ++level) {
       std::vector<float> produced;
       double t = MPI_Wtime();
-      std::exception_ptr error;
-      try {
-        encode_level(level, slices, produced);
-      } catch (...) {
-        error = std::current_exception();
-      }
-      agree(comm_, error);
+      agree_on(comm_, [&] { encode_level(level, slices, produced); });
       stats_.encode_seconds += MPI_Wtime() - t;
       if (level + 1 == geometry_->level_count()) break;
       t = MPI_Wtime();
@@ -183,39 +139,29 @@ class Run {
     return rows_of(*geometry_, level, rank < 0 ? rank_ : rank, ranks_);
   }
 
-  Volume read(std::int64_t z0, std::int64_t z1) {
-    Volume v = source_->read_slab(z0, z1);
-    stats_.input_bytes += std::uint64_t(z1 - z0) * source_->info().bytes_per_slice();
-    return v;
-  }
-
   // Visits this rank's slices [range) of the input in slabs of the slab budget.
   void for_each_own_slab(const SliceRange& range, const std::function<void(const Volume&)>& visit) {
-    const std::int64_t step = io::slices_per_slab(source_->info(), slab_bytes_);
-    for (std::int64_t z = range.begin; z < range.end; z += step) visit(read(z, std::min(range.end, z + step)));
+    const VolumeInfo& info = source_->info();
+    io::for_each_slab(
+        *source_, range, io::slices_per_slab(info, slab_bytes_),
+        [&](const Volume& slab, std::int64_t) {
+          stats_.input_bytes += std::uint64_t(slab.dims().z) * info.bytes_per_slice();
+          visit(slab);
+        },
+        silent_progress(), "read");
   }
 
   // The value range over the whole volume: each rank scans its rows' cores, then a reduction.
   void scan_range() {
     const double t = MPI_Wtime();
     ta::RangeScan scan;
-    std::exception_ptr error;
-    try {
+    agree_on(comm_, [&] {
       for_each_own_slab(core_slices(*geometry_, 0, rows(0)), [&](const Volume& slab) { scan.widen(slab); });
-    } catch (...) {
-      error = std::current_exception();
-    }
-    agree(comm_, error);
+    });
     MPI_Allreduce(MPI_IN_PLACE, &scan.lo, 1, MPI_DOUBLE, MPI_MIN, comm_);
     MPI_Allreduce(MPI_IN_PLACE, &scan.hi, 1, MPI_DOUBLE, MPI_MAX, comm_);
     range_ = scan.range();
-    error = nullptr;
-    try {
-      ta::check_codable(range_, source_->path(), params_);
-    } catch (...) {
-      error = std::current_exception();
-    }
-    agree(comm_, error);
+    agree_on(comm_, [&] { ta::check_codable(range_, source_->path(), params_); });
     stats_.scan_seconds = MPI_Wtime() - t;
   }
 
@@ -305,7 +251,7 @@ class Run {
       for (const auto& [level, row] : order)
         if (owner(level, row) == rank_) {
           const auto it = rows_.find({std::uint8_t(level), std::int32_t(row)});
-          send_blob(comm_, it->second);
+          send_array<std::byte>(comm_, 0, it->second);
           rows_.erase(it);
         }
     } else {
@@ -323,7 +269,7 @@ class Run {
           blob = std::move(it->second);
           rows_.erase(it);
         } else {
-          blob = receive_blob(comm_, from);
+          blob = receive_array<std::byte>(comm_, from);
         }
         if (!writer) continue;
         try {
@@ -357,10 +303,7 @@ class Run {
     r.container_bytes = r.file_bytes - r.core_bytes - r.factor_bytes - r.brick_header_bytes;
     r.prepass_seconds = stats_.scan_seconds;
     r.seconds = MPI_Wtime() - start;
-    report_.ranks.assign(std::size_t(rank_ == 0 ? ranks_ : 1), stats_);
-    static_assert(std::is_trivially_copyable_v<RankStats>);
-    MPI_Gather(&stats_, int(sizeof stats_), MPI_BYTE, rank_ == 0 ? report_.ranks.data() : nullptr, int(sizeof stats_),
-               MPI_BYTE, 0, comm_);
+    report_.ranks = gather_to_root(comm_, stats_);
   }
 
   MPI_Comm comm_;
@@ -377,15 +320,6 @@ class Run {
 };
 
 }  // namespace
-
-void agree(MPI_Comm comm, std::exception_ptr error) {
-  const int ranks = comm_size(comm), rank = comm_rank(comm);
-  int first = error ? rank : ranks;
-  MPI_Allreduce(MPI_IN_PLACE, &first, 1, MPI_INT, MPI_MIN, comm);
-  if (first == ranks) return;
-  if (rank == first) std::rethrow_exception(error);
-  throw PeerFailure(first);
-}
 
 RowRange rows_of(const ta::OctreeGeometry& geometry, int level, int rank, int ranks) {
   const std::int64_t rows = geometry.level(level).bricks.z;

@@ -12,6 +12,7 @@
 #include <optional>
 #include <variant>
 
+#include "mixture/encode_steps.hpp"
 #include "mixture/encoded_labels_format.hpp"
 #include "strata/core/bytes.hpp"
 #include "strata/core/error.hpp"
@@ -66,74 +67,81 @@ std::int64_t label_slab_slices(const VolumeInfo& info, std::uint64_t memory_limi
   return std::clamp<std::int64_t>(slices, fewest, std::max<std::int64_t>(fewest, info.dims.z));
 }
 
+namespace detail {
+
 namespace {
 
-// Share of level-0 voxels whose original label is 0 (Table 2's "background"); 0 when absent.
-double background_fraction(std::uint64_t zero_voxels, std::uint64_t voxels) {
-  return voxels ? double(zero_voxels) / double(voxels) : 0.0;
-}
-
 // The bytes of one ids_L<n> section: the serialized id storage, zstd-compressed if asked.
-template <class Ids>
-std::vector<std::byte> id_section(const Ids& ids, const EncodeOptions& options) {
-  std::vector<std::byte> bytes = ids.serialize();
+std::vector<std::byte> compress_section(std::vector<std::byte> bytes, const EncodeOptions& options) {
   if (options.ids_zstd > 0) bytes = store::zstd_compress(bytes, options.ids_zstd);
   return bytes;
 }
 
 std::vector<std::byte> id_section(std::span<const std::uint32_t> ids, const Extent& dims, const EncodeOptions& options) {
-  return options.ids == IdsMode::fixed ? id_section(FixedRateIds(ids, dims), options)
-                                       : id_section(BlockPaletteIds(ids, dims), options);
+  return compress_section(options.ids == IdsMode::fixed ? FixedRateIds(ids, dims).serialize()
+                                                        : BlockPaletteIds(ids, dims).serialize(),
+                          options);
 }
 
-// What the streaming passes produce: the label map, the mipmap without level 0, level 0's id
-// section and the count of background voxels.
-struct StreamedLabels {
-  LabelMap map;
-  HistogramMipmap mipmap;
-  std::vector<std::byte> level0_section;
-  std::uint64_t zero_voxels = 0;
-};
+}  // namespace
 
-LabelMap collect_label_map(io::VolumeSource& source, std::int64_t slab, ProgressSink& progress) {
-  const VolumeInfo& info = source.info();
-  LabelValueCollector values(info.dtype);
-  ProgressTask task(progress, "label values", std::uint64_t(info.dims.voxel_count()), "vox");
-  for (std::int64_t z0 = 0; z0 < info.dims.z; z0 += slab) {
-    const Volume v = source.read_slab(z0, std::min(info.dims.z, z0 + slab));
-    values.add(v);
-    task.advance(std::uint64_t(v.voxel_count()));
+Level0Ids::Level0Ids(const Extent& dims, std::uint32_t sources, IdsMode mode)
+    : builder_(mode == IdsMode::fixed ? decltype(builder_)(FixedRateIds::Builder(dims, 0, sources - 1))
+                                      : decltype(builder_)(BlockPaletteIds::Builder(dims))) {}
+
+void Level0Ids::append_part(std::span<const std::byte> part) {
+  if (auto* fixed = std::get_if<FixedRateIds::Builder>(&builder_)) {
+    fixed->append_part(FixedRateIds::deserialize(part));
+  } else {
+    std::get<BlockPaletteIds::Builder>(builder_).append_part(BlockPaletteIds::deserialize(part));
   }
+}
+
+std::vector<std::byte> Level0Ids::part_bytes() {
+  return std::visit([](auto& b) { return b.finish().serialize(); }, builder_);
+}
+
+std::vector<std::byte> Level0Ids::section(const EncodeOptions& options) { return compress_section(part_bytes(), options); }
+
+LabelMap collect_label_map(io::VolumeSource& source, io::SliceSpan span, std::int64_t slab, ProgressSink& progress) {
+  LabelValueCollector values(source.info().dtype);
+  io::for_each_slab(source, span, slab, [&](const Volume& v, std::int64_t) { values.add(v); }, progress,
+                    "label values");
   return values.finish();
 }
 
-StreamedLabels stream_labels(io::VolumeSource& source, const EncodeOptions& options, ProgressSink& progress) {
-  const VolumeInfo& info = source.info();
-  const std::int64_t slab = label_slab_slices(info, options.memory_limit);
-  StreamedLabels out;
-  out.map = collect_label_map(source, slab, progress);
-  const std::uint32_t sources = out.map.size();
-  HistogramMipmap::StreamBuilder mipmap(info.dims, sources);
-  std::variant<BlockPaletteIds::Builder, FixedRateIds::Builder> level0 =
-      options.ids == IdsMode::fixed ? decltype(level0)(FixedRateIds::Builder(info.dims, 0, sources - 1))
-                                    : decltype(level0)(BlockPaletteIds::Builder(info.dims));
-  const std::optional<std::uint32_t> zero = out.map.id_of(0);
+void stream_ids(io::VolumeSource& source, io::SliceSpan span, std::int64_t slab, const LabelMap& map,
+                HistogramMipmap::StreamBuilder& mipmap, Level0Ids& level0, ProgressSink& progress) {
   std::vector<std::uint32_t> ids;
-  {
-    ProgressTask task(progress, "level 0", std::uint64_t(info.dims.voxel_count()), "vox");
-    for (std::int64_t z0 = 0; z0 < info.dims.z; z0 += slab) {
-      assign_source_ids(source.read_slab(z0, std::min(info.dims.z, z0 + slab)), out.map, ids);
-      mipmap.append(ids);
-      std::visit([&](auto& b) { b.append(ids); }, level0);
-      if (zero) out.zero_voxels += std::uint64_t(std::count(ids.begin(), ids.end(), *zero));
-      task.advance(ids.size());
-    }
-  }
-  ids = {};
+  io::for_each_slab(
+      source, span, slab,
+      [&](const Volume& v, std::int64_t) {
+        assign_source_ids(v, map, ids);
+        mipmap.append(ids);
+        level0.append(ids);
+      },
+      progress, "level 0");
+}
+
+StreamedLabels finish_streamed(LabelMap map, HistogramMipmap::StreamBuilder& mipmap, Level0Ids& level0,
+                               const EncodeOptions& options, ProgressSink& progress) {
+  StreamedLabels out;
+  if (const std::optional<std::uint32_t> zero = map.id_of(0)) out.zero_voxels = mipmap.level0_counts()[*zero];
+  out.map = std::move(map);
   out.mipmap = mipmap.finish(progress);
-  out.level0_section = std::visit([&](auto& b) { return id_section(b.finish(), options); }, level0);
+  out.level0_section = level0.section(options);
   return out;
 }
+
+void check_options(const EncodeOptions& options) {
+  if (options.ids_zstd < 0 || options.ids_zstd > 22)
+    throw Error("ids zstd level: must be 0..22, got " + std::to_string(options.ids_zstd));
+  if (options.bits < 1 || options.bits > 16) throw Error("bits: must be 1..16, got " + std::to_string(options.bits));
+}
+
+}  // namespace detail
+
+namespace {
 
 // The normals graph: the label volume's quantized normal codes encoded as labels of their own
 // into a temporary file beside `out`, whose bytes become section "normals".
@@ -162,21 +170,13 @@ nlohmann::json add_normals(const Volume& labels, const std::filesystem::path& ou
           {"seconds", rep.normals_seconds}};
 }
 
-void check_options(const EncodeOptions& options) {
-  if (options.ids_zstd < 0 || options.ids_zstd > 22)
-    throw Error("ids zstd level: must be 0..22, got " + std::to_string(options.ids_zstd));
-  if (options.bits < 1 || options.bits > 16) throw Error("bits: must be 1..16, got " + std::to_string(options.bits));
-}
+}  // namespace
 
-// Streams `source` and writes the file; `whole` is the same volume in memory when the normals
-// graph needs it (null otherwise).
-EncodeReport encode_streamed(io::VolumeSource& source, const Volume* whole, const std::filesystem::path& out,
-                             const EncodeOptions& options, ProgressSink& progress) {
-  using clock = std::chrono::steady_clock;
-  const auto t0 = clock::now();
-  check_options(options);
-  const VolumeInfo info = source.info();
-  StreamedLabels s = stream_labels(source, options, progress);
+namespace detail {
+
+EncodeReport write_labels_file(StreamedLabels s, const VolumeInfo& info, const Volume* whole,
+                               const std::filesystem::path& out, const EncodeOptions& options, ProgressSink& progress,
+                               std::chrono::steady_clock::time_point start) {
   HistogramMipmap& h = s.mipmap;
   const MipmapStats ms = h.stats();
   const int mip_levels = h.level_count();
@@ -202,7 +202,8 @@ EncodeReport encode_streamed(io::VolumeSource& source, const Volume* whole, cons
   rep.nnz_per_voxel = ms.nnz_per_voxel;
   rep.raw_histogram_bytes = ms.nnz_total * 8;
   rep.level0_voxels = std::uint64_t(info.dims.voxel_count());
-  rep.background_fraction = background_fraction(s.zero_voxels, rep.level0_voxels);
+  // Share of level-0 voxels whose original label is 0 (Table 2's "background").
+  rep.background_fraction = rep.level0_voxels ? double(s.zero_voxels) / double(rep.level0_voxels) : 0.0;
   rep.factor_seconds = f.stats.seconds;
 
   std::vector<std::byte> graph_bytes = write_graph_bitstream(f.graph, h.fractional(), info.dims);
@@ -268,8 +269,29 @@ EncodeReport encode_streamed(io::VolumeSource& source, const Volume* whole, cons
   if (normals_meta) meta["normals"] = *normals_meta;
   rep.file_bytes = writer.finish(meta);
   rep.bits_per_voxel = 8.0 * double(rep.file_bytes) / double(std::max<std::uint64_t>(1, rep.level0_voxels));
-  rep.seconds = std::chrono::duration<double>(clock::now() - t0).count();
+  rep.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return rep;
+}
+
+}  // namespace detail
+
+namespace {
+
+// Streams `source` and writes the file; `whole` is the same volume in memory when the normals
+// graph needs it (null otherwise).
+EncodeReport encode_streamed(io::VolumeSource& source, const Volume* whole, const std::filesystem::path& out,
+                             const EncodeOptions& options, ProgressSink& progress) {
+  const auto start = std::chrono::steady_clock::now();
+  detail::check_options(options);
+  const VolumeInfo info = source.info();
+  const std::int64_t slab = label_slab_slices(info, options.memory_limit);
+  const io::SliceSpan all{0, info.dims.z};
+  LabelMap map = detail::collect_label_map(source, all, slab, progress);
+  HistogramMipmap::StreamBuilder mipmap(info.dims, map.size());
+  detail::Level0Ids level0(info.dims, map.size(), options.ids);
+  detail::stream_ids(source, all, slab, map, mipmap, level0, progress);
+  detail::StreamedLabels s = detail::finish_streamed(std::move(map), mipmap, level0, options, progress);
+  return detail::write_labels_file(std::move(s), info, whole, out, options, progress, start);
 }
 
 }  // namespace

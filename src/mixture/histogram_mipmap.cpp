@@ -153,11 +153,14 @@ HistogramMipmap HistogramMipmap::from_fractional(const FractionalVoxels& in, Pro
 namespace {
 
 // Parent slices [z0, z1) of a level of dims P from its children (dims C), whose slices from
-// `child_z0` on start at `child`; the ids go to `parent` (the whole parent level). Batches of
+// `child_z0` on start at `child`; the ids go to `parent`, which holds the parent slices from
+// `parent_z0` on. New mixtures record their whole-level voxel index. Batches of
 // slices are combined in parallel, then interned sequentially in z order, so the table (and
 // everything downstream) is the same whatever the batches or the slabs that feed them.
 void build_parent_slices(MixtureTable& table, const std::uint32_t* child, std::int64_t child_z0, Extent C, Extent P,
-                         std::int64_t z0, std::int64_t z1, int level, std::uint32_t* parent, ProgressTask* task) {
+                         std::int64_t z0, std::int64_t z1, int level, std::uint32_t* parent, std::int64_t parent_z0,
+                         ProgressTask* task) {
+  const std::uint64_t held_from = std::uint64_t(parent_z0 * P.y * P.x);
   const int nt = thread_count();
   const std::int64_t batch = std::max<std::int64_t>(1, std::min<std::int64_t>(z1 - z0, 4 * nt));
   std::vector<SliceBuffer> buffers(static_cast<std::size_t>(batch));
@@ -187,7 +190,7 @@ void build_parent_slices(MixtureTable& table, const std::uint32_t* child, std::i
             bool same = true;
             for (int i = 1; i < n; ++i) same = same && c[i] == c[0];
             if (same) {
-              parent[v] = c[0];
+              parent[v - held_from] = c[0];
             } else {
               try {
                 combine_children(table, c, n, scratch, out, v);
@@ -204,7 +207,7 @@ void build_parent_slices(MixtureTable& table, const std::uint32_t* child, std::i
     for (std::int64_t z = b0; z < b1; ++z) {
       const SliceBuffer& b = buffers[std::size_t(z - b0)];
       for (const Pending& p : b.pending)
-        parent[p.voxel] = table.intern({b.index.data() + p.offset, p.length}, {b.mass.data() + p.offset, p.length},
+        parent[p.voxel - held_from] = table.intern({b.index.data() + p.offset, p.length}, {b.mass.data() + p.offset, p.length},
                                        p.hash, level, p.voxel);
     }
     if (task) task->advance(std::uint64_t((b1 - b0) * P.y * P.x));
@@ -222,7 +225,7 @@ void HistogramMipmap::build_levels(ProgressSink& progress) {
     const Extent P = dims[l];
     const Extent C = dims[l - 1];
     MipLevel level{P, std::vector<std::uint32_t>(std::size_t(P.voxel_count()))};
-    build_parent_slices(table_, levels_[l - 1].ids.data(), 0, C, P, 0, P.z, int(l), level.ids.data(), &task);
+    build_parent_slices(table_, levels_[l - 1].ids.data(), 0, C, P, 0, P.z, int(l), level.ids.data(), 0, &task);
     levels_.push_back(std::move(level));
   }
 }
@@ -239,21 +242,39 @@ void HistogramMipmap::count_multiplicities(std::span<const std::uint64_t> stream
 // ---------------------------------------------------------------------------------------------
 // StreamBuilder
 
-HistogramMipmap::StreamBuilder::StreamBuilder(Extent dims, std::uint32_t num_sources) : dims_(mip_level_dims(dims)) {
+HistogramMipmap::StreamBuilder::StreamBuilder(Extent dims, std::uint32_t num_sources)
+    : StreamBuilder(dims, num_sources, 0, dims.z) {}
+
+HistogramMipmap::StreamBuilder::StreamBuilder(Extent dims, std::uint32_t num_sources, std::int64_t z_begin,
+                                              std::int64_t z_end)
+    : dims_(mip_level_dims(dims)), z_begin_(z_begin), z_end_(z_end), slices_(z_begin) {
+  if (z_begin < 0 || z_begin % 2 != 0 || z_end < z_begin || z_end > dims.z)
+    throw Error("histogram mipmap: slices [" + std::to_string(z_begin) + ", " + std::to_string(z_end) +
+                ") are not a range of dims " + dims.to_string() + " starting at an even slice");
   h_.fractional_ = false;
   h_.table_ = MixtureTable(num_sources, true);
   level0_counts_.assign(num_sources, 0);
   h_.levels_.push_back({dims, {}});
-  if (dims_.size() > 1) h_.levels_.push_back({dims_[1], std::vector<std::uint32_t>(std::size_t(dims_[1].voxel_count()))});
+  if (dims_.size() > 1) {
+    const Extent& P = dims_[1];
+    const std::int64_t held = (z_end + 1) / 2 - z_begin / 2;
+    h_.levels_.push_back({P, std::vector<std::uint32_t>(std::size_t(held * P.y * P.x))});
+  }
+}
+
+std::uint32_t* HistogramMipmap::StreamBuilder::level1_slice(std::int64_t z1) {
+  const Extent& P = dims_[1];
+  return h_.levels_[1].ids.data() + (z1 - z_begin_ / 2) * P.y * P.x;
 }
 
 void HistogramMipmap::StreamBuilder::append(std::span<const std::uint32_t> ids) {
   const Extent C = dims_[0];
   const std::size_t slice = std::size_t(C.x * C.y);
   const std::int64_t n = std::int64_t(ids.size() / slice);
-  if (ids.size() % slice != 0 || slices_ + n > C.z)
-    throw Error("histogram mipmap: " + std::to_string(ids.size()) + " ids after " + std::to_string(slices_) +
-                " slices are not whole slices within dims " + C.to_string());
+  if (ids.size() % slice != 0 || slices_ + n > z_end_)
+    throw Error("histogram mipmap: " + std::to_string(ids.size()) + " ids after slice " + std::to_string(slices_) +
+                " are not whole slices within slices [" + std::to_string(z_begin_) + ", " + std::to_string(z_end_) +
+                ") of dims " + C.to_string());
   if (slices_ % 2 != 0)
     throw Error("histogram mipmap: a slab after an odd number of slices (" + std::to_string(slices_) +
                 "); only the last slab may be odd");
@@ -266,17 +287,73 @@ void HistogramMipmap::StreamBuilder::append(std::span<const std::uint32_t> ids) 
   const std::int64_t z0 = slices_;
   slices_ += n;
   if (dims_.size() < 2 || n == 0) return;
-  build_parent_slices(h_.table_, ids.data(), z0, C, dims_[1], z0 / 2, (slices_ + 1) / 2, 1, h_.levels_[1].ids.data(),
-                      nullptr);
+  build_parent_slices(h_.table_, ids.data(), z0, C, dims_[1], z0 / 2, (slices_ + 1) / 2, 1, level1_slice(z_begin_ / 2),
+                      z_begin_ / 2, nullptr);
+}
+
+void HistogramMipmap::StreamBuilder::append_part(const MipmapSlabPart& part) {
+  const std::uint32_t sources = h_.table_.num_sources();
+  const std::size_t mixtures = part.first_voxel.size();
+  const std::int64_t level1_slices = dims_.size() > 1 ? (part.z_end + 1) / 2 - part.z_begin / 2 : 0;
+  const std::int64_t level1_area = dims_.size() > 1 ? dims_[1].x * dims_[1].y : 0;
+  if (part.z_begin != slices_ || slices_ % 2 != 0 || part.z_end < part.z_begin || part.z_end > z_end_ ||
+      part.level0_counts.size() != sources || part.offsets.size() != mixtures + 1 ||
+      part.index.size() != part.offsets.back() || part.mass.size() != part.index.size() ||
+      part.level1_ids.size() != std::size_t(level1_slices * level1_area))
+    throw Error("histogram mipmap: a part of slices [" + std::to_string(part.z_begin) + ", " +
+                std::to_string(part.z_end) + ") does not continue slice " + std::to_string(slices_) + " of dims " +
+                dims_[0].to_string() + " (or its arrays disagree)");
+  // Local id -> id in this table: sources are shared, new mixtures are interned in local order.
+  std::vector<std::uint32_t> global(sources + mixtures);
+  for (std::uint32_t id = 0; id < sources; ++id) global[id] = id;
+  for (std::size_t k = 0; k < mixtures; ++k) {
+    const std::uint64_t at = part.offsets[k], end = part.offsets[k + 1];
+    if (end < at || end > part.index.size())
+      throw Error("histogram mipmap: a part's mixture offsets are not ascending");
+    const std::span<const std::uint32_t> index(part.index.data() + at, std::size_t(end - at));
+    const std::span<const double> mass(part.mass.data() + at, std::size_t(end - at));
+    for (const std::uint32_t i : index)
+      if (i >= sources) throw Error("histogram mipmap: a part's mixture holds source id " + std::to_string(i));
+    global[sources + k] = h_.table_.intern(index, mass, 1, part.first_voxel[k]);
+  }
+  std::uint32_t* out = level1_slices > 0 ? level1_slice(part.z_begin / 2) : nullptr;
+  for (std::size_t v = 0; v < part.level1_ids.size(); ++v) {
+    const std::uint32_t id = part.level1_ids[v];
+    if (id >= global.size()) throw Error("histogram mipmap: a part's level-1 id " + std::to_string(id) + " is unknown");
+    out[v] = global[id];
+  }
+  for (std::uint32_t id = 0; id < sources; ++id) level0_counts_[id] += part.level0_counts[id];
+  slices_ = part.z_end;
 }
 
 HistogramMipmap HistogramMipmap::StreamBuilder::finish(ProgressSink& progress) {
-  if (slices_ != dims_[0].z)
-    throw Error("histogram mipmap: " + std::to_string(slices_) + " slices streamed for dims " + dims_[0].to_string());
+  if (z_begin_ != 0 || z_end_ != dims_[0].z || slices_ != z_end_)
+    throw Error("histogram mipmap: " + std::to_string(slices_ - z_begin_) + " slices streamed for dims " +
+                dims_[0].to_string());
   h_.build_levels(progress);
   h_.count_multiplicities(level0_counts_);
   level0_counts_.clear();
   return std::move(h_);
+}
+
+MipmapSlabPart HistogramMipmap::StreamBuilder::finish_part() {
+  if (slices_ != z_end_)
+    throw Error("histogram mipmap: a part of slices [" + std::to_string(z_begin_) + ", " + std::to_string(z_end_) +
+                ") ends at slice " + std::to_string(slices_));
+  MipmapSlabPart part;
+  part.z_begin = z_begin_;
+  part.z_end = z_end_;
+  const MixtureTable& t = h_.table_;
+  for (std::uint32_t id = t.num_sources(); id < t.size(); ++id) {
+    part.index.insert(part.index.end(), t.index(id).begin(), t.index(id).end());
+    part.mass.insert(part.mass.end(), t.mass(id).begin(), t.mass(id).end());
+    part.offsets.push_back(part.index.size());
+    part.first_voxel.push_back(t.first_voxel(id));
+  }
+  if (h_.levels_.size() > 1) part.level1_ids = std::move(h_.levels_[1].ids);
+  part.level0_counts = std::move(level0_counts_);
+  h_ = {};
+  return part;
 }
 
 MipmapStats HistogramMipmap::stats() const {

@@ -89,6 +89,17 @@ void FixedRateIds::Builder::append(std::span<const std::uint32_t> ids) {
   pending_.assign(ids.begin() + std::ptrdiff_t(whole), ids.end());
 }
 
+void FixedRateIds::Builder::append_part(const FixedRateIds& part) {
+  const std::uint64_t n = std::uint64_t(part.dims_.voxel_count());
+  if (!pending_.empty() || part.dims_.x != out_.dims_.x || part.dims_.y != out_.dims_.y || part.min_ != out_.min_ ||
+      part.bits_ != out_.bits_ || count_ + n > std::uint64_t(out_.dims_.voxel_count()))
+    throw Error("FixedRateIds: a part of dims " + part.dims_.to_string() + " at " + std::to_string(part.bits_) +
+                " bits does not continue " + std::to_string(count_) + " ids of dims " + out_.dims_.to_string() +
+                " at " + std::to_string(out_.bits_) + " bits");
+  count_ += n;
+  out_.packed_.insert(out_.packed_.end(), part.packed_.begin(), part.packed_.end());
+}
+
 void FixedRateIds::Builder::pack(std::span<const std::uint32_t> ids) {
   codes_.resize(ids.size());
   for (std::size_t i = 0; i < ids.size(); ++i) codes_[i] = ids[i] - out_.min_;
@@ -182,6 +193,33 @@ void BlockPaletteIds::Builder::append(std::span<const std::uint32_t> ids) {
   } else {
     pending_.assign(ids.begin(), ids.end());
   }
+}
+
+void BlockPaletteIds::Builder::append_part(const BlockPaletteIds& part) {
+  const Extent& d = out_.dims_;
+  const bool fits = part.dims_.x == d.x && part.dims_.y == d.y && slices_ + part.dims_.z <= d.z;
+  if (!pending_.empty() || slices_ % kBlock != 0 || !fits ||
+      (part.dims_.z % kBlock != 0 && slices_ + part.dims_.z != d.z))
+    throw Error("BlockPaletteIds: a part of dims " + part.dims_.to_string() + " does not continue " +
+                std::to_string(slices_) + " slices of dims " + d.to_string() + " in whole block rows");
+  std::vector<std::uint32_t> palette;
+  BlockHeader* h = out_.blocks_.data() + block_rows_ * out_.grid_.y * out_.grid_.x;
+  for (const BlockHeader& b : part.blocks_) {
+    palette.assign(part.palettes_.begin() + b.palette_offset, part.palettes_.begin() + b.palette_offset + b.palette_size);
+    auto [it, inserted] = palette_offsets_.emplace(palette, std::uint32_t(out_.palettes_.size()));
+    if (inserted) out_.palettes_.insert(out_.palettes_.end(), palette.begin(), palette.end());
+    *h = b;
+    h->palette_offset = it->second;
+    h->bit_offset = std::uint64_t(out_.indices_.size()) * 8;
+    if (b.bits > 0) {
+      const auto from = part.indices_.begin() + std::ptrdiff_t(b.bit_offset / 8);
+      out_.indices_.insert(out_.indices_.end(), from,
+                           from + std::ptrdiff_t(quant::packed_size(std::size_t(kBlock * kBlock * kBlock), b.bits)));
+    }
+    ++h;
+  }
+  slices_ += part.dims_.z;
+  block_rows_ += part.grid_.z;
 }
 
 void BlockPaletteIds::Builder::encode_block_row(std::span<const std::uint32_t> slices) {

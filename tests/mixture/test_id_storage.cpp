@@ -163,6 +163,58 @@ TEST(MixtureIdStorage, BuildersFedInPiecesEqualTheWholeConstruction) {
   }
 }
 
+TEST(MixtureIdStorage, PartsBuiltApartMergeToTheWholeStorage) {
+  const Extent d{21, 17, 29};  // partial blocks in x and y; the last part ends the volume mid block row
+  const auto ids = coherent_ids(d, 4);
+  const std::size_t slice = std::size_t(d.x * d.y);
+  const auto [lo, hi] = std::minmax_element(ids.begin(), ids.end());
+  auto piece = [&](std::int64_t z0, std::int64_t z1) {
+    return std::span(ids).subspan(std::size_t(z0) * slice, std::size_t(z1 - z0) * slice);
+  };
+  const std::int64_t cuts[] = {0, 8, 24, 29};
+  BlockPaletteIds::Builder blocks(d);
+  FixedRateIds::Builder fixed(d, *lo, *hi);
+  for (int k = 0; k < 3; ++k) {
+    const Extent part{d.x, d.y, cuts[k + 1] - cuts[k]};
+    if (k == 1) {  // a part streamed in between parts merged
+      blocks.append(piece(cuts[k], cuts[k + 1]));
+      fixed.append(piece(cuts[k], cuts[k + 1]));
+      continue;
+    }
+    // Through bytes, as the parts travel between ranks.
+    blocks.append_part(BlockPaletteIds::deserialize(BlockPaletteIds(piece(cuts[k], cuts[k + 1]), part).serialize()));
+    FixedRateIds::Builder f(part, *lo, *hi);
+    f.append(piece(cuts[k], cuts[k + 1]));
+    fixed.append_part(FixedRateIds::deserialize(f.finish().serialize()));
+  }
+  EXPECT_EQ(blocks.finish().serialize(), BlockPaletteIds(ids, d).serialize());
+  EXPECT_EQ(fixed.finish().serialize(), FixedRateIds(ids, d).serialize());
+}
+
+TEST(MixtureIdStorage, PartsThatDoNotContinueAreRefused) {
+  const Extent d{9, 9, 24};
+  const auto ids = coherent_ids(d, 3);
+  const std::size_t slice = 81;
+  const auto rows = BlockPaletteIds(std::span(ids).first(8 * slice), {9, 9, 8});
+  BlockPaletteIds::Builder blocks(d);
+  blocks.append(std::span(ids).first(3 * slice));  // not a whole block row
+  EXPECT_THROW(blocks.append_part(rows), Error);
+  BlockPaletteIds::Builder other(d);
+  const auto flat = BlockPaletteIds(std::span(ids).first(8 * slice), {81, 1, 8});
+  EXPECT_THROW(other.append_part(flat), Error);  // x-y extents differ
+  const auto partial = BlockPaletteIds(std::span(ids).first(3 * slice), {9, 9, 3});
+  EXPECT_THROW(other.append_part(partial), Error);  // not whole block rows, and not the end
+  const auto [lo, hi] = std::minmax_element(ids.begin(), ids.end());
+  FixedRateIds::Builder fixed(d, *lo, *hi);
+  FixedRateIds::Builder wider({9, 9, 8}, *lo, *hi + 1000);  // another bit rate
+  wider.append(std::span(ids).first(8 * slice));
+  EXPECT_THROW(fixed.append_part(wider.finish()), Error);
+  fixed.append(std::span(ids).first(3));  // ids so far do not fill whole bytes
+  FixedRateIds::Builder same({9, 9, 8}, *lo, *hi);
+  same.append(std::span(ids).first(8 * slice));
+  EXPECT_THROW(fixed.append_part(same.finish()), Error);
+}
+
 TEST(MixtureIdStorage, BuildersRefuseWrongCountsAndRanges) {
   const Extent d{9, 9, 9};
   const std::vector<std::uint32_t> ids(std::size_t(d.voxel_count()), 5);

@@ -128,6 +128,63 @@ TEST(StreamedLabels, MipmapFromSlabsEqualsTheWholeMipmap) {
   EXPECT_EQ(a.nnz_total, b.nnz_total);
 }
 
+// One part of level 1 per slice range, built apart as MPI ranks do.
+MipmapSlabPart build_part(const SourceIds& s, std::int64_t z0, std::int64_t z1) {
+  HistogramMipmap::StreamBuilder b(s.dims, s.map.size(), z0, z1);
+  const std::size_t slice = std::size_t(s.dims.x * s.dims.y);
+  for (std::int64_t z = z0; z < z1; z += 8) {  // slabs of 8 slices, the last one shorter
+    const std::int64_t n = std::min<std::int64_t>(8, z1 - z);
+    b.append(std::span(s.ids).subspan(std::size_t(z) * slice, std::size_t(n) * slice));
+  }
+  return b.finish_part();
+}
+
+TEST(StreamedLabels, PartsBuiltApartMergeToTheWholeMipmap) {
+  const Volume labels = fibres({33, 20, 27}, 40);
+  const SourceIds s = to_source_ids(labels);
+  const HistogramMipmap whole = HistogramMipmap::from_source_ids(s.dims, s.ids, s.map.size());
+  const std::size_t slice = std::size_t(s.dims.x * s.dims.y);
+  // The first range streamed here, the others merged as parts; then every range a part.
+  for (const bool first_streamed : {true, false}) {
+    HistogramMipmap::StreamBuilder builder(s.dims, s.map.size());
+    if (first_streamed) {
+      builder.append(std::span(s.ids).first(8 * slice));
+    } else {
+      builder.append_part(build_part(s, 0, 8));
+    }
+    builder.append_part(build_part(s, 8, 24));
+    builder.append_part(build_part(s, 24, 27));  // odd end
+    const HistogramMipmap merged = builder.finish();
+    ASSERT_EQ(merged.level_count(), whole.level_count());
+    for (int l = 1; l < whole.level_count(); ++l) EXPECT_EQ(merged.level(l).ids, whole.level(l).ids) << "level " << l;
+    ASSERT_EQ(merged.table().size(), whole.table().size());
+    for (std::uint32_t id = 0; id < whole.table().size(); ++id) {
+      ASSERT_EQ(merged.table().mixture(id), whole.table().mixture(id)) << "mixture " << id;
+      ASSERT_EQ(merged.table().multiplicity(id), whole.table().multiplicity(id)) << "mixture " << id;
+      // The factorisation reads a mixture's children at its first voxel.
+      ASSERT_EQ(merged.table().first_level(id), whole.table().first_level(id)) << "mixture " << id;
+      ASSERT_EQ(merged.table().first_voxel(id), whole.table().first_voxel(id)) << "mixture " << id;
+    }
+  }
+}
+
+TEST(StreamedLabels, PartsThatDoNotContinueAreRefused) {
+  const Volume labels = fibres({16, 12, 24}, 10);
+  const SourceIds s = to_source_ids(labels);
+  const MipmapSlabPart middle = build_part(s, 8, 16);
+  HistogramMipmap::StreamBuilder builder(s.dims, s.map.size());
+  EXPECT_NE(error_of([&] { builder.append_part(middle); }).find("does not continue slice 0"), std::string::npos);
+  MipmapSlabPart broken = build_part(s, 0, 8);
+  broken.level1_ids.pop_back();
+  EXPECT_NE(error_of([&] { builder.append_part(broken); }).find("arrays disagree"), std::string::npos);
+  EXPECT_NE(error_of([&] { HistogramMipmap::StreamBuilder(s.dims, s.map.size(), 3, 8); }).find("even slice"),
+            std::string::npos);
+  HistogramMipmap::StreamBuilder part(s.dims, s.map.size(), 8, 16);
+  part.append(std::span(s.ids).subspan(std::size_t(8 * 16 * 12), std::size_t(4 * 16 * 12)));
+  EXPECT_NE(error_of([&] { part.finish_part(); }).find("ends at slice 12"), std::string::npos);
+  EXPECT_NE(error_of([&] { part.finish(); }).find("slices streamed"), std::string::npos);
+}
+
 TEST(StreamedLabels, MipmapBuilderRefusesBrokenStreams) {
   const Extent d{4, 4, 6};
   std::vector<std::uint32_t> ids(std::size_t(d.voxel_count()), 1);

@@ -13,27 +13,13 @@
 #include <vector>
 
 #include "strata/core/error.hpp"
+#include "strata/dist/agree.hpp"
 #include "strata/io/volume_io.hpp"
 #include "strata/ta/compress.hpp"
 #include "strata/ta/octree.hpp"
 
 namespace strata::dist {
 
-/// @brief Thrown on the ranks that did not fail when another one did: that rank (the lowest
-/// that failed) rethrows its own error, which is the one to report.
-class PeerFailure : public Error {
- public:
-  explicit PeerFailure(int rank) : Error("rank " + std::to_string(rank) + " failed"), rank_(rank) {}
-  int rank() const { return rank_; }
-
- private:
-  int rank_;
-};
-
-/// @brief Collective: every rank of `comm` passes what it caught (null when nothing). When some
-/// rank failed, the lowest such rank rethrows its error and every other rank throws PeerFailure,
-/// so all ranks leave together and none waits in a later collective.
-void agree(MPI_Comm comm, std::exception_ptr error);
 
 /// @brief Brick rows [begin, end) of one level.
 struct RowRange {

@@ -101,27 +101,60 @@ class HistogramMipmap {
   MixtureTable table_;
 };
 
+/// @brief Level 1 of a single-label mipmap over level-0 slices [z_begin, z_end) only, as one MPI
+/// rank builds it (dist/labels): the mixtures its slices made first, in the order they first
+/// occur (ids >= num_sources of a table local to the part), level 1's ids under that table, and
+/// the level-0 count of each source id. HistogramMipmap::StreamBuilder::append_part() merges
+/// parts in z order into the mipmap of the whole volume.
+struct MipmapSlabPart {
+  std::int64_t z_begin = 0, z_end = 0;       // level-0 slices
+  std::vector<std::uint64_t> offsets{0};     // mixture k: entries [offsets[k], offsets[k+1])
+  std::vector<std::uint32_t> index;          // source ids, ascending per mixture
+  std::vector<double> mass;                  // canonical integer masses (MixtureTable)
+  std::vector<std::uint64_t> first_voxel;    // per mixture: its first level-1 voxel, whole-volume index
+  std::vector<std::uint32_t> level1_ids;     // level-1 slices [z_begin/2, ceil(z_end/2)), local ids
+  std::vector<std::uint64_t> level0_counts;  // per source id
+};
+
 /// @brief Builds a single-label mipmap from level-0 source ids streamed in z-slabs, so level 0
 /// (the largest array, one u32 per voxel) is never held: level 1 is built as the slabs arrive
 /// and the coarser levels from it at finish(). The result equals from_source_ids() on the whole
 /// volume (same table, same ids) except that level(0).ids is empty; level-0 multiplicities are
 /// counted as the slabs pass.
+///
+/// A builder of a slice range (the second constructor) makes one part of level 1 instead
+/// (finish_part()); a builder of the whole volume takes such parts in z order (append_part())
+/// and gives the same mipmap as if their slabs had been appended.
 class HistogramMipmap::StreamBuilder {
  public:
   StreamBuilder(Extent dims, std::uint32_t num_sources);
+  /// @brief A builder of level-0 slices [z_begin, z_end) of a volume of `dims`; z_begin even.
+  /// Throws Error for an odd or out-of-range start.
+  StreamBuilder(Extent dims, std::uint32_t num_sources, std::int64_t z_begin, std::int64_t z_end);
   /// @brief The next whole slices of source ids (x fastest). Every slab but the last must have
   /// an even number of slices (a level-1 slice needs both its children). Throws Error on an id
   /// >= num_sources, a partial slice, too many slices or an odd slab followed by another.
   void append(std::span<const std::uint32_t> ids);
+  /// @brief The next slices as a part built elsewhere (same dims and sources; it must start
+  /// where the slices so far end). Its new mixtures are interned in their order, so the table
+  /// is the one the part's slabs would have made. Throws Error when the part does not fit.
+  void append_part(const MipmapSlabPart& part);
+  /// @brief How many level-0 voxels hold each source id, over the slices appended so far.
+  std::span<const std::uint64_t> level0_counts() const { return level0_counts_; }
   /// @brief Builds the coarser levels (progress task "histogram mipmap"). Throws Error unless
-  /// every slice was appended.
+  /// every slice of the volume was appended (and this is not a builder of a slice range).
   HistogramMipmap finish(ProgressSink& progress = silent_progress());
+  /// @brief This builder's part of level 1 (consumes it). Throws Error unless every slice of
+  /// its range was appended.
+  MipmapSlabPart finish_part();
 
  private:
+  std::uint32_t* level1_slice(std::int64_t z1);  // where level-1 slice z1 (whole-volume index) is held
   std::vector<Extent> dims_;
   HistogramMipmap h_;
   std::vector<std::uint64_t> level0_counts_;
-  std::int64_t slices_ = 0;
+  std::int64_t z_begin_ = 0, z_end_ = 0;  // the range this builder covers
+  std::int64_t slices_ = 0;               // next level-0 slice expected
 };
 
 }  // namespace strata::mixture

@@ -88,6 +88,10 @@ class FixedRateIds::Builder {
   Builder(const Extent& dims, std::uint32_t min_id, std::uint32_t max_id);
   /// @brief Appends the next ids. Throws Error for an id outside the range or past dims.
   void append(std::span<const std::uint32_t> ids);
+  /// @brief Appends the ids of `part`, the storage of the next whole slices built with the same
+  /// id range (as one MPI rank builds its slices), by copying its packed codes. Throws Error
+  /// unless the ids so far fill whole bytes (a multiple of 8) and `part` fits.
+  void append_part(const FixedRateIds& part);
   /// @brief The storage; throws Error unless exactly dims.voxel_count() ids were appended.
   FixedRateIds finish();
 
@@ -107,6 +111,12 @@ class BlockPaletteIds::Builder {
   explicit Builder(const Extent& dims);
   /// @brief Appends the next whole slices (x fastest). Throws Error for a partial slice or past dims.z.
   void append(std::span<const std::uint32_t> ids);
+  /// @brief Appends the block rows of `part`, the storage of the next slices of the same x-y
+  /// extent (as one MPI rank builds its slices): its palettes are deduplicated again against
+  /// those so far and its indices copied, so the result equals appending its ids. Throws Error
+  /// unless the slices so far are whole block rows and `part` fits (whole block rows unless it
+  /// ends the volume).
+  void append_part(const BlockPaletteIds& part);
   /// @brief The storage; throws Error unless dims.z slices were appended.
   BlockPaletteIds finish();
 

@@ -1,9 +1,12 @@
 #!/usr/bin/env bash
-# `strata-mpi compress` end to end (CTest label `mpi`, tests/CMakeLists.txt): one case per run.
-#   mpi_compress_test.sh CASE STRATA STRATA_MPI MPIEXEC WORKDIR
-# Identity cases compress a generated volume with `strata compress` and with `mpirun -np N
-# --oversubscribe strata-mpi compress` (same flags) and require byte-identical files (cmp);
-# error cases require the exit code, a message naming the file/flag and no output left behind.
+# `strata-mpi compress` and `strata-mpi labels encode` end to end (CTest label `mpi`,
+# tests/CMakeLists.txt): one case per run.
+#   mpi_test.sh CASE STRATA STRATA_MPI MPIEXEC WORKDIR
+# Identity cases run `strata compress` (or `strata labels encode`) and `mpirun -np N
+# --oversubscribe strata-mpi ...` with the same flags on a generated volume and require the same
+# file: byte-identical for compress; for labels the same sections (bytes, by CRC) and metadata,
+# the factorisation's timing aside. Error cases require the exit code, a message naming the
+# file/flag and no output left behind.
 set -euo pipefail
 case_name=$1 strata=$2 strata_mpi=$3 mpiexec=$4 work=$5
 rm -rf "$work"
@@ -28,6 +31,27 @@ identical() {
   cmp single.strata "dist$np.strata" || fail "$np ranks: not byte-identical to strata compress ($*)"
   grep -q "^rank $((np - 1)):" "dist$np.log" || { cat "dist$np.log" >&2; fail "no report of rank $((np - 1))"; }
   echo "ok: $np ranks, $* -> $(stat -c %s single.strata) bytes, identical"
+}
+
+# FILE: what `strata info --json` says of a label file (its sections' offsets, sizes and CRCs,
+# its metadata), without its name, the factorisation's timing and the sizes that timing's
+# digits change.
+label_file_summary() {
+  "$strata" info --json "$1" |
+    grep -v -e '"file":' -e '"factor_seconds":' -e '"metadata_bytes":' -e '"file_bytes":' -e '"bits_per_voxel":'
+}
+
+# NP FLAGS...: the distributed label file must equal the single-process one (timing aside).
+same_labels() {
+  local np=$1
+  shift
+  "$strata" --progress none labels encode in.nrrd -o single.strata "$@" >single.log
+  "$mpiexec" -np "$np" --oversubscribe "$strata_mpi" --progress none labels encode in.nrrd -o "dist$np.strata" "$@" \
+    >"dist$np.log" 2>&1 || { cat "dist$np.log" >&2; fail "strata-mpi labels encode with $np ranks failed"; }
+  diff <(label_file_summary single.strata) <(label_file_summary "dist$np.strata") >&2 ||
+    fail "$np ranks: not the file of strata labels encode ($*)"
+  grep -q "^rank $((np - 1)): slices" "dist$np.log" || { cat "dist$np.log" >&2; fail "no report of rank $((np - 1))"; }
+  echo "ok: $np ranks, labels $* -> $(stat -c %s single.strata) bytes, same sections and metadata"
 }
 
 # EXPECTED_CODE PATTERN NP ARGS...: strata-mpi fails with the code, says PATTERN, leaves no output.
@@ -98,6 +122,26 @@ PY
   bad-output)  # only rank 0 checks the output: the others learn of its failure and exit too
     generate prisms 40,36,30
     fails 1 "missing-dir" 2 compress in.nrrd -o missing-dir/out.strata
+    ;;
+  labels-blocks)  # 13 block rows: 3 ranks take 4/4/5; labels cross the ranks' borders
+    generate fibres 64,48,100 --count 60
+    for np in 1 2 3; do same_labels "$np"; done
+    ;;
+  labels-fixed)  # fixed-rate ids, no zstd, 8-slice slabs under --memory-limit (several per rank)
+    generate fibres 96,80,100 --count 200 --seed 4
+    for np in 2 3; do same_labels "$np" --ids fixed --zstd 0 --memory-limit 65M --no-error; done
+    ;;
+  labels-idle)  # two block rows for three ranks: rank 0 has no slices; the last row is short
+    generate fibres 40,36,12 --count 20
+    same_labels 3 --strategy max-occurrence --bits 7
+    ;;
+  labels-refused)
+    generate fibres 40,36,12 --count 20
+    fails 2 "--normals" 2 labels encode in.nrrd -o out.strata --normals
+    "$strata" --progress none generate marschner-lobb --size 20,20,20 --dtype f32 -o float.nrrd >/dev/null
+    fails 1 "float.nrrd.*integer samples" 3 labels encode float.nrrd -o out.strata
+    fails 1 "missing-dir" 2 labels encode in.nrrd -o missing-dir/out.strata
+    fails 1 "memory-limit" 2 labels encode in.nrrd -o out.strata --memory-limit 1M
     ;;
   *) fail "unknown case $case_name" ;;
 esac
