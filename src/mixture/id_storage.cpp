@@ -8,6 +8,7 @@
 
 #include "strata/core/bytes.hpp"
 #include "strata/core/error.hpp"
+#include "strata/core/threads.hpp"
 #include "strata/quant/bitpack.hpp"
 
 namespace strata::mixture {
@@ -228,34 +229,48 @@ void BlockPaletteIds::Builder::encode_block_row(std::span<const std::uint32_t> s
   const std::int64_t b = kBlock;
   const std::int64_t depth = std::int64_t(slices.size() / std::size_t(dims.x * dims.y));
   const std::int64_t bz = block_rows_++;
-  std::vector<std::uint32_t> block_ids(std::size_t(b * b * b)), codes(block_ids.size()), palette;
-  for (std::int64_t by = 0; by < grid.y; ++by)
-    for (std::int64_t bx = 0; bx < grid.x; ++bx) {
+  const std::int64_t blocks = grid.y * grid.x;
+  row_.resize(std::size_t(blocks));
+  // Palettes and packed indices of the row's blocks in parallel; the palettes are then
+  // deduplicated and the indices appended in block order, so the bytes do not depend on threads.
+#pragma omp parallel num_threads(thread_count())
+  {
+    std::vector<std::uint32_t> block_ids(std::size_t(b * b * b)), codes(block_ids.size());
+#pragma omp for schedule(dynamic, 16)
+    for (std::int64_t k = 0; k < blocks; ++k) {
+      const std::int64_t by = k / grid.x, bx = k % grid.x;
       // Gather the block (edge blocks repeat their last voxel so every block has b^3 entries).
-      for (std::int64_t k = 0; k < b; ++k)
+      for (std::int64_t kz = 0; kz < b; ++kz)
         for (std::int64_t j = 0; j < b; ++j)
           for (std::int64_t i = 0; i < b; ++i) {
             const std::int64_t x = std::min(bx * b + i, dims.x - 1), y = std::min(by * b + j, dims.y - 1),
-                               z = std::min(k, depth - 1);
-            block_ids[std::size_t((k * b + j) * b + i)] = slices[std::size_t((z * dims.y + y) * dims.x + x)];
+                               z = std::min(kz, depth - 1);
+            block_ids[std::size_t((kz * b + j) * b + i)] = slices[std::size_t((z * dims.y + y) * dims.x + x)];
           }
-      palette = block_ids;
-      std::sort(palette.begin(), palette.end());
-      palette.erase(std::unique(palette.begin(), palette.end()), palette.end());
-      BlockHeader& h = out_.blocks_[std::size_t((bz * grid.y + by) * grid.x + bx)];
-      auto [it, inserted] = palette_offsets_.emplace(palette, std::uint32_t(out_.palettes_.size()));
-      if (inserted) out_.palettes_.insert(out_.palettes_.end(), palette.begin(), palette.end());
-      h.palette_offset = it->second;
-      h.palette_size = std::uint32_t(palette.size());
-      h.bits = std::uint8_t(bits_for(palette.size()));
-      h.bit_offset = std::uint64_t(out_.indices_.size()) * 8;
-      if (h.bits == 0) continue;
+      EncodedBlock& e = row_[std::size_t(k)];
+      e.palette = block_ids;
+      std::sort(e.palette.begin(), e.palette.end());
+      e.palette.erase(std::unique(e.palette.begin(), e.palette.end()), e.palette.end());
+      const int bits = bits_for(e.palette.size());
+      e.indices.clear();
+      if (bits == 0) continue;
       for (std::size_t v = 0; v < block_ids.size(); ++v)
-        codes[v] = std::uint32_t(std::lower_bound(palette.begin(), palette.end(), block_ids[v]) - palette.begin());
-      const std::size_t start = out_.indices_.size();
-      out_.indices_.resize(start + quant::packed_size(codes.size(), h.bits));
-      quant::pack_codes(codes, h.bits, std::span(out_.indices_).subspan(start));
+        codes[v] = std::uint32_t(std::lower_bound(e.palette.begin(), e.palette.end(), block_ids[v]) - e.palette.begin());
+      e.indices.resize(quant::packed_size(codes.size(), bits));
+      quant::pack_codes(codes, bits, std::span<std::byte>(e.indices));
     }
+  }
+  for (std::int64_t k = 0; k < blocks; ++k) {
+    const EncodedBlock& e = row_[std::size_t(k)];
+    BlockHeader& h = out_.blocks_[std::size_t(bz * blocks + k)];
+    auto [it, inserted] = palette_offsets_.emplace(e.palette, std::uint32_t(out_.palettes_.size()));
+    if (inserted) out_.palettes_.insert(out_.palettes_.end(), e.palette.begin(), e.palette.end());
+    h.palette_offset = it->second;
+    h.palette_size = std::uint32_t(e.palette.size());
+    h.bits = std::uint8_t(bits_for(e.palette.size()));
+    h.bit_offset = std::uint64_t(out_.indices_.size()) * 8;
+    out_.indices_.insert(out_.indices_.end(), e.indices.begin(), e.indices.end());
+  }
 }
 
 BlockPaletteIds BlockPaletteIds::Builder::finish() {
@@ -263,6 +278,7 @@ BlockPaletteIds BlockPaletteIds::Builder::finish() {
     throw Error("BlockPaletteIds: " + std::to_string(slices_) + " slices for dims " + out_.dims_.to_string());
   out_.indices_.resize(out_.indices_.size() + kIndexPadding);
   palette_offsets_.clear();
+  row_ = {};
   return std::move(out_);
 }
 

@@ -121,8 +121,14 @@ class BlockPaletteIds::Builder {
   BlockPaletteIds finish();
 
  private:
+  // One block of a row as encoded in parallel, before its palette is deduplicated.
+  struct EncodedBlock {
+    std::vector<std::uint32_t> palette;  // ascending
+    std::vector<std::byte> indices;      // packed, empty when the palette has one entry
+  };
   void encode_block_row(std::span<const std::uint32_t> slices);  // kBlock slices (fewer at the end)
   BlockPaletteIds out_;
+  std::vector<EncodedBlock> row_;  // the blocks of the row being encoded (kept for their capacity)
   std::map<std::vector<std::uint32_t>, std::uint32_t> palette_offsets_;  // dedupe identical palettes
   std::vector<std::uint32_t> pending_;  // slices of a block row not yet complete
   std::int64_t slices_ = 0, block_rows_ = 0;
