@@ -5,6 +5,7 @@
 #include <random>
 
 #include "strata/core/error.hpp"
+#include "strata/core/threads.hpp"
 #include "strata/mixture/id_storage.hpp"
 #include "support/test_support.hpp"
 
@@ -161,6 +162,23 @@ TEST(MixtureIdStorage, BuildersFedInPiecesEqualTheWholeConstruction) {
     for (std::size_t at = 0; at < ids.size(); at += run) b.append(std::span(ids).subspan(at, std::min(run, ids.size() - at)));
     EXPECT_EQ(b.finish().serialize(), whole_fixed) << "runs of " << run;
   }
+}
+
+TEST(MixtureIdStorage, BlockPalettesAreTheSameBytesOnAnyNumberOfThreads) {
+  const Extent d{77, 45, 19};  // many blocks per row, partial blocks on every axis
+  const auto ids = coherent_ids(d, 6);
+  set_thread_count(1);
+  const auto one = BlockPaletteIds(ids, d).serialize();
+  for (const int threads : {2, 3, 8}) {
+    set_thread_count(threads);
+    EXPECT_EQ(BlockPaletteIds(ids, d).serialize(), one) << threads << " threads";
+  }
+  set_thread_count(0);
+  const BlockPaletteIds decoded = BlockPaletteIds::deserialize(one);
+  for (std::int64_t z = 0; z < d.z; ++z)
+    for (std::int64_t y = 0; y < d.y; ++y)
+      for (std::int64_t x = 0; x < d.x; ++x)
+        ASSERT_EQ(decoded.at(x, y, z), ids[std::size_t((z * d.y + y) * d.x + x)]) << x << "," << y << "," << z;
 }
 
 TEST(MixtureIdStorage, PartsBuiltApartMergeToTheWholeStorage) {
