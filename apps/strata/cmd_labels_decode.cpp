@@ -1,4 +1,5 @@
 // `strata labels decode IN.strata --level L -o OUT [--label ID]`.
+#include <algorithm>
 #include <cstdio>
 #include <optional>
 
@@ -6,6 +7,7 @@
 #include "commands.hpp"
 #include "report.hpp"
 #include "strata/core/error.hpp"
+#include "strata/io/slab_stream.hpp"
 #include "strata/io/volume_io.hpp"
 #include "strata/mixture/encoded_labels.hpp"
 #include "strata/store/volume_set.hpp"
@@ -21,17 +23,28 @@ struct LabelsDecodeArgs {
   std::optional<std::int64_t> volume;
 };
 
-void run_labels_decode(const LabelsDecodeArgs& args, const GlobalOptions&) {
+// Decodes slab by slab into the output, so the level is never held whole (the writer streams
+// raw, NRRD, NIfTI and TIFF; it writes a temporary file, renamed when complete).
+void run_labels_decode(const LabelsDecodeArgs& args, const GlobalOptions& global) {
   check_volume_output(args.output, "--output", {args.input});
   const mixture::EncodedLabels labels(store::open_volume(args.input, args.volume));
   if (args.level < 0 || args.level >= labels.level_count())
     throw Error("--level: " + std::to_string(args.level) + " is not in 0.." + std::to_string(labels.level_count() - 1) +
                 " for " + args.input);
-  Volume v;
-  if (args.label) v = labels.label_fraction(args.level, *args.label);
-  else if (args.level == 0) v = labels.decode_level0();
-  else v = labels.dominant_labels(args.level);
-  io::write_volume(args.output, v);
+  const mixture::LevelDecoder decoder(labels, args.level, args.label);
+  const VolumeInfo& info = decoder.info();
+  // A slab holds its samples and one u32 node id per voxel.
+  const std::uint64_t slice_bytes = std::uint64_t(info.dims.x * info.dims.y) * (dtype_size(info.dtype) + 4);
+  const std::int64_t step = std::max<std::int64_t>(1, std::int64_t(io::kDefaultSlabBytes / slice_bytes));
+  const auto progress = global.make_progress();
+  ProgressTask task(*progress, "decode", std::uint64_t(info.dims.voxel_count()), "vox");
+  const std::unique_ptr<io::VolumeWriter> writer = io::create_volume_writer(args.output, info);
+  for (std::int64_t z0 = 0; z0 < info.dims.z; z0 += step) {
+    const Volume slab = decoder.slices(z0, std::min(info.dims.z, z0 + step));
+    writer->write_slab(slab);
+    task.advance(std::uint64_t(slab.voxel_count()));
+  }
+  writer->finish();
 }
 
 }  // namespace

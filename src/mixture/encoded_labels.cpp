@@ -224,13 +224,6 @@ void EncodedLabels::decode_box(int level, const Box& box, std::span<std::uint32_
       for (std::int64_t x = box.lo.x; x < box.hi.x; ++x) out[i++] = f.at(x, y, z);
 }
 
-std::vector<std::uint32_t> EncodedLabels::level_ids(int level) const {
-  const Extent d = level_dims(level);
-  std::vector<std::uint32_t> ids(std::size_t(d.voxel_count()));
-  decode_box(level, Box::whole(d), ids);  // ids were range-checked when the file was opened
-  return ids;
-}
-
 Spacing EncodedLabels::level_spacing(int level) const {
   const double s = std::ldexp(1.0, level);
   return {spacing_.x * s, spacing_.y * s, spacing_.z * s};
@@ -245,9 +238,7 @@ const MixtureLookup& EncodedLabels::lookup() const {
   return *lookup_;
 }
 
-Volume EncodedLabels::decode_level0() const {
-  return label_map_.decode(level_ids(0), level_dims_[0], spacing_);
-}
+Volume EncodedLabels::decode_level0() const { return LevelDecoder(*this, 0).slices(0, level_dims_[0].z); }
 
 std::vector<std::uint32_t> EncodedLabels::dominant_sources() const {
   const MixtureLookup& lut = lookup();
@@ -272,20 +263,51 @@ std::vector<float> EncodedLabels::label_fractions(std::int64_t label_value) cons
 }
 
 Volume EncodedLabels::dominant_labels(int level) const {
-  std::vector<std::uint32_t> ids = level_ids(level);
-  const std::vector<std::uint32_t> dominant = dominant_sources();
-  for (auto& id : ids) id = dominant[id];
-  return label_map_.decode(ids, level_dims_[std::size_t(level)], level_spacing(level));
+  const LevelDecoder decoder(*this, level);
+  return decoder.slices(0, decoder.info().dims.z);
 }
 
 Volume EncodedLabels::label_fraction(int level, std::int64_t label_value) const {
-  const std::vector<float> frac = label_fractions(label_value);
-  const std::vector<std::uint32_t> ids = level_ids(level);
-  Volume out(level_dims_[std::size_t(level)], DType::f32, level_spacing(level));
-  auto s = out.samples<float>();
-  for (std::size_t i = 0; i < ids.size(); ++i) s[i] = frac[ids[i]];
-  return out;
+  const LevelDecoder decoder(*this, level, label_value);
+  return decoder.slices(0, decoder.info().dims.z);
 }
 
+// ---------------------------------------------------------------------------------------------
+// LevelDecoder
+
+LevelDecoder::LevelDecoder(const EncodedLabels& labels, int level, std::optional<std::int64_t> label)
+    : labels_(labels), level_(level) {
+  if (level < 0 || level >= labels.level_count())
+    throw Error(labels.name() + ": level " + std::to_string(level) + " is not in 0.." +
+                std::to_string(labels.level_count() - 1));
+  info_.dims = labels.level_dims(level);
+  info_.spacing = labels.level_spacing(level);
+  info_.dtype = labels.label_map().dtype();
+  if (label) {
+    fraction_ = labels.label_fractions(*label);
+    info_.dtype = DType::f32;
+  } else if (level > 0) {
+    dominant_ = labels.dominant_sources();  // level 0's node ids are its source ids
+  }
+}
+
+Volume LevelDecoder::slices(std::int64_t z0, std::int64_t z1) const {
+  const Extent& d = info_.dims;
+  if (z0 < 0 || z1 <= z0 || z1 > d.z)
+    throw Error(labels_.name() + ": slices [" + std::to_string(z0) + ", " + std::to_string(z1) +
+                ") are not within level " + std::to_string(level_) + " of dims " + d.to_string());
+  const Extent slab{d.x, d.y, z1 - z0};
+  std::vector<std::uint32_t> ids(std::size_t(slab.voxel_count()));
+  labels_.decode_box(level_, Box{{0, 0, z0}, {d.x, d.y, z1}}, ids);  // ids were range-checked at open
+  if (!fraction_.empty()) {
+    Volume out(slab, DType::f32, info_.spacing);
+    auto s = out.samples<float>();
+    for (std::size_t i = 0; i < ids.size(); ++i) s[i] = fraction_[ids[i]];
+    return out;
+  }
+  if (!dominant_.empty())
+    for (auto& id : ids) id = dominant_[id];
+  return labels_.label_map().decode(ids, slab, info_.spacing);
+}
 
 }  // namespace strata::mixture

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 #include <functional>
+#include <optional>
 #include <fstream>
 #include <vector>
 
@@ -172,6 +173,41 @@ TEST(MixtureEncodedLabels, FibresRoundTripBothIdModes) {
   const Volume v = make_labels(gen::Kind::fibres, {40, 33, 26}, 150);
   round_trip(v, IdsMode::blocks, "fibres");
   round_trip(v, IdsMode::fixed, "fibres");
+}
+
+// Slabs of every decoded kind (labels, dominant labels, fractions), concatenated in z, are the
+// whole level: what `labels decode` writes slab by slab.
+TEST(MixtureEncodedLabels, LevelDecoderSlabsMakeTheWholeLevel) {
+  const Volume labels = make_labels(gen::Kind::fibres, {23, 19, 30}, 25);
+  test::TempDir dir;
+  const auto file = dir / "f.strata";
+  encode_labels(labels, file);
+  const EncodedLabels e(file);
+  const std::int64_t some_label = e.label_map().value(1);
+  for (const auto& [level, label] : std::vector<std::pair<int, std::optional<std::int64_t>>>{
+           {0, std::nullopt}, {1, std::nullopt}, {2, std::nullopt}, {0, some_label}, {1, some_label}}) {
+    const LevelDecoder decoder(e, level, label);
+    const Volume whole = !label ? (level == 0 ? e.decode_level0() : e.dominant_labels(level))
+                                : e.label_fraction(level, *label);
+    EXPECT_EQ(decoder.info().dims, whole.dims());
+    EXPECT_EQ(decoder.info().dtype, whole.dtype());
+    const std::size_t slice = std::size_t(whole.dims().x * whole.dims().y) * dtype_size(whole.dtype());
+    std::vector<std::byte> joined;
+    for (std::int64_t z0 = 0; z0 < whole.dims().z; z0 += 4) {
+      const Volume slab = decoder.slices(z0, std::min(whole.dims().z, z0 + 4));
+      ASSERT_EQ(slab.byte_size(), std::size_t(slab.dims().z) * slice);
+      joined.insert(joined.end(), slab.bytes(), slab.bytes() + slab.byte_size());
+    }
+    EXPECT_TRUE(std::equal(joined.begin(), joined.end(), whole.bytes(), whole.bytes() + whole.byte_size()))
+        << "level " << level << (label ? " with a label" : "");
+  }
+  EXPECT_EQ(LevelDecoder(e, 0).slices(0, 30), labels);  // level 0 is the input, bit for bit
+  const LevelDecoder l1(e, 1);
+  EXPECT_NE(error_of([&] { (void)l1.slices(3, 3); }).find("not within level 1"), std::string::npos);
+  EXPECT_NE(error_of([&] { (void)l1.slices(0, 16); }).find("not within level 1"), std::string::npos);
+  EXPECT_NE(error_of([&] { LevelDecoder(e, e.level_count()); }).find("level"), std::string::npos);
+  EXPECT_NE(error_of([&] { LevelDecoder(e, 1, e.label_map().values().back() + 7); }).find("does not occur"),
+            std::string::npos);
 }
 
 TEST(MixtureEncodedLabels, KeepsDtypeAndSignedValues) {

@@ -133,6 +133,7 @@ class EncodedLabels final : public NodeGrid {
   /// FormatError when it is absent or damaged, or when its dims differ from this file's.
   std::unique_ptr<EncodedLabels> open_normals() const;
 
+  // Whole levels, as LevelDecoder decodes them slab by slab:
   Volume decode_level0() const;  // original dtype and values, bit-exact
   // Per voxel the label of the node's largest mean weight (ties: the smaller label), source dtype.
   Volume dominant_labels(int level) const;
@@ -148,7 +149,7 @@ class EncodedLabels final : public NodeGrid {
   std::vector<float> label_fractions(std::int64_t label_value) const;
 
  private:
-  std::vector<std::uint32_t> level_ids(int level) const;
+  friend class LevelDecoder;
   Spacing level_spacing(int level) const;
 
   std::unique_ptr<store::ContainerReader> reader_;
@@ -164,6 +165,29 @@ class EncodedLabels final : public NodeGrid {
   std::vector<BlockPaletteIds> blocks_;
   mutable std::once_flag lookup_once_;
   mutable std::unique_ptr<MixtureLookup> lookup_;
+};
+
+/// @brief Decodes one level of an EncodedLabels in z-slabs, so a level is never held whole
+/// (`strata labels decode`): level 0 the original labels (bit-exact, source dtype), a coarser
+/// level the dominant label per voxel (source dtype; ties: the smaller label), or with a label
+/// value that label's fraction per voxel (f32). Holds only a table per graph node (the dominant
+/// source or the fraction; none for level 0). `labels` must outlive it.
+class LevelDecoder {
+ public:
+  /// @brief Throws Error naming the file for a level outside 0..level_count()-1 or a label value
+  /// that does not occur.
+  LevelDecoder(const EncodedLabels& labels, int level, std::optional<std::int64_t> label = {});
+  /// @brief Dims, dtype and spacing (the file's, times 2^level) of the decoded level.
+  const VolumeInfo& info() const { return info_; }
+  /// @brief Slices [z0, z1) of the decoded level. Throws Error unless 0 <= z0 < z1 <= dims.z.
+  Volume slices(std::int64_t z0, std::int64_t z1) const;
+
+ private:
+  const EncodedLabels& labels_;
+  int level_;
+  VolumeInfo info_;
+  std::vector<std::uint32_t> dominant_;  // per node: its dominant source (coarser levels, no label)
+  std::vector<float> fraction_;          // per node: the label's fraction (with a label)
 };
 
 }  // namespace strata::mixture
