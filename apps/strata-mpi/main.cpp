@@ -92,6 +92,22 @@ void print_label_ranks(const dist::DistributedLabelsReport& r) {
   std::printf("%zu ranks: %s of parts sent to rank 0\n", r.ranks.size(), cli::human_bytes(sent).c_str());
 }
 
+// The per-rank lines of print_label_ranks() as JSON (--json).
+nlohmann::json label_ranks_json(const dist::DistributedLabelsReport& r) {
+  nlohmann::json ranks = nlohmann::json::array();
+  for (const dist::LabelRankStats& s : r.ranks)
+    ranks.push_back({{"z_begin", s.z_begin},
+                     {"z_end", s.z_end},
+                     {"input_bytes", s.input_bytes},
+                     {"part_bytes", s.part_bytes},
+                     {"part_mixtures", s.part_mixtures},
+                     {"values_seconds", s.values_seconds},
+                     {"ids_seconds", s.ids_seconds},
+                     {"merge_seconds", s.merge_seconds},
+                     {"write_seconds", s.write_seconds}});
+  return ranks;
+}
+
 // Sets the worker threads of this rank: `threads`, or the node's hardware threads divided by
 // the ranks on it.
 void set_rank_threads(int threads) {
@@ -145,9 +161,13 @@ int run(int argc, char** argv, int rank) {
           make_progress_sink(rank == 0 ? parse_progress_mode(progress_mode) : ProgressMode::silent);
       const dist::DistributedLabelsReport report = dist::encode_labels_distributed(
           MPI_COMM_WORLD, label_args->input, label_args->raw.to_read_options(), label_args->output, options, *progress);
-      if (speaks) {
+      if (speaks && label_args->json) {
+        nlohmann::json j = cli::encode_report_json(label_args->output, report.dims, options, *label_args, report.report);
+        j["ranks"] = label_ranks_json(report);
+        std::printf("%s\n", j.dump(2).c_str());
+      } else if (speaks) {
         cli::print_encode_report(label_args->output, report.dims, options, *label_args, report.report);
-        if (!label_args->json) print_label_ranks(report);
+        print_label_ranks(report);
       }
       return 0;
     }

@@ -65,24 +65,29 @@ mixture::EncodeOptions to_encode_options(const LabelsEncodeArgs& args) {
   return o;
 }
 
+nlohmann::json encode_report_json(const std::string& name, const Extent& dims, const mixture::EncodeOptions& o,
+                                  const LabelsEncodeArgs& args, const mixture::EncodeReport& r) {
+  nlohmann::json j{{"file", name},        {"nodes", r.nodes},
+                   {"internal_nodes", r.internal_nodes}, {"sources", r.sources},
+                   {"depth", r.depth},           {"distinct_mixtures", r.distinct_mixtures},
+                   {"input_pairs", r.input_pairs}, {"file_bytes", r.file_bytes},
+                   {"mip_levels", r.mip_levels}, {"mip_voxels", r.mip_voxels},
+                   {"nnz_per_voxel", r.nnz_per_voxel}, {"raw_histogram_bytes", r.raw_histogram_bytes},
+                   {"background_fraction", r.background_fraction}, {"level0_voxels", r.level0_voxels},
+                   {"dims", {dims.x, dims.y, dims.z}},
+                   {"bits", o.bits}, {"strategy", args.strategy}, {"tau", o.tau}, {"ids", args.ids},
+                   {"graph_bytes", r.graph_bytes}, {"ids_bytes", r.ids_bytes},
+                   {"bits_per_voxel", r.bits_per_voxel}, {"seconds", r.seconds},
+                   {"factor_seconds", r.factor_seconds}};
+  if (r.max_l1) j["max_l1_error"] = *r.max_l1;
+  if (o.normals) j["normals"] = {{"bytes", r.normals_bytes}, {"seconds", r.normals_seconds}};
+  return j;
+}
+
 void print_encode_report(const std::string& name, const Extent& dims, const mixture::EncodeOptions& o,
                          const LabelsEncodeArgs& args, const mixture::EncodeReport& r) {
   if (args.json) {
-    nlohmann::json j{{"file", name},        {"nodes", r.nodes},
-                     {"internal_nodes", r.internal_nodes}, {"sources", r.sources},
-                     {"depth", r.depth},           {"distinct_mixtures", r.distinct_mixtures},
-                     {"input_pairs", r.input_pairs}, {"file_bytes", r.file_bytes},
-                     {"mip_levels", r.mip_levels}, {"mip_voxels", r.mip_voxels},
-                     {"nnz_per_voxel", r.nnz_per_voxel}, {"raw_histogram_bytes", r.raw_histogram_bytes},
-                     {"background_fraction", r.background_fraction}, {"level0_voxels", r.level0_voxels},
-                     {"dims", {dims.x, dims.y, dims.z}},
-                     {"bits", o.bits}, {"strategy", args.strategy}, {"tau", o.tau}, {"ids", args.ids},
-                     {"graph_bytes", r.graph_bytes}, {"ids_bytes", r.ids_bytes},
-                     {"bits_per_voxel", r.bits_per_voxel}, {"seconds", r.seconds},
-                     {"factor_seconds", r.factor_seconds}};
-    if (r.max_l1) j["max_l1_error"] = *r.max_l1;
-    if (o.normals) j["normals"] = {{"bytes", r.normals_bytes}, {"seconds", r.normals_seconds}};
-    std::printf("%s\n", j.dump(2).c_str());
+    std::printf("%s\n", encode_report_json(name, dims, o, args, r).dump(2).c_str());
     return;
   }
   std::printf("%s: %llu nodes (%llu sources), depth %u, %s (graph %s), %.3f bits/voxel", name.c_str(),

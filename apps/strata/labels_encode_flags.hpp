@@ -5,6 +5,8 @@
 
 #include <string>
 
+#include <nlohmann/json.hpp>
+
 #include "report.hpp"
 #include "strata/mixture/encoded_labels.hpp"
 
@@ -27,6 +29,10 @@ void add_labels_encode_flags(CLI::App& cmd, LabelsEncodeArgs& args);
 
 // The options the flags ask for; a bad value throws UsageError naming its flag.
 mixture::EncodeOptions to_encode_options(const LabelsEncodeArgs& args);
+
+// The report as `--json` prints it.
+nlohmann::json encode_report_json(const std::string& name, const Extent& dims, const mixture::EncodeOptions& o,
+                                  const LabelsEncodeArgs& args, const mixture::EncodeReport& r);
 
 // The summary on stdout (JSON with --json).
 void print_encode_report(const std::string& name, const Extent& dims, const mixture::EncodeOptions& o,

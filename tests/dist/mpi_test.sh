@@ -126,6 +126,17 @@ PY
   labels-blocks)  # 13 block rows: 3 ranks take 4/4/5; labels cross the ranks' borders
     generate fibres 64,48,100 --count 60
     for np in 1 2 3; do same_labels "$np"; done
+    # --json: the report of strata labels encode plus one entry per rank, their slices tiling the volume
+    "$mpiexec" -np 3 --oversubscribe "$strata_mpi" --progress none labels encode in.nrrd -o json.strata --json >json.log
+    python3 - <<'PY' || fail "--json report"
+import json
+r = json.load(open("json.log"))
+ranks = r["ranks"]
+assert len(ranks) == 3 and r["nodes"] > 0, r
+assert [k["z_begin"] for k in ranks] == [0, 32, 64] and ranks[-1]["z_end"] == 100, ranks
+assert all(k["part_bytes"] > 0 and k["input_bytes"] > 0 for k in ranks), ranks
+print("ok: --json with", len(ranks), "ranks")
+PY
     ;;
   labels-fixed)  # fixed-rate ids, no zstd, 8-slice slabs under --memory-limit (several per rank)
     generate fibres 96,80,100 --count 200 --seed 4
