@@ -29,7 +29,11 @@ namespace {
 
 using namespace strata;
 
-constexpr const char* kMemoryHint = "use more ranks, a smaller --brick or fewer --threads";
+// What to try after running out of memory, per command.
+constexpr const char* kCompressMemoryHint = "use more ranks, a smaller --brick or fewer --threads";
+constexpr const char* kLabelsMemoryHint =
+    "rank 0 holds the coarser mip levels, the mixture table and the factorisation as one process would "
+    "(docs/distributed.md, Limits); more ranks do not shrink them: use a node with more memory";
 
 // Ranks that share this node (they share its cores).
 int ranks_on_this_node() {
@@ -115,10 +119,55 @@ void set_rank_threads(int threads) {
   set_thread_count(threads > 0 ? threads : std::max(1, hardware_threads() / ranks_on_this_node()));
 }
 
+// On every rank: the threads, the flags (`check`) and, on rank 0 alone (it writes the file),
+// the output path; agreed, so all ranks go on or all stop.
+template <class Check>
+void check_setup(int rank, int threads, const std::string& input, const std::string& output, Check&& check) {
+  dist::agree_on(MPI_COMM_WORLD, [&] {
+    set_rank_threads(threads);
+    check();
+    if (rank == 0) cli::check_output_file(output, "--output", {input}, {".strata"});
+  });
+}
+
+void run_compress(const cli::CompressArgs& args, int rank, int threads) {
+  ta::CompressParams params;
+  check_setup(rank, threads, args.input, args.output, [&] {
+    check_supported(args);
+    params = cli::to_params(args);
+  });
+  const dist::DistributedReport report =
+      dist::compress_distributed(MPI_COMM_WORLD, args.input, args.raw.to_read_options(), args.output, params);
+  if (rank != 0) return;
+  cli::print_compress_report(args.output, params, report.report);
+  print_distributed_report(report);
+}
+
+void run_labels_encode(const cli::LabelsEncodeArgs& args, int rank, int threads, const std::string& progress_mode) {
+  mixture::EncodeOptions options;
+  check_setup(rank, threads, args.input, args.output, [&] {
+    check_supported(args);
+    options = cli::to_encode_options(args);
+  });
+  const std::unique_ptr<ProgressSink> progress =
+      make_progress_sink(rank == 0 ? parse_progress_mode(progress_mode) : ProgressMode::silent);
+  const dist::DistributedLabelsReport report = dist::encode_labels_distributed(
+      MPI_COMM_WORLD, args.input, args.raw.to_read_options(), args.output, options, *progress);
+  if (rank != 0) return;
+  if (args.json) {
+    nlohmann::json j = cli::encode_report_json(args.output, report.dims, options, args, report.report);
+    j["ranks"] = label_ranks_json(report);
+    std::printf("%s\n", j.dump(2).c_str());
+    return;
+  }
+  cli::print_encode_report(args.output, report.dims, options, args, report.report);
+  print_label_ranks(report);
+}
+
 // Parses and runs; returns this rank's exit code. Every rank takes the same collective steps.
 int run(int argc, char** argv, int rank) {
   const bool speaks = rank == 0;
-  CLI::App app{"strata-mpi: distributed compression over MPI (run under mpirun; docs/distributed.md)", "strata-mpi"};
+  CLI::App app{"strata-mpi: distributed preprocessing over MPI (run under mpirun; docs/distributed.md)", "strata-mpi"};
   app.require_subcommand(1);
   int threads = 0;
   std::string progress_mode = "auto";
@@ -128,11 +177,11 @@ int run(int argc, char** argv, int rank) {
   app.add_option("--threads", threads,
                  "Worker threads per rank (default: the hardware threads of the node divided by its ranks)")
       ->check(cli::kNonNegativeInteger);
-  auto args = std::make_shared<cli::CompressArgs>();
-  CLI::App* cmd = app.add_subcommand(
+  auto compress_args = std::make_shared<cli::CompressArgs>();
+  CLI::App* compress = app.add_subcommand(
       "compress", "Compress a volume into a bricked tensor-approximation octree (.strata) across the MPI ranks; the "
                   "file is byte-identical to `strata compress` with the same flags (fixed rank, ta-bricked)");
-  cli::add_compress_flags(*cmd, *args);
+  cli::add_compress_flags(*compress, *compress_args);
   auto label_args = std::make_shared<cli::LabelsEncodeArgs>();
   CLI::App* labels = app.add_subcommand("labels", "Label (segmentation) volumes");
   labels->require_subcommand(1);
@@ -148,54 +197,24 @@ int run(int argc, char** argv, int rank) {
     if (speaks) std::fprintf(stderr, "error: %s\nRun with --help for more information.\n", e.what());
     return 2;
   }
+  const char* memory_hint = encode->parsed() ? kLabelsMemoryHint : kCompressMemoryHint;
   try {
     if (encode->parsed()) {
-      mixture::EncodeOptions options;
-      dist::agree_on(MPI_COMM_WORLD, [&] {
-        set_rank_threads(threads);
-        check_supported(*label_args);
-        options = cli::to_encode_options(*label_args);
-        if (rank == 0) cli::check_output_file(label_args->output, "--output", {label_args->input}, {".strata"});
-      });
-      const std::unique_ptr<ProgressSink> progress =
-          make_progress_sink(rank == 0 ? parse_progress_mode(progress_mode) : ProgressMode::silent);
-      const dist::DistributedLabelsReport report = dist::encode_labels_distributed(
-          MPI_COMM_WORLD, label_args->input, label_args->raw.to_read_options(), label_args->output, options, *progress);
-      if (speaks && label_args->json) {
-        nlohmann::json j = cli::encode_report_json(label_args->output, report.dims, options, *label_args, report.report);
-        j["ranks"] = label_ranks_json(report);
-        std::printf("%s\n", j.dump(2).c_str());
-      } else if (speaks) {
-        cli::print_encode_report(label_args->output, report.dims, options, *label_args, report.report);
-        print_label_ranks(report);
-      }
-      return 0;
-    }
-    ta::CompressParams params;
-    dist::agree_on(MPI_COMM_WORLD, [&] {
-      set_rank_threads(threads);
-      check_supported(*args);
-      params = cli::to_params(*args);
-      // Only rank 0 writes the output.
-      if (rank == 0) cli::check_output_file(args->output, "--output", {args->input}, {".strata"});
-    });
-    const dist::DistributedReport report =
-        dist::compress_distributed(MPI_COMM_WORLD, args->input, args->raw.to_read_options(), args->output, params);
-    if (speaks) {
-      cli::print_compress_report(args->output, params, report.report);
-      print_distributed_report(report);
+      run_labels_encode(*label_args, rank, threads, progress_mode);
+    } else {
+      run_compress(*compress_args, rank, threads);
     }
     return 0;
   } catch (const dist::PeerFailure&) {
     return 1;  // the rank that failed reports
   } catch (const Error&) {
-    return cli::print_error(app, kMemoryHint);  // agreed: every rank leaves the same step
+    return cli::print_error(app, memory_hint);  // agreed: every rank leaves the same step
   } catch (const std::filesystem::filesystem_error&) {
-    return cli::print_error(app, kMemoryHint);
+    return cli::print_error(app, memory_hint);
   } catch (...) {
     // Out of memory or a failure nobody expected, possibly outside an agreed step (an exchange
     // buffer): the other ranks may wait in a collective, so the run ends here.
-    cli::print_error(app, kMemoryHint);
+    cli::print_error(app, memory_hint);
     MPI_Abort(MPI_COMM_WORLD, 1);
     return 1;
   }

@@ -1,5 +1,6 @@
 // `strata labels decode IN.strata --level L -o OUT [--label ID]`.
 #include <algorithm>
+#include <memory>
 #include <cstdio>
 #include <optional>
 
@@ -7,7 +8,6 @@
 #include "commands.hpp"
 #include "report.hpp"
 #include "strata/core/error.hpp"
-#include "strata/io/slab_stream.hpp"
 #include "strata/io/volume_io.hpp"
 #include "strata/mixture/encoded_labels.hpp"
 #include "strata/store/volume_set.hpp"
@@ -33,9 +33,8 @@ void run_labels_decode(const LabelsDecodeArgs& args, const GlobalOptions& global
                 " for " + args.input);
   const mixture::LevelDecoder decoder(labels, args.level, args.label);
   const VolumeInfo& info = decoder.info();
-  // A slab holds its samples and one u32 node id per voxel.
-  const std::uint64_t slice_bytes = std::uint64_t(info.dims.x * info.dims.y) * (dtype_size(info.dtype) + 4);
-  const std::int64_t step = std::max<std::int64_t>(1, std::int64_t(io::kDefaultSlabBytes / slice_bytes));
+  // A slab holds its samples and one u32 node id per voxel, as an encoding slab does.
+  const std::int64_t step = mixture::label_slab_slices(info, 0);
   const auto progress = global.make_progress();
   ProgressTask task(*progress, "decode", std::uint64_t(info.dims.voxel_count()), "vox");
   const std::unique_ptr<io::VolumeWriter> writer = io::create_volume_writer(args.output, info);

@@ -21,10 +21,7 @@ void run_labels_encode(const LabelsEncodeArgs& args, const GlobalOptions& global
   read.progress = progress.get();
   check_output_file(args.output, "--output", {args.input}, {".strata"});
   const auto encode = [&](io::VolumeSource& source, const std::filesystem::path& output, const std::string& name) {
-    if (!dtype_is_integer(source.info().dtype))
-      throw Error(args.input + ": " + std::string(dtype_name(source.info().dtype)) +
-                  " samples: a label volume needs integer samples (u8, i8, u16, i16, u32 or i32); convert the "
-                  "segmentation to an integer type first");
+    mixture::require_label_dtype(args.input, source.info().dtype);
     print_encode_report(name, source.info().dims, o, args, mixture::encode_labels(source, output, o, *progress));
   };
   if (args.all_volumes) {

@@ -107,9 +107,7 @@ class Run {
       mixture::detail::check_options(options_);
       source_ = io::open_volume(input, read);
       const VolumeInfo& info = source_->info();
-      if (!dtype_is_integer(info.dtype))
-        throw Error(input.string() + ": " + std::string(dtype_name(info.dtype)) +
-                    " samples: a label volume needs integer samples (u8, i8, u16, i16, u32 or i32)");
+      mixture::require_label_dtype(input.string(), info.dtype);
       slab_ = mixture::label_slab_slices(info, options_.memory_limit);
     });
     const VolumeInfo& info = source_->info();

@@ -262,11 +262,6 @@ HistogramMipmap::StreamBuilder::StreamBuilder(Extent dims, std::uint32_t num_sou
   }
 }
 
-std::uint32_t* HistogramMipmap::StreamBuilder::level1_slice(std::int64_t z1) {
-  const Extent& P = dims_[1];
-  return h_.levels_[1].ids.data() + (z1 - z_begin_ / 2) * P.y * P.x;
-}
-
 void HistogramMipmap::StreamBuilder::append(std::span<const std::uint32_t> ids) {
   const Extent C = dims_[0];
   const std::size_t slice = std::size_t(C.x * C.y);
@@ -287,7 +282,7 @@ void HistogramMipmap::StreamBuilder::append(std::span<const std::uint32_t> ids) 
   const std::int64_t z0 = slices_;
   slices_ += n;
   if (dims_.size() < 2 || n == 0) return;
-  build_parent_slices(h_.table_, ids.data(), z0, C, dims_[1], z0 / 2, (slices_ + 1) / 2, 1, level1_slice(z_begin_ / 2),
+  build_parent_slices(h_.table_, ids.data(), z0, C, dims_[1], z0 / 2, (slices_ + 1) / 2, 1, h_.levels_[1].ids.data(),
                       z_begin_ / 2, nullptr);
 }
 
@@ -316,7 +311,9 @@ void HistogramMipmap::StreamBuilder::append_part(const MipmapSlabPart& part) {
       if (i >= sources) throw Error("histogram mipmap: a part's mixture holds source id " + std::to_string(i));
     global[sources + k] = h_.table_.intern(index, mass, 1, part.first_voxel[k]);
   }
-  std::uint32_t* out = level1_slices > 0 ? level1_slice(part.z_begin / 2) : nullptr;
+  // Level 1 holds slices from z_begin_ / 2 on; the part's start there.
+  std::uint32_t* out =
+      level1_slices > 0 ? h_.levels_[1].ids.data() + (part.z_begin - z_begin_) / 2 * level1_area : nullptr;
   for (std::size_t v = 0; v < part.level1_ids.size(); ++v) {
     const std::uint32_t id = part.level1_ids[v];
     if (id >= global.size()) throw Error("histogram mipmap: a part's level-1 id " + std::to_string(id) + " is unknown");

@@ -168,6 +168,13 @@ Volume LabelMap::decode(std::span<const std::uint32_t> ids, Extent dims, Spacing
   return out;
 }
 
+void require_label_dtype(const std::string& file, DType dtype) {
+  if (!dtype_is_integer(dtype))
+    throw Error(file + ": " + std::string(dtype_name(dtype)) +
+                " samples: a label volume needs integer samples (u8, i8, u16, i16, u32 or i32); convert the "
+                "segmentation to an integer type first");
+}
+
 LabelValueCollector::LabelValueCollector(DType dtype) : dtype_(dtype) {
   require_integer(dtype);
   visit_dtype(dtype_, [&](auto tag) {

@@ -149,7 +149,6 @@ class HistogramMipmap::StreamBuilder {
   MipmapSlabPart finish_part();
 
  private:
-  std::uint32_t* level1_slice(std::int64_t z1);  // where level-1 slice z1 (whole-volume index) is held
   std::vector<Extent> dims_;
   HistogramMipmap h_;
   std::vector<std::uint64_t> level0_counts_;

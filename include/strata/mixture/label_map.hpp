@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <optional>
 #include <span>
+#include <string>
 #include <vector>
 
 #include "strata/core/volume.hpp"
@@ -40,6 +41,10 @@ struct SourceIds {
   Spacing spacing;
   std::vector<std::uint32_t> ids;  // dense id per voxel, x fastest
 };
+
+/// @brief Throws Error naming `file` unless `dtype` is an integer type (u8, i8, u16, i16, u32 or
+/// i32): only integer samples are labels.
+void require_label_dtype(const std::string& file, DType dtype);
 
 /// @brief The distinct values of an integer label volume, gathered slab by slab (the first pass
 /// of a streamed encoding). Throws Error for a float dtype (at construction) and for a slab of
