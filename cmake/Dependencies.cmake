@@ -23,7 +23,9 @@ target_include_directories(strata_spng INTERFACE ${SPNG_INCLUDE_DIR})
 target_link_libraries(strata_spng INTERFACE ${SPNG_LIBRARY})
 
 add_library(strata_options INTERFACE)
-target_compile_options(strata_options INTERFACE -Wall -Wextra -Wno-unused-parameter)
+# Every closed list (payload kinds, decoders, ISAs, formats...) is an enum whose switches must
+# name each value: a missing case is an error, not a warning that scrolls by.
+target_compile_options(strata_options INTERFACE -Wall -Wextra -Werror=switch)
 if(STRATA_NATIVE)
   target_compile_options(strata_options INTERFACE -march=native)
 endif()

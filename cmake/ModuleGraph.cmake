@@ -18,7 +18,7 @@ set(STRATA_DEPS_dist core io store ta mixture)
 
 # Fails with the file and the include when a module includes a module it does not depend on.
 function(strata_check_module_includes source_dir name deps)
-  file(GLOB _files ${source_dir}/src/${name}/*.cpp ${source_dir}/src/${name}/*.hpp
+  file(GLOB_RECURSE _files ${source_dir}/src/${name}/*.cpp ${source_dir}/src/${name}/*.hpp
        ${source_dir}/include/strata/${name}/*.hpp)
   foreach(file IN LISTS _files)
     file(STRINGS ${file} _includes REGEX "^#include \"(strata/)?[a-z_]+/")

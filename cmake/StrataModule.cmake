@@ -1,10 +1,11 @@
 # strata_add_module(name "deps"): one static library per folder src/<name>, public headers in
-# include/strata/<name>. Sources are globbed so a new file needs no CMake edit.
+# include/strata/<name>. Sources are globbed (subfolders too: a format or codec may keep its own
+# folder, src/io/<format>/) so a new file needs no CMake edit.
 #
 # `deps` is the module's own list of strata modules (cmake/ModuleGraph.cmake); each include of
 # another module must be one of them, or configuring fails.
 function(strata_add_module name deps)
-  file(GLOB _sources CONFIGURE_DEPENDS ${PROJECT_SOURCE_DIR}/src/${name}/*.cpp)
+  file(GLOB_RECURSE _sources CONFIGURE_DEPENDS ${PROJECT_SOURCE_DIR}/src/${name}/*.cpp)
   if(NOT _sources)
     return()
   endif()

@@ -17,6 +17,7 @@
 #include "strata/store/container.hpp"
 #include "strata/store/crc32c.hpp"
 #include "strata/store/volume_set.hpp"
+#include "strata/ta/codec_registry.hpp"
 #include "strata/ta/ta_volume.hpp"
 
 namespace {
@@ -36,7 +37,7 @@ void read_codec(std::unique_ptr<strata::store::ContainerReader> reader) {
       if (reader->has_section(name)) strata::fuzz::run_guarded([&] { (void)reader->section(name); });
     }
   const std::string codec = m.contains("codec") && m["codec"].is_string() ? m["codec"].get<std::string>() : "";
-  if (codec == "ta-bricked" || codec == strata::ta::kGlobalCodecName) {
+  if (strata::ta::is_codec_name(codec)) {
     const strata::ta::TaVolume volume(std::move(reader));
     const int top = volume.geometry().level_count() - 1;
     const strata::Extent dims = volume.geometry().level(top).dims;

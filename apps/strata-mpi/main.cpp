@@ -16,6 +16,7 @@
 #include "cli_checks.hpp"
 #include "commands.hpp"
 #include "compress_flags.hpp"
+#include "strata/ta/codec_registry.hpp"
 #include "labels_encode_flags.hpp"
 #include "error_exit.hpp"
 #include "malloc_tuning.hpp"
@@ -23,6 +24,7 @@
 #include "strata/core/threads.hpp"
 #include "strata/dist/compress.hpp"
 #include "strata/dist/labels.hpp"
+#include "strata/io/file_names.hpp"
 #include "strata/ta/compress.hpp"
 
 namespace {
@@ -45,11 +47,13 @@ int ranks_on_this_node() {
   return n;
 }
 
-// strata-mpi runs the fixed-rank ta-bricked codec only (dist::compress_distributed says why).
+// strata-mpi runs the codecs whose bricks depend on their own samples only, at a fixed rank
+// (ta::BrickCodec::distributed; dist::compress_distributed says why).
 void check_supported(const cli::CompressArgs& args) {
-  if (args.codec != "ta-bricked")
-    throw cli::UsageError("--codec", "strata-mpi writes ta-bricked only (ta-global fits its bases to the whole "
-                                     "volume first); use `strata compress --codec ta-global`");
+  const ta::BrickCodec* codec = ta::find_codec(args.codec, ta::CodecMode::fixed_rank);
+  if (codec != nullptr && !codec->distributed())
+    throw cli::UsageError("--codec", "strata-mpi does not write " + args.codec + " (it fits the whole volume before " +
+                                         "its first brick); use `strata compress --codec " + args.codec + "`");
   for (const auto& [value, flag] : {std::pair{args.psnr, "--psnr"}, {args.rmse, "--rmse"}, {args.max_error, "--max-error"}})
     if (value)
       throw cli::UsageError(flag, "strata-mpi compresses at a fixed rank only (an error target's per-brick "
@@ -126,7 +130,7 @@ void check_setup(int rank, int threads, const std::string& input, const std::str
   dist::agree_on(MPI_COMM_WORLD, [&] {
     set_rank_threads(threads);
     check();
-    if (rank == 0) cli::check_output_file(output, "--output", {input}, {".strata"});
+    if (rank == 0) cli::check_output_file(output, "--output", {input}, {io::kStrataExtension});
   });
 }
 

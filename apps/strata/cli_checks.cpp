@@ -98,21 +98,22 @@ void check_output_file(const std::string& output, const std::string& flag, const
   check_parent_writable(output, flag);
 }
 
-io::FileFormat check_volume_output(const std::string& output, const std::string& flag,
-                                   const std::vector<std::string>& inputs, const DType* dtype) {
+const io::VolumeFormat& check_volume_output(const std::string& output, const std::string& flag,
+                                           const std::vector<std::string>& inputs, const DType* dtype) {
   check_not_an_input(output, flag, inputs);
-  io::FileFormat format{};
+  const io::VolumeFormat* format = nullptr;
   try {
-    format = io::detect_format(output);
+    format = &io::output_format(output);
   } catch (const Error& e) {
     throw UsageError(flag, e.what());
   }
-  if (dtype && !io::format_supports(format, *dtype))
-    throw UsageError(flag, "'" + output + "': " + io::format_name(format) + " cannot store " +
-                               std::string(dtype_name(*dtype)) + " samples");
+  if (!format->create_writer) throw UsageError(flag, "'" + output + "': the " + format->name + " format has no writer");
+  if (dtype && !format->writes(*dtype))
+    throw UsageError(flag, "'" + output + "': " + format->name + " cannot store " + std::string(dtype_name(*dtype)) +
+                               " samples");
   std::error_code ec;
-  if (!(format == io::FileFormat::tiff && fs::is_directory(output, ec))) check_parent_writable(output, flag);
-  return format;
+  if (!(!format->directory.empty() && fs::is_directory(output, ec))) check_parent_writable(output, flag);
+  return *format;
 }
 
 void check_output_folder(const std::string& output, const std::string& flag, const std::vector<std::string>& inputs) {

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "strata/core/error.hpp"
-#include "strata/io/volume_io.hpp"
+#include "strata/io/formats.hpp"
 
 namespace strata::cli {
 
@@ -21,6 +21,10 @@ class UsageError : public ParameterError {
  public:
   using ParameterError::ParameterError;
 };
+
+// The flag that sets a library parameter ("CodecParams::rank" -> "--rank"; parameter_flags.cpp),
+// or the parameter itself when no flag does.
+std::string flag_for_parameter(std::string_view parameter);
 
 // Runs `check`; a ParameterError it throws (a library validation of the flags' values) is
 // rethrown as a UsageError with the same parameter and problem.
@@ -41,8 +45,9 @@ void check_finite_range(double value, double lo, double hi, const std::string& f
 void check_output_file(const std::string& output, const std::string& flag, const std::vector<std::string>& inputs,
                        std::initializer_list<std::string_view> extensions);
 // check_output_file for a volume file io writes: the format comes from the name (UsageError
-// when unknown) and must be able to hold `dtype` samples when given.
-io::FileFormat check_volume_output(const std::string& output, const std::string& flag,
+// when unknown, listing the registered extensions), must have a writer and must be able to hold
+// `dtype` samples when given.
+const io::VolumeFormat& check_volume_output(const std::string& output, const std::string& flag,
                                    const std::vector<std::string>& inputs, const DType* dtype = nullptr);
 // An output folder (created when missing): not one of the inputs, not an existing file, its
 // parent writable.

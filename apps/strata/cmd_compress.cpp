@@ -3,6 +3,7 @@
 #include "cli_checks.hpp"
 #include "commands.hpp"
 #include "compress_flags.hpp"
+#include "strata/io/file_names.hpp"
 #include "strata/io/volume_io.hpp"
 #include "strata/ta/compress.hpp"
 
@@ -12,7 +13,7 @@ namespace {
 
 void run_compress(const CompressArgs& args, const GlobalOptions& global) {
   const ta::CompressParams params = to_params(args);
-  check_output_file(args.output, "--output", {args.input}, {".strata"});
+  check_output_file(args.output, "--output", {args.input}, {io::kStrataExtension});
   auto progress = global.make_progress();
   io::ReadOptions read = args.raw.to_read_options();
   read.progress = progress.get();

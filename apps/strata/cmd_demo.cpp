@@ -13,6 +13,7 @@
 #include "strata/core/metrics.hpp"
 #include "strata/core/statistics.hpp"
 #include "strata/gen/generators.hpp"
+#include "strata/io/file_names.hpp"
 #include "strata/io/volume_io.hpp"
 #include "strata/mixture/box_query.hpp"
 #include "strata/mixture/encoded_labels.hpp"
@@ -163,12 +164,13 @@ nlohmann::json render_samples(const fs::path& out) {
     for (int k : {16, 8, 4}) {
       settings.rank = k;
       frames.push_back(render_still(session, settings, "ch2better rank " + std::to_string(k),
-                                    out / ("ch2better_rank" + std::to_string(k) + ".png")));
+                                    out / ("ch2better_rank" + std::to_string(k) + std::string(io::kPngExtension))));
     }
   }
   const fs::path labels = fs::exists(out / "aal.strata") ? out / "aal.strata" : out / "cells.strata";
   render::RenderSession session(labels);
-  frames.push_back(render_still(session, {}, labels.stem().string() + " labels", out / (labels.stem().string() + ".png")));
+  frames.push_back(render_still(session, {}, labels.stem().string() + " labels",
+                                out / (labels.stem().string() + std::string(io::kPngExtension))));
   return frames;
 }
 

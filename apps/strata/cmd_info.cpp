@@ -9,12 +9,13 @@
 #include "report.hpp"
 #include "strata/core/statistics.hpp"
 #include "strata/io/slab_stream.hpp"
-#include "strata/io/volume_io.hpp"
+#include "strata/io/formats.hpp"
 #include "strata/core/error.hpp"
 #include "strata/mixture/encoded_labels.hpp"
 #include "strata/store/container.hpp"
 #include "strata/store/metadata_json.hpp"
 #include "strata/store/volume_set.hpp"
+#include "strata/ta/codec_registry.hpp"
 #include "strata/ta/ta_volume.hpp"
 
 namespace strata::cli {
@@ -31,7 +32,7 @@ nlohmann::json volume_report(const io::VolumeSource& source, const VolumeStatist
   const VolumeInfo& info = source.info();
   nlohmann::json j;
   j["file"] = source.path().string();
-  j["format"] = io::format_name(io::detect_format(source.path()));
+  j["format"] = io::detect_format(source.path()).name;
   j["dims"] = {info.dims.x, info.dims.y, info.dims.z};
   j["dtype"] = std::string(dtype_name(info.dtype));
   j["spacing"] = {info.spacing.x, info.spacing.y, info.spacing.z};
@@ -124,9 +125,9 @@ std::unique_ptr<store::ContainerReader> open_validated(const OpenContainer& open
   const std::string file = reader->name();
   const nlohmann::json& m = reader->metadata();
   const auto codec = m.find("codec");
-  if (codec == m.end())
-    throw FormatError(file, "metadata.codec", "missing (expected \"ta-bricked\", \"ta-global\" or \"mixture-graph\")");
-  if (*codec == "ta-bricked" || *codec == ta::kGlobalCodecName) {
+  const std::string expected = ta::quoted_codec_names() + " or \"" + mixture::kMixtureCodecName + "\"";
+  if (codec == m.end()) throw FormatError(file, "metadata.codec", "missing (expected " + expected + ")");
+  if (codec->is_string() && ta::is_codec_name(codec->get_ref<const std::string&>())) {
     volume = std::make_unique<ta::TaVolume>(std::move(reader));
     return nullptr;
   }
@@ -134,8 +135,7 @@ std::unique_ptr<store::ContainerReader> open_validated(const OpenContainer& open
     mixture::EncodedLabels labels(open());  // its checks; the report reads `reader`
     return reader;
   }
-  throw FormatError(file, "metadata.codec",
-                    "expected \"ta-bricked\", \"ta-global\" or \"mixture-graph\", got " + store::json_excerpt(*codec));
+  throw FormatError(file, "metadata.codec", "expected " + expected + ", got " + store::json_excerpt(*codec));
 }
 
 // A .strata file: container header, codec parameters, levels and brick counts, sizes.
@@ -163,7 +163,7 @@ nlohmann::json container_report(const OpenContainer& open) {
   j["levels"] = levels;
   j["payload_kinds"] = kinds;
   j["sections"] = m.value("sections", nlohmann::json::object());
-  if (m.value("codec", std::string()) == "mixture-graph") {  // label volume (strata labels encode)
+  if (m.value("codec", std::string()) == mixture::kMixtureCodecName) {  // label volume (strata labels encode)
     nlohmann::json g = m.value("stats", nlohmann::json::object());
     for (const char* key : {"ids", "bits", "bins", "strategy", "tau", "fractional"})
       if (m.contains(key)) g[key] = m[key];

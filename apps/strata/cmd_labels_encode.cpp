@@ -7,6 +7,7 @@
 #include "labels_encode_flags.hpp"
 #include "report.hpp"
 #include "strata/core/error.hpp"
+#include "strata/io/file_names.hpp"
 #include "strata/io/volume_io.hpp"
 #include "strata/mixture/encoded_labels.hpp"
 
@@ -19,7 +20,7 @@ void run_labels_encode(const LabelsEncodeArgs& args, const GlobalOptions& global
   auto progress = global.make_progress();
   io::ReadOptions read = args.raw.to_read_options();
   read.progress = progress.get();
-  check_output_file(args.output, "--output", {args.input}, {".strata"});
+  check_output_file(args.output, "--output", {args.input}, {io::kStrataExtension});
   const auto encode = [&](io::VolumeSource& source, const std::filesystem::path& output, const std::string& name) {
     mixture::require_label_dtype(args.input, source.info().dtype);
     print_encode_report(name, source.info().dims, o, args, mixture::encode_labels(source, output, o, *progress));

@@ -9,6 +9,7 @@
 #include "cli_checks.hpp"
 #include "commands.hpp"
 #include "strata/core/error.hpp"
+#include "strata/io/file_names.hpp"
 #include "strata/io/files.hpp"
 #include "report.hpp"
 #include "strata/mixture/encoded_labels.hpp"
@@ -36,7 +37,7 @@ std::array<float, 4> parse_rgba(const nlohmann::json& j, const std::string& file
 
 void run_labels_palette(const LabelsPaletteArgs& args, const GlobalOptions&) {
   using clock = std::chrono::steady_clock;
-  check_output_file(args.output, "--output", {args.input, args.colors}, {".json"});
+  check_output_file(args.output, "--output", {args.input, args.colors}, {io::kJsonExtension});
   const mixture::EncodedLabels labels(store::open_volume(args.input, args.volume));
   nlohmann::json colors = io::read_json_file(args.colors, "json");
   if (!colors.is_object()) throw FormatError(args.colors, "json", "expected an object {\"<label>\": [r, g, b, a], ...}");

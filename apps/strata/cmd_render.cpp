@@ -9,9 +9,12 @@
 #include <nlohmann/json.hpp>
 
 #include "cli_checks.hpp"
+#include "strata/ta/codec_names.hpp"
 #include "commands.hpp"
+#include "strata/ta/global_basis.hpp"
 #include "report.hpp"
 #include "strata/core/error.hpp"
+#include "strata/io/file_names.hpp"
 #include "strata/render/camera.hpp"
 #include "strata/render/image.hpp"
 #include "strata/render/render_session.hpp"
@@ -167,9 +170,9 @@ void check_outputs(const RenderArgs& a) {
   std::vector<std::string> inputs{a.input, a.colors};
   if (!render::TransferFunction::is_preset(a.tf)) inputs.push_back(a.tf);
   if (a.orbit > 0) check_output_folder(a.output, "--output", inputs);
-  else check_output_file(a.output, "--output", inputs, {".png"});
+  else check_output_file(a.output, "--output", inputs, {io::kPngExtension});
   if (a.stats.empty()) return;
-  check_output_file(a.stats, "--stats", inputs, {".json"});
+  check_output_file(a.stats, "--stats", inputs, {io::kJsonExtension});
   if (a.orbit == 0) check_distinct_outputs(a.output, "--output", a.stats, "--stats");
 }
 
@@ -193,8 +196,9 @@ void run_render(const RenderArgs& a, const GlobalOptions&) {
     throw UsageError("--lighting", a.input + " has no normals graph: normals lighting needs a label file encoded with "
                                              "strata labels encode --normals");
   if (a.feature_scale > 0 && !session.has_feature_scale())
-    throw UsageError("--feature-scale", a.input + " has no feature-scale table: an error target needs a ta-global file "
-                                                  "(strata compress --codec ta-global)");
+    throw UsageError("--feature-scale", a.input + " has no feature-scale table: an error target needs a " +
+                                            ta::kGlobalCodecName + " file (strata compress --codec " +
+                                            ta::kGlobalCodecName + ")");
   if (!a.colors.empty() && session.kind() == render::DatasetKind::labels)
     session.set_label_colors(render::LabelColorMap::load(a.colors));
   OutputSet outputs;  // removed again unless every frame and the statistics are written
@@ -246,7 +250,7 @@ void register_render(CLI::App& app, const GlobalOptions& global) {
   cmd->add_option("--lod", a->lod, "Refine bricks while a voxel covers more than this many pixels (0 < L <= 64)")
       ->capture_default_str();
   cmd->add_option("--feature-scale", a->feature_scale,
-                  "ta-global files: error target E, a normalized RMSE (e.g. 0.01 = 1% of the value range) that picks "
+                  std::string(ta::kGlobalCodecName) + " files: error target E, a normalized RMSE (e.g. 0.01 = 1% of the value range) that picks "
                   "each brick's rank and level from the file's feature-scale table (0 = off, the --lod rule alone)")
       ->capture_default_str();
   cmd->add_option("--shading", a->shading, "Blinn-Phong shading: on | off")->capture_default_str();

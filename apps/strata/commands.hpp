@@ -31,6 +31,7 @@ inline const CLI::Validator kNonNegativeInteger(
 
 void register_info(CLI::App& app, const GlobalOptions& global);
 void register_convert(CLI::App& app, const GlobalOptions& global);
+void register_formats(CLI::App& app, const GlobalOptions& global);
 void register_generate(CLI::App& app, const GlobalOptions& global);
 void register_compare(CLI::App& app, const GlobalOptions& global);
 void register_compress(CLI::App& app, const GlobalOptions& global);

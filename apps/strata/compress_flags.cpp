@@ -1,6 +1,5 @@
 #include "compress_flags.hpp"
 
-#include <cmath>
 #include <cstdio>
 #include <tuple>
 
@@ -8,55 +7,61 @@
 
 #include "cli_checks.hpp"
 #include "strata/core/error.hpp"
+#include "strata/ta/codec_registry.hpp"
 #include "strata/ta/target_codec.hpp"
 
 namespace strata::cli {
 
 namespace {
 
-constexpr double kMinRmse = 1e-150;
-
-// The error target the flags ask for, checked here so a bad value names its own flag.
-ta::ErrorTarget to_target(const CompressArgs& args) {
+// The one error target the three target flags may ask for, and the flag that set it.
+std::pair<ta::ErrorTarget, const char*> to_target(const CompressArgs& args) {
   ta::ErrorTarget t;
   t.coarse_growth = args.coarse_growth;
   const char* flag = "";
   if (args.psnr) std::tie(t.kind, t.value, flag) = std::tuple(ta::TargetKind::psnr, *args.psnr, "--psnr");
   if (args.rmse) std::tie(t.kind, t.value, flag) = std::tuple(ta::TargetKind::rmse, *args.rmse, "--rmse");
   if (args.max_error) std::tie(t.kind, t.value, flag) = std::tuple(ta::TargetKind::max_error, *args.max_error, "--max-error");
-  try {
-    ta::check_target(t);
-  } catch (const ParameterError& e) {
-    if (e.parameter() == "ErrorTarget::value") throw UsageError(flag, e.problem());
-    throw UsageError(e.parameter(), e.problem());
+  return {t, flag};
+}
+
+// "--codec" help: every registered codec and what it stores.
+std::string codec_help() {
+  std::string help;
+  for (const std::string& name : ta::codec_names()) {
+    help += (help.empty() ? "" : "; ") + name + ":";
+    for (const ta::BrickCodec* c : ta::codecs())
+      if (c->name() == name) help += " " + std::string(c->summary()) + " (" + std::string(ta::codec_mode_name(c->mode())) + ")";
   }
-  return t;
+  return help;
 }
 
 }  // namespace
 
+// Maps the flags to parameters; the library's validate() holds every rule, and its
+// ParameterError is reported against the flag that set the value.
 ta::CompressParams to_params(const CompressArgs& args) {
-  if (!(std::isfinite(args.coarse_growth) && args.coarse_growth >= 1))
-    throw UsageError("--coarse-growth", "must be a finite factor >= 1, got " + std::to_string(args.coarse_growth));
-  // The encoder works with squared errors: a smaller target underflows to 0.
-  if (args.rmse && std::isfinite(*args.rmse) && *args.rmse > 0 && *args.rmse < kMinRmse)
-    throw UsageError("--rmse", fmt::format("must be at least {:g} (below, its square is no longer a positive number), got {:g}",
-                                           kMinRmse, *args.rmse));
   ta::CompressParams p;
   p.layout = {args.brick, args.overlap};
-  p.layout.validate();
-  if (args.rank < 0) throw UsageError("--rank", "must be positive, got " + std::to_string(args.rank));
-  p.codec.target = to_target(args);
+  const auto [target, target_flag] = to_target(args);
+  p.codec.target = target;
   // With a target the rank is only a cap: each brick keeps the ranks its error needs.
   p.codec.rank = args.rank > 0 ? args.rank : ta::default_rank(p.layout, p.codec.target.kind);
-  p.codec.quant = quant::QuantScheme::parse(args.quant);
+  if (args.rank < 0) p.codec.rank = args.rank;
+  if (!args.quant.empty()) p.codec.quant = quant::QuantScheme::parse(args.quant);
   p.codec.hooi_iterations = args.hooi;
   p.codec.zstd_level = args.zstd;
+  p.codec_name = args.codec;
   if (!args.memory_limit.empty()) p.memory_limit = parse_byte_size(args.memory_limit, "--memory-limit");
-  if (args.codec == "ta-global") {
-    if (p.codec.target.kind != ta::TargetKind::none)
-      throw UsageError("--codec", "ta-global stores fixed-rank cores; --psnr, --rmse and --max-error need ta-bricked");
-    p.kind = ta::CodecKind::global;
+  try {
+    ta::validate(p);
+  } catch (const ParameterError& e) {
+    // Exit codes as they always were: the layout and the rank exit 1 (a runtime error naming
+    // the flag, see cli_message); the target, the codec and the ranges of --hooi and --zstd are
+    // usage errors (exit 2).
+    const std::string& field = e.parameter();
+    if (field.starts_with("BrickLayout::") || field == "CodecParams::rank") throw;
+    throw UsageError(field == "ErrorTarget::value" ? target_flag : flag_for_parameter(field), e.problem());
   }
   return p;
 }
@@ -93,35 +98,28 @@ void add_compress_flags(CLI::App& cmd_app, CompressArgs& args) {
   cmd->add_option("--rank", args.rank,
                   "Stored Tucker rank R per mode (default B/2); with --psnr/--rmse/--max-error the most a brick keeps "
                   "(default B)");
-  auto* quant = cmd->add_option("--quant", args.quant,
-                                "Quantization: f32 | u16,b8log+ | u16,b8log | u8,b8lin | u16,b16lin | u16,b12log+ | "
-                                "u16,b8mu+ ...")
-                    ->capture_default_str();
-  auto* hooi = cmd->add_option("--hooi", args.hooi, "HOOI sweeps after HOSVD (0 = HOSVD only; at most 100)")
-                   ->capture_default_str()
-                   ->check(CLI::Range(0, 100));
+  cmd->add_option("--quant", args.quant,
+                  "Quantization: f32 | u16,b8log+ | u16,b8log | u8,b8lin | u16,b16lin | u16,b12log+ | u16,b8mu+ ... "
+                  "(default u16,b8log+; an error target chooses its own)");
+  cmd->add_option("--hooi", args.hooi,
+                  "HOOI sweeps after HOSVD (0 = HOSVD only; at most " + std::to_string(ta::kMaxHooiIterations) + ")")
+      ->capture_default_str();
   cmd->add_option("--zstd", args.zstd,
-                  "Lossless zstd level over each quantized brick (0 = off); with a target, of bricks stored losslessly")
-      ->capture_default_str()
-      ->check(CLI::Range(0, 19));
+                  "Lossless zstd level over each quantized brick (0 = off, at most " +
+                      std::to_string(ta::kMaxZstdLevel) + "); with a target, of bricks stored losslessly")
+      ->capture_default_str();
   // Error targets: each brick gets the ranks and precision the error needs (docs/format.md).
   auto* psnr = cmd->add_option("--psnr", args.psnr,
                                "Error target: PSNR in dB over the value range, for level 0 as a whole");
   auto* rmse = cmd->add_option("--rmse", args.rmse, "Error target: root mean squared error of level 0 (absolute)");
   auto* max_error = cmd->add_option("--max-error", args.max_error,
                                     "Error target: bound on every sample of level 0 (absolute), guaranteed");
-  auto* growth = cmd->add_option("--coarse-growth", args.coarse_growth,
-                                 "With a target: level l is coded to growth^l times level 0's error")
-                     ->capture_default_str();
-  psnr->excludes(rmse)->excludes(max_error)->excludes(quant)->excludes(hooi);
-  rmse->excludes(max_error)->excludes(quant)->excludes(hooi);
-  max_error->excludes(quant)->excludes(hooi);
-  (void)growth;
-  cmd->add_option("--codec", args.codec,
-                  "ta-bricked: bases per brick (paper 1); ta-global: one set of global bases for the volume, a core per "
-                  "brick and a feature-scale table (paper 2; fixed rank, --quant applies to the cores)")
-      ->capture_default_str()
-      ->check(CLI::IsMember({"ta-bricked", "ta-global"}));
+  cmd->add_option("--coarse-growth", args.coarse_growth,
+                  "With a target: level l is coded to growth^l times level 0's error")
+      ->capture_default_str();
+  psnr->excludes(rmse)->excludes(max_error);
+  rmse->excludes(max_error);
+  cmd->add_option("--codec", args.codec, codec_help())->capture_default_str();
   cmd->add_option("--memory-limit", args.memory_limit,
                   "Bound the working memory, e.g. 512M or 2G (input slabs shrink to fit; default: 64 MiB slabs)");
   args.raw.add_to(*cmd);

@@ -9,9 +9,9 @@ namespace strata::cli {
 void add_labels_encode_flags(CLI::App& cmd, LabelsEncodeArgs& args) {
   cmd.add_option("input", args.input, "Input label volume (integer samples)")->required();
   cmd.add_option("-o,--output", args.output, "Output .strata file")->required();
-  cmd.add_option("--bits", args.bits, "Quantization bits of the interpolation weights (1..16)")
-      ->capture_default_str()
-      ->check(CLI::Range(1, 16));
+  cmd.add_option("--bits", args.bits,
+                 "Quantization bits of the interpolation weights (1.." + std::to_string(mixture::kMaxWeightBits) + ")")
+      ->capture_default_str();
   cmd.add_option("--strategy", args.strategy, "Greedy pair choice: max-reduction | max-occurrence | reuse")
       ->capture_default_str()
       ->check(CLI::IsMember({"max-reduction", "max-occurrence", "reuse"}));
@@ -29,9 +29,10 @@ void add_labels_encode_flags(CLI::App& cmd, LabelsEncodeArgs& args) {
   cmd.add_option("--ids", args.ids, "Per-level id storage: blocks (8^3 block palettes) | fixed (paper Table 1 A)")
       ->capture_default_str()
       ->check(CLI::IsMember({"blocks", "fixed"}));
-  cmd.add_option("--zstd", args.zstd, "zstd level over each level's id section (0 = off; decoded once at open)")
-      ->capture_default_str()
-      ->check(CLI::Range(0, 22));
+  cmd.add_option("--zstd", args.zstd,
+                 "zstd level over each level's id section (0 = off, at most " +
+                     std::to_string(mixture::kMaxIdsZstdLevel) + "; decoded once at open)")
+      ->capture_default_str();
   cmd.add_flag("--no-error", args.no_error, "Skip measuring the max l1 reconstruction error");
   cmd.add_flag("--normals", args.normals,
                 "Also store a normals graph for smooth, pre-filtered shading (`render --lighting normals`)");
@@ -61,7 +62,7 @@ mixture::EncodeOptions to_encode_options(const LabelsEncodeArgs& args) {
     throw UsageError("--normals-dither", "expected on or off, got '" + args.normals_dither + "'");
   o.normal_options.error_diffusion = args.normals_dither == "on";
   if (!args.memory_limit.empty()) o.memory_limit = parse_byte_size(args.memory_limit, "--memory-limit");
-  as_usage_error([&] { o.normal_options.validate(); });
+  as_usage_error([&] { mixture::validate(o); });
   return o;
 }
 

@@ -73,6 +73,7 @@ int main(int argc, char** argv) {
 
   cli::register_info(app, global);
   cli::register_convert(app, global);
+  cli::register_formats(app, global);
   cli::register_generate(app, global);
   cli::register_compare(app, global);
   cli::register_compress(app, global);

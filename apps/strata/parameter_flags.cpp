@@ -17,8 +17,14 @@ constexpr ParameterFlag kParameterFlags[] = {
     {"ApiOptions::cache_bytes", "--cache-mb"},
     {"BrickLayout::brick", "--brick"},
     {"BrickLayout::overlap", "--overlap"},
+    {"CodecParams::hooi_iterations", "--hooi"},
+    {"CodecParams::quant", "--quant"},
     {"CodecParams::rank", "--rank"},
+    {"CodecParams::zstd_level", "--zstd"},
+    {"CompressParams::codec_name", "--codec"},
     {"CompressParams::memory_limit", "--memory-limit"},
+    {"EncodeOptions::bits", "--bits"},
+    {"EncodeOptions::ids_zstd", "--zstd"},
     {"EncodeOptions::memory_limit", "--memory-limit"},
     {"ErrorTarget::coarse_growth", "--coarse-growth"},
     {"CameraSpec::fov_deg", "--fov"},
@@ -80,6 +86,12 @@ std::string running_command_name(const CLI::App& app) {
   for (const CLI::App* cmd : running_commands(app))
     if (cmd != &app) name += (name.empty() ? "" : " ") + cmd->get_name();
   return name.empty() ? "strata" : name;
+}
+
+std::string flag_for_parameter(std::string_view parameter) {
+  for (const ParameterFlag& p : kParameterFlags)
+    if (p.parameter == parameter) return std::string(p.flag);
+  return std::string(parameter);
 }
 
 std::string cli_message(const ParameterError& e, const CLI::App& app) {

@@ -10,19 +10,13 @@
 #include "strata/core/error.hpp"
 #include "strata/mixture/encoded_labels.hpp"
 #include "strata/quant/scheme.hpp"
+#include "strata/ta/codec_registry.hpp"
 #include "strata/ta/compress.hpp"
 #include "strata/ta/target_codec.hpp"
 
 namespace strata::python {
 
 namespace {
-
-// The CLI's ranges for the values the library takes as they come (CLI11 checks them there).
-constexpr int kMaxHooi = 100, kMaxCompressZstd = 19, kMaxLabelsZstd = 22;
-
-void check_range(const char* name, std::int64_t value, std::int64_t lo, std::int64_t hi) {
-  if (value < lo || value > hi) throw py::value_error(fmt::format("{}: must be {}..{}, got {}", name, lo, hi, value));
-}
 
 // Refuses writing over the input, which the writer's rename would replace while it is read.
 void check_not_input(py::handle source, const std::filesystem::path& out) {
@@ -33,6 +27,7 @@ void check_not_input(py::handle source, const std::filesystem::path& out) {
     throw py::value_error("out_path: " + out.string() + " is the input file");
 }
 
+// The three target arguments name at most one target; its rules are the library's.
 ta::ErrorTarget error_target(std::optional<double> psnr, std::optional<double> rmse, std::optional<double> max_error,
                              double coarse_growth) {
   ta::ErrorTarget t;
@@ -42,30 +37,24 @@ ta::ErrorTarget error_target(std::optional<double> psnr, std::optional<double> r
   if (psnr) t = {ta::TargetKind::psnr, *psnr, coarse_growth};
   if (rmse) t = {ta::TargetKind::rmse, *rmse, coarse_growth};
   if (max_error) t = {ta::TargetKind::max_error, *max_error, coarse_growth};
-  ta::check_target(t);
   return t;
 }
 
+// The arguments as CompressParams, checked by ta::validate (its ParameterError reaches Python
+// as strata.ParameterError, a ValueError naming the field).
 ta::CompressParams compress_params(std::optional<int> rank, int brick, int overlap, std::optional<std::string> quant,
                                    std::optional<int> hooi, int zstd, const ta::ErrorTarget& target,
                                    const std::string& codec, std::optional<std::uint64_t> memory_limit) {
   ta::CompressParams p;
   p.layout = {brick, overlap};
-  p.layout.validate();
   p.codec.target = target;
-  if (target.kind != ta::TargetKind::none && (quant || hooi))
-    throw py::value_error("quant, hooi: an error target chooses each brick's precision and basis; leave them unset");
   p.codec.rank = rank ? *rank : ta::default_rank(p.layout, target.kind);
   if (quant) p.codec.quant = quant::QuantScheme::parse(*quant);
-  if (hooi) {
-    check_range("hooi", *hooi, 0, kMaxHooi);
-    p.codec.hooi_iterations = *hooi;
-  }
-  check_range("zstd", zstd, 0, kMaxCompressZstd);
+  if (hooi) p.codec.hooi_iterations = *hooi;
   p.codec.zstd_level = zstd;
-  if (codec == "ta-global") p.kind = ta::CodecKind::global;
-  else if (codec != "ta-bricked") throw py::value_error("codec: expected \"ta-bricked\" or \"ta-global\", got \"" + codec + "\"");
+  p.codec_name = codec;
   if (memory_limit) p.memory_limit = *memory_limit;
+  ta::validate(p);
   return p;
 }
 
@@ -154,7 +143,7 @@ void register_compress(py::module_& m) {
       py::arg("brick") = defaults.layout.brick, py::arg("overlap") = defaults.layout.overlap,
       py::arg("quant") = py::none(), py::arg("hooi") = py::none(), py::arg("zstd") = defaults.codec.zstd_level,
       py::arg("psnr") = py::none(), py::arg("rmse") = py::none(), py::arg("max_error") = py::none(),
-      py::arg("coarse_growth") = defaults.codec.target.coarse_growth, py::arg("codec") = "ta-bricked",
+      py::arg("coarse_growth") = defaults.codec.target.coarse_growth, py::arg("codec") = defaults.codec_name,
       py::arg("memory_limit") = py::none(), py::arg("progress") = py::none(), py::arg("spacing") = py::none(),
       py::arg("shape") = py::none(), py::arg("dtype") = py::none(), py::arg("big_endian") = false,
       py::arg("volume") = py::none(),
@@ -163,10 +152,26 @@ void register_compress(py::module_& m) {
 source is a (z, y, x) numpy array (spacing=(sz, sy, sx), default 1) or a volume file (raw files
 without a sidecar take shape, dtype, spacing and big_endian; volume=T picks one volume of a 4-D
 file). Defaults are the CLI's: brick=32, overlap=2, rank=brick/2 (the cap brick with an error
-target), quant="u16,b8log+", hooi=1, zstd=3, codec="ta-bricked". psnr, rmse or max_error code to
+target), quant="u16,b8log+", hooi=1, zstd=3, codec: the default bricked codec (strata.codecs() lists every codec). psnr, rmse or max_error code to
 an error target instead of a fixed rank (quant and hooi must then stay unset). memory_limit bounds
 the working memory in bytes. progress: True for a text bar, or a callable progress(task, done,
 total). Returns a report dict (bricks per level, bytes, bits per voxel, seconds).)");
+
+  m.def(
+      "codecs",
+      [] {
+        py::list list;
+        for (const ta::BrickCodec* c : ta::codecs()) {
+          py::dict d;
+          d["name"] = std::string(c->name());
+          d["mode"] = std::string(ta::codec_mode_name(c->mode()));
+          d["summary"] = std::string(c->summary());
+          d["distributed"] = c->distributed();
+          list.append(d);
+        }
+        return list;
+      },
+      "The brick codecs compress(codec=...) takes: a dict per codec entry (name, mode, summary, distributed).");
 
   py::module_ labels = m.def_submodule("labels", "Label (segmentation) volumes as Mixture Graphs");
   const mixture::EncodeOptions label_defaults;
@@ -177,15 +182,14 @@ total). Returns a report dict (bricks per level, bytes, bits per voxel, seconds)
          py::handle shape, py::handle dtype, bool big_endian, std::optional<std::int64_t> volume) {
         const std::filesystem::path out = path_from_python(out_path, "out_path");
         mixture::EncodeOptions o;
-        check_range("bits", bits, 1, 16);
         o.bits = bits;
         o.strategy = mixture::parse_pair_score(strategy);
         o.tau = tau;
         o.ids = mixture::parse_ids_mode(ids);
-        check_range("zstd", zstd, 0, kMaxLabelsZstd);
         o.ids_zstd = zstd;
         o.measure_error = measure_error;
         o.normals = normals;
+        mixture::validate(o);
         check_not_input(source, out);
         PythonProgress sink(progress);
         auto input = open_source(source, shape, dtype, spacing, big_endian, volume);

@@ -61,7 +61,7 @@ py::object open_file(py::handle path, std::optional<std::int64_t> volume) {
     py::gil_scoped_release release;
     file->volume = std::make_shared<const ta::TaVolume>(std::move(container));
   }
-  file->codec = file->volume->global() ? "ta-global" : "ta-bricked";
+  file->codec = file->volume->codec_name();
   return py::cast(std::move(file));
 }
 

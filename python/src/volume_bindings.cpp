@@ -7,7 +7,7 @@
 
 #include "bindings.hpp"
 #include "strata/gen/generators.hpp"
-#include "strata/io/volume_io.hpp"
+#include "strata/io/formats.hpp"
 
 namespace strata::python {
 
@@ -16,7 +16,7 @@ namespace {
 py::dict info_dict(const VolumeInfo& info, const std::filesystem::path& path) {
   py::dict d;
   d["path"] = path.string();
-  d["format"] = io::format_name(io::detect_format(path));
+  d["format"] = io::detect_format(path).name;
   d["shape"] = shape_of(info.dims);
   d["dtype"] = numpy_dtype(info.dtype);
   d["spacing"] = spacing_to_python(info.spacing);

@@ -21,6 +21,7 @@ from ._strata import (
     ParameterError,
     Renderer,
     ScalarFile,
+    codecs,
     compress,
     generate,
     info,
@@ -33,7 +34,7 @@ from ._strata import (
 
 __all__ = [
     "Error", "FormatError", "ParameterError", "ScalarFile", "LabelFile", "Renderer",
-    "read", "write", "info", "generate", "compress", "open", "render", "labels",
+    "read", "write", "info", "generate", "codecs", "compress", "open", "render", "labels",
     "threads", "set_threads",
 ]
 

@@ -127,3 +127,18 @@ def test_labels_encode_refuses_float_samples(tmp_path):
     with pytest.raises(TypeError, match="not supported"):
         strata.labels.encode(np.zeros((4, 4, 4), np.int64), tmp_path / "l.strata")
     assert not (tmp_path / "l.strata").exists()
+
+
+def test_codecs_lists_the_registry_and_compress_takes_each_fixed_rank_name(tmp_path):
+    entries = strata.codecs()
+    names = {e["name"] for e in entries}
+    assert {"ta-bricked", "ta-global"} <= names
+    assert {e["mode"] for e in entries} == {"fixed-rank", "error-target"}
+    assert [e["distributed"] for e in entries if e["name"] == "ta-global"] == [False]
+    a = scalar_volume((16, 16, 16))
+    for e in entries:
+        if e["mode"] == "fixed-rank":
+            strata.compress(a, tmp_path / "c.strata", codec=e["name"], rank=4, brick=8, overlap=1)
+            assert strata.open(tmp_path / "c.strata").codec == e["name"]
+    with pytest.raises(strata.ParameterError, match="CodecParams::zstd_level"):
+        strata.compress(a, tmp_path / "x.strata", zstd=20)

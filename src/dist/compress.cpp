@@ -12,6 +12,7 @@
 #include "strata/core/progress.hpp"
 #include "strata/io/slab_stream.hpp"
 #include "strata/store/container.hpp"
+#include "strata/ta/codec_registry.hpp"
 #include "ta/compress_steps.hpp"
 #include "ta/level_pipeline.hpp"
 #include "ta/metadata.hpp"
@@ -84,15 +85,19 @@ void write_bricks(store::ContainerWriter& writer, std::span<const std::byte> blo
 }
 
 void check_distributable(const ta::CompressParams& params) {
-  if (params.kind != ta::CodecKind::bricked)
-    throw ParameterError("CompressParams::kind",
-                         "distributed compression writes the ta-bricked codec only: ta-global fits its bases to the "
-                         "whole volume first");
   if (params.codec.target.kind != ta::TargetKind::none)
     throw ParameterError("ErrorTarget::kind",
                          "distributed compression is fixed-rank only: with an error target each brick's choice of "
                          "basis depends on the bricks of all earlier rows, and a PSNR/RMSE budget on a calibration "
                          "of the whole level, so no rank could reproduce its part of the single-process file");
+  if (!ta::codec_for(params).distributed()) {
+    std::string distributed;
+    for (const ta::BrickCodec* c : ta::codecs())
+      if (c->distributed()) distributed += std::string(distributed.empty() ? "" : ", ") + std::string(c->name());
+    throw ParameterError("CompressParams::codec_name",
+                         "distributed compression writes the " + distributed + " codec only: " + params.codec_name +
+                             " does not encode each brick from its own samples alone (it fits the whole volume first)");
+  }
 }
 
 // The per-rank state of one run.
@@ -103,10 +108,11 @@ class Run {
       : comm_(comm), rank_(comm_rank(comm)), ranks_(comm_size(comm)), out_(out), params_(params) {
     agree_on(comm_, [&] {
       check_distributable(params_);
-      ta::check_compress_params(params_);
+      ta::validate(params_);
       source_ = io::open_volume(input, read);
       geometry_.emplace(source_->info().dims, params_.layout);
       slab_bytes_ = ta::input_slab_bytes(*geometry_, source_->info(), params_);
+      codec_run_ = ta::codec_for(params_).begin({*source_, params_, *geometry_, slab_bytes_, silent_progress()});
     });
     report_.report.levels.assign(std::size_t(geometry_->level_count()), ta::LevelCounts{});
     report_.report.input_voxels = std::uint64_t(source_->info().dims.voxel_count());
@@ -180,7 +186,7 @@ class Run {
       stats_.payload_bytes += b.payload.size();
       ++stats_.bricks;
     };
-    ta::LevelPipeline pipeline(*geometry_, level, params_.codec, std::nullopt, range_, sink, nullptr);
+    ta::LevelPipeline pipeline(*geometry_, level, params_.codec, *codec_run_, std::nullopt, range_, sink, nullptr);
     pipeline.restrict_rows(own.begin, own.end);
     if (!last)
       pipeline.forward_slices(
@@ -282,8 +288,9 @@ class Run {
       if (writer) {
         try {
           // Counts of every rank for the report; the fixed-rank metadata does not hold them.
-          report_.report.file_bytes =
-              writer->finish(ta::make_metadata(source_->info(), *geometry_, params_, range_, {}, {}));
+          nlohmann::json metadata = ta::make_metadata(source_->info(), *geometry_, params_, range_, {}, {});
+          codec_run_->finish(*writer, metadata, report_.report);
+          report_.report.file_bytes = writer->finish(std::move(metadata));
         } catch (...) {
           error = std::current_exception();
         }
@@ -313,6 +320,7 @@ class Run {
   std::unique_ptr<io::VolumeSource> source_;
   std::optional<ta::OctreeGeometry> geometry_;
   std::uint64_t slab_bytes_ = 0;
+  std::unique_ptr<ta::CodecRun> codec_run_;  // the codec's encoder (fixed-rank ta-bricked)
   ta::HistogramRange range_;
   std::map<std::pair<std::uint8_t, std::int32_t>, std::vector<std::byte>> rows_;  // (level, row) -> bricks
   RankStats stats_;

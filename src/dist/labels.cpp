@@ -104,7 +104,7 @@ class Run {
         throw ParameterError("EncodeOptions::normals",
                              "distributed label encoding cannot store a normals graph: the normals are estimated over "
                              "the whole volume on one process; use `strata labels encode --normals`");
-      mixture::detail::check_options(options_);
+      mixture::validate(options_);
       source_ = io::open_volume(input, read);
       const VolumeInfo& info = source_->info();
       mixture::require_label_dtype(input.string(), info.dtype);

@@ -18,6 +18,7 @@
 
 #include "io/io_detail.hpp"
 #include "strata/core/error.hpp"
+#include "strata/io/file_names.hpp"
 
 namespace strata::io {
 
@@ -83,7 +84,7 @@ void MappedFile::release(std::uint64_t offset, std::uint64_t length) const {
 
 AtomicOutputFile::AtomicOutputFile(std::filesystem::path path) : path_(std::move(path)) {
   tmp_ = path_;
-  tmp_ += ".tmp";
+  tmp_ += kTemporarySuffix;
   file_ = std::fopen(tmp_.c_str(), "wb");
   if (!file_) throw Error(fmt::format("{}: cannot create: {}", tmp_.string(), system_error_text()));
 }

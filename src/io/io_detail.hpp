@@ -2,8 +2,9 @@
 // Shared building blocks of the io module (private to src/io): gzip streams, output that is
 // gzip-compressed or not, gzip inputs decoded to a temporary file, and a source over a raw
 // byte region of a memory-mapped file. Format readers/writers (raw, nrrd, nifti, tiff) are
-// built from these. The plain-file classes (MappedFile, AtomicOutputFile, TempFile) are public
-// in strata/io/files.hpp; code in this namespace names them unqualified.
+// built from these; their registry entries are declared in builtin_formats.hpp. The plain-file
+// classes (MappedFile, AtomicOutputFile, TempFile) are public in strata/io/files.hpp; code in
+// this namespace names them unqualified.
 #include <cstdint>
 #include <filesystem>
 #include <memory>
@@ -21,6 +22,9 @@ std::string system_error_text();
 
 // ASCII lower case, for file extensions and header field names.
 std::string ascii_lower(std::string text);
+
+// What gzip-compressed files add to their name (".nii.gz", a detached NRRD's ".raw.gz").
+inline constexpr std::string_view kGzipSuffix = ".gz";
 
 // Writes `text` to `<path>.tmp` and renames it to `path` (a sidecar, a detached header).
 void write_file_atomically(const std::filesystem::path& path, std::string_view text);
@@ -106,21 +110,5 @@ std::int64_t choose_volume(std::int64_t volumes, const Extent& dims, const ReadO
 
 // Swaps bytes of `count` samples of `sample_size` bytes in place (big endian <-> native).
 void byte_swap(std::byte* data, std::size_t count, std::size_t sample_size);
-
-// Format entry points, dispatched from volume_io.cpp. create_volume_writer() wraps every writer
-// in the slab checks all formats share (x/y/dtype match the volume, no more than dims.z slices,
-// finish() only after all of them), so the format writers do not repeat them.
-std::unique_ptr<VolumeSource> open_raw(const std::filesystem::path& path, const ReadOptions& options);
-std::unique_ptr<VolumeWriter> create_raw_writer(const std::filesystem::path& path, const VolumeInfo& info,
-                                                const WriteOptions& options);
-std::unique_ptr<VolumeSource> open_nrrd(const std::filesystem::path& path, const ReadOptions& options);
-std::unique_ptr<VolumeWriter> create_nrrd_writer(const std::filesystem::path& path, const VolumeInfo& info,
-                                                 const WriteOptions& options);
-std::unique_ptr<VolumeSource> open_nifti(const std::filesystem::path& path, const ReadOptions& options);
-std::unique_ptr<VolumeWriter> create_nifti_writer(const std::filesystem::path& path, const VolumeInfo& info,
-                                                  const WriteOptions& options);
-std::unique_ptr<VolumeSource> open_tiff(const std::filesystem::path& path, const ReadOptions& options);
-std::unique_ptr<VolumeWriter> create_tiff_writer(const std::filesystem::path& path, const VolumeInfo& info,
-                                                 const WriteOptions& options);
 
 }  // namespace strata::io::detail

@@ -14,6 +14,7 @@
 
 #include <fmt/format.h>
 
+#include "io/builtin_formats.hpp"
 #include "io/io_detail.hpp"
 #include "strata/core/bytes.hpp"
 #include "strata/core/checked.hpp"
@@ -284,7 +285,7 @@ class ScaledSource final : public VolumeSource {
   VolumeInfo info_;
 };
 
-bool has_gz_name(const fs::path& path) { return ascii_lower(path.filename().string()).ends_with(".gz"); }
+bool has_gz_name(const fs::path& path) { return ascii_lower(path.filename().string()).ends_with(kGzipSuffix); }
 
 // `file` holds a whole uncompressed NIfTI file; `shown_path` is what the user named.
 std::unique_ptr<VolumeSource> source_over(std::shared_ptr<MappedFile> file, const fs::path& shown_path,
@@ -373,8 +374,6 @@ class NiftiWriter final : public VolumeWriter {
   OutputStream out_;
 };
 
-}  // namespace
-
 std::unique_ptr<VolumeSource> open_nifti(const std::filesystem::path& path, const ReadOptions& options) {
   auto file = std::make_shared<MappedFile>(path);
   // Content decides, so a compressed file named .nii still opens; a .gz name that is not gzip
@@ -384,9 +383,49 @@ std::unique_ptr<VolumeSource> open_nifti(const std::filesystem::path& path, cons
 }
 
 std::unique_ptr<VolumeWriter> create_nifti_writer(const std::filesystem::path& path, const VolumeInfo& info,
-                                                  const WriteOptions& options) {
+                                                  const WriteOptions&) {
   check_writable(path, info);
   return std::make_unique<NiftiWriter>(path, info);
+}
+
+// The sniffer: sizeof_hdr of either version in either byte order (as detect_layout reads it)
+// and that version's magic, of a single file or of a .hdr/.img pair (which the reader then
+// refuses by name).
+bool has_nifti_magic(std::span<const std::byte> head) {
+  if (head.size() < 4) return false;
+  for (const std::endian order : {std::endian::little, std::endian::big})
+    for (const HeaderLayout* layout : {&kNifti1, &kNifti2}) {
+      if (load_field<std::int32_t>(head.first(4), 0, order) != std::int32_t(layout->header_bytes)) continue;
+      for (const std::string_view magic : {layout->magic_single, layout->magic_pair})
+        if (head.size() >= layout->magic + magic.size() &&
+            std::memcmp(head.data() + layout->magic, magic.data(), magic.size()) == 0)
+          return true;
+    }
+  return false;
+}
+
+}  // namespace
+
+VolumeFormat nifti_format() {
+  return {
+      .name = "nifti",
+      .title = "NIfTI-1, NIfTI-2",
+      .description = "neuroimaging volumes: a 348- or 540-byte header and the samples in one file, plain or gzip",
+      .extensions = {".nii", ".nii.gz"},
+      .magic_bytes = kNifti1.magic + kNifti1.magic_single.size(),
+      .sniff = has_nifti_magic,
+      .open = open_nifti,
+      .create_writer = create_nifti_writer,
+      .capabilities = {.streaming = true, .multi_volume = true, .spatial_metadata = true},
+      // NIfTI-1 has an int8 code, but many readers mishandle it, so we never write i8 there.
+      .write_dtypes = DTypeSet::all().without(DType::i8),
+      .read_notes = "either byte order; scl_slope/scl_inter applied (to float) when set; files of several volumes "
+                    "(dim[0] > 3: time series, components) one volume at a time with `--volume T`, alias "
+                    "`--component N` or `--time T` (`info`, `convert`, `compress`, `labels encode`, `render`, "
+                    "`serve`, `eval`; `info` describes volume 0 and says how many there are; `--all-volumes` stores "
+                    "them all in one `.strata`)",
+      .write_notes = "NIfTI-2 only when a dimension exceeds NIfTI-1's 32767; gzip for a `.nii.gz` name",
+  };
 }
 
 }  // namespace strata::io::detail

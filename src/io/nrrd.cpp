@@ -11,6 +11,7 @@
 
 #include <fmt/format.h>
 
+#include "io/builtin_formats.hpp"
 #include "io/io_detail.hpp"
 #include "strata/core/checked.hpp"
 
@@ -19,6 +20,11 @@ namespace strata::io::detail {
 namespace {
 
 enum class Encoding { raw, gzip };
+
+// The first line of every NRRD file: "NRRD000" and the version digit.
+bool is_magic_line(std::string_view line) {
+  return line.size() == 8 && line.starts_with("NRRD000") && line[7] >= '1' && line[7] <= '9';
+}
 
 // The header fields we use, as written; validated together by make_layout().
 struct NrrdHeader {
@@ -219,9 +225,9 @@ struct HeaderParser {
   }
 
   void check_magic(const std::string& line) const {
-    const bool ok = line.size() == 8 && line.compare(0, 7, "NRRD000") == 0 && line[7] >= '1' && line[7] <= '9';
-    if (!ok) fail("magic", fmt::format("not a NRRD file: the first line is \"{}\", expected NRRD0001..NRRD0005",
-                                      line.substr(0, 40)));
+    if (!is_magic_line(line))
+      fail("magic", fmt::format("not a NRRD file: the first line is \"{}\", expected NRRD0001..NRRD0005",
+                                line.substr(0, 40)));
   }
 };
 
@@ -486,8 +492,18 @@ std::string header_text(const VolumeInfo& info, bool compress, const std::string
   return h + "\n";  // the blank line that separates an attached header from its data
 }
 
+// The entry's extensions: an attached header (data in the same file) and a detached one.
+constexpr std::string_view kAttachedExtension = ".nrrd";
+constexpr std::string_view kDetachedExtension = ".nhdr";
+
 bool is_detached_name(const std::filesystem::path& path) {
-  return ascii_lower(path.extension().string()) == ".nhdr";
+  return ascii_lower(path.extension().string()) == kDetachedExtension;
+}
+
+// A detached header's data file: `<stem>` plus the raw format's extension (the samples are a
+// raw file), and the gzip suffix when compressed.
+std::string detached_data_name(const std::filesystem::path& header, bool compress) {
+  return header.stem().string() + raw_format().extensions.front() + (compress ? std::string(kGzipSuffix) : "");
 }
 
 // Attached: header then data in one file. For a .nhdr name the data goes to `<stem>.raw` or
@@ -496,7 +512,7 @@ class NrrdWriter final : public VolumeWriter {
  public:
   NrrdWriter(const std::filesystem::path& path, const VolumeInfo& info, bool compress)
       : path_(path), info_(info), compress_(compress),
-        data_name_(is_detached_name(path) ? path.stem().string() + (compress ? ".raw.gz" : ".raw") : ""),
+        data_name_(is_detached_name(path) ? detached_data_name(path, compress) : ""),
         out_(data_name_.empty() ? path : path.parent_path() / data_name_, compress,
              data_name_.empty() ? header_text(info, compress, "") : "") {}
 
@@ -515,8 +531,6 @@ class NrrdWriter final : public VolumeWriter {
   OutputStream out_;       // the attached header and data, or the detached data
 };
 
-}  // namespace
-
 std::unique_ptr<VolumeSource> open_nrrd(const std::filesystem::path& path, const ReadOptions& options) {
   const NrrdLayout layout = read_layout(path);
   if (layout.encoding == Encoding::gzip) return open_gzip_encoded(path, layout, options);
@@ -526,6 +540,35 @@ std::unique_ptr<VolumeSource> open_nrrd(const std::filesystem::path& path, const
 std::unique_ptr<VolumeWriter> create_nrrd_writer(const std::filesystem::path& path, const VolumeInfo& info,
                                                  const WriteOptions& options) {
   return std::make_unique<NrrdWriter>(path, info, options.compress);
+}
+
+// The sniffer: the file starts with the magic line.
+bool has_nrrd_magic(std::span<const std::byte> head) {
+  const std::string_view text(reinterpret_cast<const char*>(head.data()), std::min<std::size_t>(head.size(), 8));
+  return is_magic_line(text);
+}
+
+}  // namespace
+
+VolumeFormat nrrd_format() {
+  return {
+      .name = "nrrd",
+      .title = "NRRD",
+      .description = "teem's nearly raw raster data: a text header, attached or detached, and raw or gzip samples",
+      .extensions = {std::string(kAttachedExtension), std::string(kDetachedExtension)},
+      .magic_bytes = 8,
+      .sniff = has_nrrd_magic,
+      .open = open_nrrd,
+      .create_writer = create_nrrd_writer,
+      .capabilities = {.streaming = true, .multi_volume = true, .spatial_metadata = true},
+      .write_dtypes = DTypeSet::all(),
+      .read_notes = "attached or detached header, raw/gzip, little/big endian, mmap for raw; 4-D files one volume at a "
+                    "time with `--volume T` (alias `--component`, `--time`): the axis whose `kinds` entry is not "
+                    "`domain`/`space`, first (interleaved components: vector, RGB-color, …) or last (a series: time, "
+                    "list)",
+      .write_notes = "attached, gzip (or raw with `--uncompressed`); a `.nhdr` name: a detached header beside its "
+                     "`.raw` (`.raw.gz`) data",
+  };
 }
 
 }  // namespace strata::io::detail

@@ -8,8 +8,10 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "io/builtin_formats.hpp"
 #include "io/io_detail.hpp"
 #include "strata/core/checked.hpp"
+#include "strata/io/file_names.hpp"
 
 namespace strata::io::detail {
 
@@ -26,9 +28,9 @@ struct RawDescription {
 
 std::optional<std::filesystem::path> find_sidecar(const std::filesystem::path& path) {
   std::filesystem::path beside = path;
-  beside += ".json";  // volume.raw.json
+  beside += kJsonExtension;  // volume.raw.json
   std::filesystem::path stem_json = path;
-  stem_json.replace_extension(".json");  // volume.json
+  stem_json.replace_extension(kJsonExtension);  // volume.json
   for (const auto& candidate : {beside, stem_json}) {
     std::error_code ec;
     if (std::filesystem::is_regular_file(candidate, ec)) return candidate;
@@ -161,7 +163,7 @@ RawLayout resolve_layout(const std::filesystem::path& path, const ReadOptions& o
 class RawWriter final : public VolumeWriter {
  public:
   RawWriter(const std::filesystem::path& path, const VolumeInfo& info)
-      : data_(path), info_(info), sidecar_path_(std::filesystem::path(path) += ".json") {}
+      : data_(path), info_(info), sidecar_path_(std::filesystem::path(path) += kJsonExtension) {}
 
   void write_slab(const Volume& slab) override { data_.write(slab.bytes(), slab.byte_size()); }
 
@@ -187,8 +189,6 @@ class RawWriter final : public VolumeWriter {
   std::filesystem::path sidecar_path_;
 };
 
-}  // namespace
-
 std::unique_ptr<VolumeSource> open_raw(const std::filesystem::path& path, const ReadOptions& options) {
   const RawLayout layout = resolve_layout(path, options);
   auto file = std::make_shared<MappedFile>(path);
@@ -203,8 +203,27 @@ std::unique_ptr<VolumeSource> open_raw(const std::filesystem::path& path, const 
 }
 
 std::unique_ptr<VolumeWriter> create_raw_writer(const std::filesystem::path& path, const VolumeInfo& info,
-                                                const WriteOptions& options) {
+                                                const WriteOptions&) {
   return std::make_unique<RawWriter>(path, info);
+}
+
+}  // namespace
+
+VolumeFormat raw_format() {
+  return {
+      .name = "raw",
+      .title = "raw",
+      .description = "bare x-fastest samples; dims, dtype and spacing from a JSON sidecar or the command line",
+      .extensions = {".raw", ".bin"},
+      .opens_alone = [](const std::filesystem::path& path) { return find_sidecar(path).has_value(); },
+      .open = open_raw,
+      .create_writer = create_raw_writer,
+      .capabilities = {.streaming = true, .multi_volume = false, .spatial_metadata = true},
+      .write_dtypes = DTypeSet::all(),
+      .read_notes = "dims and dtype from `FILE.raw.json` or `FILE.json`, else `--dims`/`--dtype` (`--spacing`, "
+                    "`--big-endian`); memory-mapped",
+      .write_notes = "with a `FILE.raw.json` sidecar",
+  };
 }
 
 }  // namespace strata::io::detail

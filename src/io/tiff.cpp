@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cmath>
 #include <cstdarg>
@@ -12,9 +13,12 @@
 #include <mutex>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <nlohmann/json.hpp>
 
+#include "io/builtin_formats.hpp"
 #include "io/io_detail.hpp"
+#include "strata/io/file_names.hpp"
 
 namespace strata::io::detail {
 
@@ -297,10 +301,17 @@ bool natural_less(const std::string& a, const std::string& b) {
   return a < b;  // equal by value ("slice_01" vs "slice_1"): any fixed order will do
 }
 
+// The entry's extensions: the names of multi-page files and of the slices in a folder (the
+// first is what the folder writer names its slices).
+const std::array<std::string_view, 2> kExtensions{".tif", ".tiff"};
+
 bool has_tiff_extension(const fs::path& p) {
   const std::string ext = ascii_lower(p.extension().string());
-  return ext == ".tif" || ext == ".tiff";
+  return std::find(kExtensions.begin(), kExtensions.end(), ext) != kExtensions.end();
 }
+
+// ".tif/.tiff", for messages.
+std::string extensions_text() { return fmt::format("{}", fmt::join(kExtensions, "/")); }
 
 // Slices of a folder: *.tif / *.tiff files, naturally sorted. Hidden files are skipped
 // (macOS leaves "._slice_0001.tif" metadata files next to real slices).
@@ -312,7 +323,8 @@ std::vector<fs::path> list_slice_files(const fs::path& dir) {
   }
   std::sort(files.begin(), files.end(),
             [](const fs::path& a, const fs::path& b) { return natural_less(a.filename().string(), b.filename().string()); });
-  if (files.empty()) throw FormatError(dir.string(), "slices", "the folder has no .tif/.tiff files");
+  if (files.empty())
+    throw FormatError(dir.string(), "slices", fmt::format("the folder has no {} files", extensions_text()));
   return files;
 }
 
@@ -509,7 +521,7 @@ class SliceCounter {
   std::int64_t written_ = 0;
 };
 
-fs::path with_suffix(fs::path p, const char* suffix) {
+fs::path with_suffix(fs::path p, std::string_view suffix) {
   p += suffix;
   return p;
 }
@@ -524,7 +536,7 @@ void rename_or_throw(const fs::path& from, const fs::path& to) {
 class MultiPageWriter final : public VolumeWriter {
  public:
   MultiPageWriter(const fs::path& path, const VolumeInfo& info, bool compress)
-      : path_(path), tmp_(with_suffix(path, ".tmp")), info_(info), slices_(info.bytes_per_slice()),
+      : path_(path), tmp_(with_suffix(path, kTemporarySuffix)), info_(info), slices_(info.bytes_per_slice()),
         layout_{info_, compress, true, spacing_description(info.spacing)},
         file_(std::make_unique<TiffFile>(tmp_, write_mode(info.byte_size()))) {}
 
@@ -559,7 +571,7 @@ class MultiPageWriter final : public VolumeWriter {
 class FolderWriter final : public VolumeWriter {
  public:
   FolderWriter(const fs::path& dir, const VolumeInfo& info, bool compress)
-      : dir_(dir), staging_(with_suffix(dir, ".tmp")), info_(info), slices_(info.bytes_per_slice()),
+      : dir_(dir), staging_(with_suffix(dir, kTemporarySuffix)), info_(info), slices_(info.bytes_per_slice()),
         layout_{info_, compress, false, spacing_description(info.spacing)},
         digits_(std::max<std::size_t>(4, std::to_string(std::max<std::int64_t>(info.dims.z - 1, 0)).size())) {
     check_replaceable(dir_);
@@ -597,7 +609,7 @@ class FolderWriter final : public VolumeWriter {
   }
 
  private:
-  std::string slice_name(std::int64_t z) const { return fmt::format("slice_{:0{}}.tif", z, digits_); }
+  std::string slice_name(std::int64_t z) const { return fmt::format("slice_{:0{}}{}", z, digits_, kExtensions[0]); }
 
   // An existing output folder is replaced only if it holds nothing but TIFF files, so a
   // mistyped path never deletes unrelated data.
@@ -631,8 +643,6 @@ bool names_folder(const fs::path& path) {
   return fs::is_directory(path) || !path.has_filename() || !path.has_extension();
 }
 
-}  // namespace
-
 std::unique_ptr<VolumeSource> open_tiff(const std::filesystem::path& path, const ReadOptions& options) {
   if (fs::is_directory(path)) return open_folder(path, options);
   return open_multi_page(path, options);
@@ -646,6 +656,38 @@ std::unique_ptr<VolumeWriter> create_tiff_writer(const std::filesystem::path& pa
     return std::make_unique<FolderWriter>(dir, info, options.compress);
   }
   return std::make_unique<MultiPageWriter>(path, info, options.compress);
+}
+
+// The sniffer: the byte-order mark and 42 (classic TIFF) or 43 (BigTIFF) in that order.
+bool has_tiff_magic(std::span<const std::byte> head) {
+  if (head.size() < 4) return false;
+  const auto byte = [&](std::size_t i) { return std::to_integer<unsigned char>(head[i]); };
+  if (byte(0) == 'I' && byte(1) == 'I') return byte(3) == 0 && (byte(2) == 42 || byte(2) == 43);
+  if (byte(0) == 'M' && byte(1) == 'M') return byte(2) == 0 && (byte(3) == 42 || byte(3) == 43);
+  return false;
+}
+
+}  // namespace
+
+VolumeFormat tiff_format() {
+  return {
+      .name = "tiff",
+      .title = "TIFF",
+      .description = "a stack of images: one multi-page file (a page per slice) or a folder of single-page slices",
+      .extensions = {kExtensions.begin(), kExtensions.end()},
+      .magic_bytes = 4,
+      .sniff = has_tiff_magic,
+      .directory = "a directory of TIFF slices",
+      .open = open_tiff,
+      .create_writer = create_tiff_writer,
+      .capabilities = {.streaming = true, .multi_volume = true, .spatial_metadata = true},
+      .write_dtypes = DTypeSet::all(),
+      .read_notes = "8/16/32-bit integer and 32/64-bit float pages, strips or tiles; a folder's slices in natural name "
+                    "order; multi-channel pages (SamplesPerPixel > 1, chunky or planar) one channel at a time with "
+                    "`--volume T` (alias `--component`)",
+      .write_notes = "multi-page file, or a folder of slices for a name without extension; Deflate unless "
+                     "`--uncompressed`",
+  };
 }
 
 }  // namespace strata::io::detail

@@ -210,9 +210,9 @@ Selection select_cut(const ta::TaVolume& volume, const View& view, std::uint64_t
   options.validate(volume.geometry().layout().brick);
   check_view(view);
   if (options.feature_scale > 0 && !volume.global())
-    throw ParameterError("feature_scale", volume.container().name() +
-                                              ": a feature scale needs the feature-scale table of a ta-global file "
-                                              "(compress with --codec ta-global), or 0 for the screen-space rule alone");
+    throw ParameterError("feature_scale", volume.container().name() + ": a feature scale needs the feature-scale table of a " +
+                                              ta::kGlobalCodecName + " file (compress with --codec " +
+                                              ta::kGlobalCodecName + "), or 0 for the screen-space rule alone");
   return CutBuilder(volume, view, visible_bins, options).build();
 }
 

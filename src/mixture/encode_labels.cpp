@@ -9,6 +9,8 @@
 
 #include <algorithm>
 #include <chrono>
+
+#include <fmt/format.h>
 #include <optional>
 #include <variant>
 
@@ -133,13 +135,16 @@ StreamedLabels finish_streamed(LabelMap map, HistogramMipmap::StreamBuilder& mip
   return out;
 }
 
-void check_options(const EncodeOptions& options) {
-  if (options.ids_zstd < 0 || options.ids_zstd > 22)
-    throw Error("ids zstd level: must be 0..22, got " + std::to_string(options.ids_zstd));
-  if (options.bits < 1 || options.bits > 16) throw Error("bits: must be 1..16, got " + std::to_string(options.bits));
-}
-
 }  // namespace detail
+
+void validate(const EncodeOptions& options) {
+  if (options.bits < 1 || options.bits > kMaxWeightBits)
+    throw ParameterError("EncodeOptions::bits", fmt::format("must be 1..{}, got {}", kMaxWeightBits, options.bits));
+  if (options.ids_zstd < 0 || options.ids_zstd > kMaxIdsZstdLevel)
+    throw ParameterError("EncodeOptions::ids_zstd",
+                         fmt::format("must be 0 (off) to {}, got {}", kMaxIdsZstdLevel, options.ids_zstd));
+  options.normal_options.validate();
+}
 
 namespace {
 
@@ -282,7 +287,7 @@ namespace {
 EncodeReport encode_streamed(io::VolumeSource& source, const Volume* whole, const std::filesystem::path& out,
                              const EncodeOptions& options, ProgressSink& progress) {
   const auto start = std::chrono::steady_clock::now();
-  detail::check_options(options);
+  validate(options);
   const VolumeInfo info = source.info();
   const std::int64_t slab = label_slab_slices(info, options.memory_limit);
   const io::SliceSpan all{0, info.dims.z};

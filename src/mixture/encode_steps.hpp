@@ -18,9 +18,6 @@
 
 namespace strata::mixture::detail {
 
-// Throws Error for a weight bitrate or an ids zstd level out of range.
-void check_options(const EncodeOptions& options);
-
 // Level 0's node ids (its source ids) in the layout `mode` asks for, built as they stream past
 // or from parts that other ranks built of the next slices.
 class Level0Ids {

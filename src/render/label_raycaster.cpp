@@ -12,6 +12,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "render/traversal.hpp"
 #include "strata/core/error.hpp"
 #include "strata/core/threads.hpp"
 #include "strata/render/sampling_limits.hpp"
@@ -20,6 +21,13 @@
 namespace strata::render {
 
 namespace {
+
+using detail::box_exit;
+using detail::clip_to_box;
+using detail::DividedByDirection;
+using detail::for_each_pixel;
+using detail::TileGrid;
+using detail::unit_to_byte;
 
 constexpr int kMaxLevels = 64;
 
@@ -216,33 +224,6 @@ int find_empty_cube(const Frame& f, int from, const Vec3& u, std::int64_t cube[3
   return found;
 }
 
-// Ray parameter where the ray (voxel space) leaves the level-`size` cube.
-double cube_exit(const Vec3& o, const Vec3& d, const std::int64_t cube[3], double size) {
-  double t = std::numeric_limits<double>::infinity();
-  for (int a = 0; a < 3; ++a) {
-    if (d[a] > 0) t = std::min(t, (double(cube[a] + 1) * size - o[a]) / d[a]);
-    else if (d[a] < 0) t = std::min(t, (double(cube[a]) * size - o[a]) / d[a]);
-  }
-  return t;
-}
-
-// Slab test against [0, dims0] in voxel space; false when the ray misses.
-bool clip_to_box(const Vec3& o, const Vec3& d, const Vec3& box, double& t0, double& t1) {
-  t0 = 0.0;
-  t1 = std::numeric_limits<double>::infinity();
-  for (int a = 0; a < 3; ++a) {
-    if (d[a] == 0) {
-      if (o[a] < 0 || o[a] > box[a]) return false;
-      continue;
-    }
-    double ta = (0.0 - o[a]) / d[a], tb = (box[a] - o[a]) / d[a];
-    if (ta > tb) std::swap(ta, tb);
-    t0 = std::max(t0, ta);
-    t1 = std::min(t1, tb);
-  }
-  return t0 < t1;
-}
-
 // The level-of-detail value (fractional level, before clamping) for a sample at view depth
 // `depth`: log2(pixel size at depth / level-0 voxel size) + lod_bias.
 double label_lod(const lod::View& view, double depth, double voxel_world, double lod_bias) {
@@ -285,8 +266,9 @@ class LevelTracker {
 // Front-to-back compositing along one ray; returns the premultiplied ray colour.
 Rgbaf march(const Frame& f, const Ray& ray, RayCounters& counters) {
   const Vec3 o = hadamard(ray.origin, f.inv_spacing), d = hadamard(ray.direction, f.inv_spacing);
-  double t = 0, t_end = 0;
-  if (!clip_to_box(o, d, f.dims0, t, t_end)) return {};
+  const DividedByDirection<Vec3> param{d};
+  auto [t, t_end] = clip_to_box(o, d, f.dims0, param);
+  if (!(t < t_end)) return {};
   ++counters.rays;
   const double depth0 = dot(ray.origin - f.view.eye, f.view.forward), depth_rate = dot(ray.direction, f.view.forward);
   const double nudge = 1e-4 * f.voxel_world;  // crosses a cube face without skipping a voxel
@@ -299,7 +281,10 @@ Rgbaf march(const Frame& f, const Ray& ray, RayCounters& counters) {
       const int from = level.next_weight > 0 ? level.level + 1 : level.level;
       const int l = find_empty_cube(f, from, o + d * t, cube);
       if (l >= 0) {
-        t = std::max(cube_exit(o, d, cube, f.labels.levels[std::size_t(l)].size), t) + nudge;
+        const double size = f.labels.levels[std::size_t(l)].size;
+        const std::array<double, 3> lo{double(cube[0]) * size, double(cube[1]) * size, double(cube[2]) * size};
+        const std::array<double, 3> hi{double(cube[0] + 1) * size, double(cube[1] + 1) * size, double(cube[2] + 1) * size};
+        t = std::max(box_exit(o, d, lo, hi, param), t) + nudge;
         ++counters.skipped;
         continue;
       }
@@ -336,15 +321,13 @@ Rgbaf march(const Frame& f, const Ray& ray, RayCounters& counters) {
   return acc;
 }
 
-std::uint8_t to_byte(float v) { return std::uint8_t(std::lround(std::clamp(v, 0.0f, 1.0f) * 255.0f)); }
-
 Rgba8 over_background(const Rgbaf& c, const LabelRgba& bg) {
   const float rest = 1 - c.a;
   const float a = c.a + rest * bg.a;
   if (a <= 0) return {0, 0, 0, 0};
   // PNG stores straight alpha: un-premultiply.
-  return {to_byte((c.r + rest * bg.r * bg.a) / a), to_byte((c.g + rest * bg.g * bg.a) / a),
-          to_byte((c.b + rest * bg.b * bg.a) / a), to_byte(a)};
+  return {unit_to_byte((c.r + rest * bg.r * bg.a) / a), unit_to_byte((c.g + rest * bg.g * bg.a) / a),
+          unit_to_byte((c.b + rest * bg.b * bg.a) / a), unit_to_byte(a)};
 }
 
 Frame make_frame(const LabelScene& scene, const Camera& camera, const LabelRenderOptions& options) {
@@ -394,21 +377,29 @@ void bind_levels(const Frame& f, const LabelScene& scene, bool skip, Layer& laye
   }
 }
 
-void render_tiles(const Frame& f, const Camera& camera, Image& image, LabelRenderStats& stats) {
-  const int tile = f.options.tile;
-  const int tiles_x = (image.width() + tile - 1) / tile, tiles_y = (image.height() + tile - 1) / tile;
-  const std::int64_t tiles = std::int64_t(tiles_x) * tiles_y;
-  std::uint64_t rays = 0, samples = 0, skipped = 0, terminated = 0;
-#pragma omp parallel for schedule(dynamic, 1) num_threads(thread_count()) reduction(+ : rays, samples, skipped, terminated)
-  for (std::int64_t i = 0; i < tiles; ++i) {
-    RayCounters c;
-    const int x0 = int(i % tiles_x) * tile, y0 = int(i / tiles_x) * tile;
-    for (int y = y0; y < std::min(y0 + tile, image.height()); ++y)
-      for (int x = x0; x < std::min(x0 + tile, image.width()); ++x)
-        image.at(x, y) = over_background(march(f, camera.ray(x, y), c), f.options.background);
-    rays += c.rays, samples += c.samples, skipped += c.skipped, terminated += c.terminated;
+// One thread's share of a frame: marches pixels and counts what its rays did.
+struct PixelMarcher {
+  const Frame& f;
+  const Camera& camera;
+  Image& image;
+  RayCounters counters;
+
+  void operator()(int x, int y) {
+    image.at(x, y) = over_background(march(f, camera.ray(x, y), counters), f.options.background);
   }
-  stats.rays = rays, stats.samples = samples, stats.skipped_cubes = skipped, stats.terminated_rays = terminated;
+};
+
+void render_tiles(const Frame& f, const Camera& camera, Image& image, LabelRenderStats& stats) {
+  RayCounters total;
+  for_each_pixel(
+      TileGrid{image.width(), image.height(), f.options.tile}, thread_count(),
+      [&] { return PixelMarcher{f, camera, image, {}}; },
+      [&](const PixelMarcher& m) {
+        total.rays += m.counters.rays, total.samples += m.counters.samples;
+        total.skipped += m.counters.skipped, total.terminated += m.counters.terminated;
+      });
+  stats.rays = total.rays, stats.samples = total.samples, stats.skipped_cubes = total.skipped,
+  stats.terminated_rays = total.terminated;
 }
 
 }  // namespace

@@ -5,14 +5,13 @@
 #include <limits>
 #include <utility>
 
+#include "render/traversal.hpp"
 #include "strata/core/isa.hpp"
 #include "strata/core/threads.hpp"
 
 namespace strata::render::detail {
 
 namespace {
-
-constexpr double kInf = std::numeric_limits<double>::infinity();
 
 // floor / ceil to an integer without a libm call (the portable build has no roundsd); equal to
 // std::int64_t(std::floor(x)) / std::int64_t(std::ceil(x)) wherever those are defined.
@@ -26,34 +25,6 @@ inline std::int64_t iceil(double x) {
 }
 
 // ---- Traversal ------------------------------------------------------------------------------
-
-// Parametric exit of the ray from an axis-aligned box it is inside of.
-double box_exit(const RayContext& r, const std::array<double, 3>& inv, const std::array<double, 3>& lo,
-                const std::array<double, 3>& hi) {
-  double t = kInf;
-  for (int a = 0; a < 3; ++a) {
-    if (r.dir[a] > 0) t = std::min(t, (hi[a] - r.origin[a]) * inv[a]);
-    else if (r.dir[a] < 0) t = std::min(t, (lo[a] - r.origin[a]) * inv[a]);
-  }
-  return t;
-}
-
-// [t_enter, t_exit] of the ray inside [0, hi]; empty when enter >= exit.
-std::pair<double, double> clip_to_box(const RayContext& r, const std::array<double, 3>& inv,
-                                      const std::array<double, 3>& hi) {
-  double t0 = 0, t1 = kInf;
-  for (int a = 0; a < 3; ++a) {
-    if (r.dir[a] == 0) {
-      if (r.origin[a] < 0 || r.origin[a] > hi[a]) return {1, 0};
-      continue;
-    }
-    double ta = (0 - r.origin[a]) * inv[a], tb = (hi[a] - r.origin[a]) * inv[a];
-    if (ta > tb) std::swap(ta, tb);
-    t0 = std::max(t0, ta);
-    t1 = std::min(t1, tb);
-  }
-  return {t0, t1};
-}
 
 struct Traversal {
   const FrameIndex& index;
@@ -108,14 +79,14 @@ struct Traversal {
       const Block* b = id >= 0 ? &index.blocks[std::size_t(id)] : nullptr;
       double t_next;
       if (b && b->exclusive) {
-        t_next = box_exit(ray, inv, b->lo, b->hi);
+        t_next = box_exit(ray.origin, ray.dir, b->lo, b->hi, TimesInverse{inv});
       } else {
         std::array<double, 3> lo{}, hi{};
         for (int a = 0; a < 3; ++a) {
           lo[a] = double(cell[a]) * index.cell_size[a];
           hi[a] = std::min(lo[a] + index.cell_size[a], index.volume_hi[a]);
         }
-        t_next = box_exit(ray, inv, lo, hi);
+        t_next = box_exit(ray.origin, ray.dir, lo, hi, TimesInverse{inv});
       }
       t_next = std::min(std::max(t_next, tp), t_end);
       if (!b || b->culled) {
@@ -141,9 +112,38 @@ Rgba8 to_rgba8(const Rgbaf& acc, const std::array<float, 4>& bg) {
   const float a = acc.a + w * bg[3];
   const float r = acc.r + w * bg[0] * bg[3], g = acc.g + w * bg[1] * bg[3], b = acc.b + w * bg[2] * bg[3];
   const float inv = a > 0 ? 1.0f / a : 0.0f;
-  auto q = [](float v) { return std::uint8_t(std::lround(std::clamp(v, 0.0f, 1.0f) * 255.0f)); };
-  return {q(r * inv), q(g * inv), q(b * inv), q(a)};
+  return {unit_to_byte(r * inv), unit_to_byte(g * inv), unit_to_byte(b * inv), unit_to_byte(a)};
 }
+
+// One thread's share of a frame: casts pixels, counts rays and samples, and flags the blocks
+// it sampled.
+struct PixelCaster {
+  const Traversal& trav;
+  const Camera& cam;
+  const std::array<float, 4>& background;
+  Image& image;
+  std::vector<std::uint8_t> touched;  // per block
+  std::uint64_t rays = 0, samples = 0;
+
+  void operator()(int px, int py) {
+    const Ray r = cam.ray(px, py);
+    RayContext ray{{r.origin.x, r.origin.y, r.origin.z},
+                   {r.direction.x, r.direction.y, r.direction.z},
+                   {float(-r.direction.x), float(-r.direction.y), float(-r.direction.z)}};
+    std::array<double, 3> inv{};
+    for (int a = 0; a < 3; ++a) inv[a] = ray.dir[a] != 0 ? 1.0 / ray.dir[a] : 0.0;
+    const auto [t0, t1] = clip_to_box(ray.origin, ray.dir, trav.index.volume_hi, TimesInverse{inv});
+    RayState st;
+    st.touched = touched.data();
+    st.prev_t = t0;  // the volume entry starts the first segment
+    if (t0 < t1) {
+      ++rays;
+      trav.trace(ray, inv, t0, t1, st);
+      samples += st.samples;
+    }
+    image.at(px, py) = to_rgba8(st.acc, background);
+  }
+};
 
 }  // namespace
 
@@ -162,44 +162,18 @@ Image run(const RenderJob& job, RenderStats& stats) {
                        {1.0 / index.cell_size[0], 1.0 / index.cell_size[1], 1.0 / index.cell_size[2]}};
 
   const Camera& cam = job.camera;
-  const int width = cam.width(), height = cam.height();
-  Image image(width, height);
-  const int tile = job.options.tile;
-  const int tiles_x = (width + tile - 1) / tile, tiles_y = (height + tile - 1) / tile;
+  Image image(cam.width(), cam.height());
   const int threads = job.options.threads > 0 ? job.options.threads : thread_count();
-  std::uint64_t rays = 0, samples = 0;
   std::vector<std::uint8_t> sampled(index.blocks.size(), 0);
-#pragma omp parallel num_threads(threads) reduction(+ : rays, samples)
-  {
-    std::vector<std::uint8_t> touched(index.blocks.size(), 0);
-#pragma omp for schedule(dynamic, 1)
-    for (int t = 0; t < tiles_x * tiles_y; ++t) {
-      const int x0 = (t % tiles_x) * tile, y0 = (t / tiles_x) * tile;
-      for (int py = y0; py < std::min(y0 + tile, height); ++py)
-        for (int px = x0; px < std::min(x0 + tile, width); ++px) {
-          const Ray r = cam.ray(px, py);
-          RayContext ray{{r.origin.x, r.origin.y, r.origin.z},
-                         {r.direction.x, r.direction.y, r.direction.z},
-                         {float(-r.direction.x), float(-r.direction.y), float(-r.direction.z)}};
-          std::array<double, 3> inv{};
-          for (int a = 0; a < 3; ++a) inv[a] = ray.dir[a] != 0 ? 1.0 / ray.dir[a] : 0.0;
-          const auto [t0, t1] = clip_to_box(ray, inv, index.volume_hi);
-          RayState st;
-          st.touched = touched.data();
-          st.prev_t = t0;  // the volume entry starts the first segment
-          if (t0 < t1) {
-            ++rays;
-            trav.trace(ray, inv, t0, t1, st);
-            samples += st.samples;
-          }
-          image.at(px, py) = to_rgba8(st.acc, job.options.background);
-        }
-    }
-#pragma omp critical
-    for (std::size_t i = 0; i < touched.size(); ++i) sampled[i] |= touched[i];
-  }
-  stats.rays = rays;
-  stats.samples = samples;
+  stats.rays = stats.samples = 0;
+  for_each_pixel(
+      TileGrid{cam.width(), cam.height(), job.options.tile}, threads,
+      [&] { return PixelCaster{trav, cam, job.options.background, image, std::vector<std::uint8_t>(index.blocks.size(), 0)}; },
+      [&](const PixelCaster& c) {
+        stats.rays += c.rays;
+        stats.samples += c.samples;
+        for (std::size_t i = 0; i < c.touched.size(); ++i) sampled[i] |= c.touched[i];
+      });
   stats.bricks_sampled = std::uint64_t(std::count(sampled.begin(), sampled.end(), std::uint8_t(1)));
   return image;
 }

@@ -2,7 +2,9 @@
 // Per-ray state and brick traversal of the ray caster. The march over one block's lattice
 // points lives in march.cpp (scalar) and march8.cpp (8-lane, with its target attributes); the
 // traversal here walks a ray through the frame index and calls it through MarchFns, and run()
-// casts every ray of a frame in tiles and composites over the background.
+// casts every ray of a frame in tiles and composites over the background. The tiles, the
+// clipping to the volume's box and the box exits are the ones the label ray caster uses too
+// (traversal.hpp).
 #include <array>
 #include <cstdint>
 #include <vector>

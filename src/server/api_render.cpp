@@ -4,6 +4,7 @@
 
 #include "server/api_detail.hpp"
 #include "strata/core/stopwatch.hpp"
+#include "strata/ta/codec_names.hpp"
 
 namespace strata::server::detail {
 
@@ -51,7 +52,8 @@ FrameRequest parse_frame(const Dataset& d, const HttpRequest& r) {
   s.lod = p.number("lod", {0, 64, true}, 1.0);
   s.feature_scale = p.number("fs", {0, 1}, 0.0);
   if (s.feature_scale > 0 && d.description.value("feature_scale_ladder", nlohmann::json::array()).empty())
-    bad_parameter("fs", "an error target needs the feature-scale table of a ta-global file; this one has none");
+    bad_parameter("fs", std::string("an error target needs the feature-scale table of a ") + ta::kGlobalCodecName +
+                            " file; this one has none");
   s.step = p.number("step", {0.05, 4}, 0.5);
   s.shading = p.choice("shading", {"0", "1"}, "1") == "1";
   if (p.has("lighting")) {

@@ -1,9 +1,12 @@
 // Which files `strata serve A B DIR ...` serves.
 #include <algorithm>
-#include <array>
-#include <string_view>
+#include <string>
+
+#include <fmt/format.h>
 
 #include "strata/core/error.hpp"
+#include "strata/io/file_names.hpp"
+#include "strata/io/formats.hpp"
 #include "strata/server/api.hpp"
 
 namespace strata::server {
@@ -12,24 +15,26 @@ namespace fs = std::filesystem;
 
 namespace {
 
-bool ends_with(const std::string& name, std::string_view suffix) {
-  return name.size() > suffix.size() && name.compare(name.size() - suffix.size(), suffix.size(), suffix) == 0;
-}
-
-// A volume file as docs/viewer.md lists them: raw files only with their JSON sidecar, since
-// without it their dims and dtype are unknown.
+// A volume file as docs/viewer.md lists them: a .strata file, or a file of a registered format
+// that opens without options (not a raw file without its JSON sidecar: its dims and dtype are
+// unknown). Hidden files are skipped.
 bool is_volume_file(const fs::path& file) {
   const std::string name = file.filename().string();
   if (name.empty() || name[0] == '.') return false;
-  static constexpr std::array<std::string_view, 7> kExtensions{".strata", ".nrrd", ".nhdr", ".nii", ".nii.gz", ".tif", ".tiff"};
-  for (std::string_view ext : kExtensions)
-    if (ends_with(name, ext)) return true;
-  if (ends_with(name, ".raw")) {
-    fs::path sidecar = file;
-    sidecar.replace_extension(".json");
-    return fs::is_regular_file(file.string() + ".json") || fs::is_regular_file(sidecar);
+  if (name.size() > io::kStrataExtension.size() && name.ends_with(io::kStrataExtension)) return true;
+  const io::VolumeFormat* format = io::format_by_extension(file);
+  return format && (!format->opens_alone || format->opens_alone(file));
+}
+
+// ".strata, .raw, .bin, ...; raw files only when they open without options": what a folder
+// needs, for the message when it has none.
+std::string volume_names() {
+  std::string names(io::kStrataExtension), conditions;
+  for (const io::VolumeFormat* f : io::formats()) {
+    for (const std::string& ext : f->extensions) names += ", " + ext;
+    if (f->opens_alone) conditions += fmt::format("; {} files only when they open without options", f->title);
   }
-  return false;
+  return names + conditions;
 }
 
 }  // namespace
@@ -47,7 +52,7 @@ std::vector<fs::path> dataset_files(const std::vector<std::string>& arguments) {
     for (const fs::directory_entry& e : fs::directory_iterator(path))
       if (e.is_regular_file() && is_volume_file(e.path())) inside.push_back(e.path());
     if (inside.empty())
-      throw Error(argument + ": no volume files inside (.strata, .nrrd, .nhdr, .nii, .nii.gz, .tif, .tiff, .raw + .json)");
+      throw Error(argument + ": no volume files inside (" + volume_names() + ")");
     std::sort(inside.begin(), inside.end());
     files.insert(files.end(), inside.begin(), inside.end());
   }

@@ -3,6 +3,8 @@
 #include <array>
 #include <utility>
 
+#include "strata/io/file_names.hpp"
+
 namespace strata::server::detail {
 
 std::optional<EmbeddedFile> find_embedded(std::string_view path) {
@@ -17,9 +19,9 @@ std::string content_type_of(std::string_view path) {
       {".js", "text/javascript; charset=utf-8"},
       {".mjs", "text/javascript; charset=utf-8"},
       {".css", "text/css; charset=utf-8"},
-      {".json", "application/json"},
+      {io::kJsonExtension, "application/json"},
       {".svg", "image/svg+xml"},
-      {".png", "image/png"},
+      {io::kPngExtension, "image/png"},
       {".jpg", "image/jpeg"},
       {".ico", "image/x-icon"},
       {".txt", "text/plain; charset=utf-8"},

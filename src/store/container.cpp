@@ -107,11 +107,7 @@ BrickEntry decode_entry(std::span<const std::byte, kIndexEntrySize> b) {
   return e;
 }
 
-bool known_kind(PayloadKind k) {
-  return k == PayloadKind::constant || k == PayloadKind::tucker || k == PayloadKind::tucker_zstd ||
-         k == PayloadKind::tucker_coded || k == PayloadKind::raw_zstd || k == PayloadKind::raw_packed ||
-         k == PayloadKind::masked || k == PayloadKind::global_core || k == PayloadKind::global_core_zstd;
-}
+bool known_kind(PayloadKind k) { return find_payload_kind(std::uint8_t(k)) != nullptr; }
 
 // Appends value(e) of the entries (with payload_only, of those with payload bytes) as one column
 // of T, split into byte planes.
@@ -219,22 +215,22 @@ std::uint32_t section_check_value(std::span<const std::byte> bytes, const std::s
 
 std::string brick_name(const BrickKey& k) { return fmt::format("brick (level {}, {},{},{})", int(k.level), k.x, k.y, k.z); }
 
-const char* payload_kind_name(PayloadKind k) {
-  switch (k) {
-    case PayloadKind::constant: return "constant";
-    case PayloadKind::tucker: return "tucker";
-    case PayloadKind::tucker_zstd: return "tucker_zstd";
-    case PayloadKind::tucker_coded: return "tucker_coded";
-    case PayloadKind::raw_zstd: return "raw_zstd";
-    case PayloadKind::raw_packed: return "raw_packed";
-    case PayloadKind::masked: return "masked";
-    case PayloadKind::global_core: return "global_core";
-    case PayloadKind::global_core_zstd: return "global_core_zstd";
-  }
-  return "unknown";
+const PayloadKindTraits& payload_kind_traits(PayloadKind kind) {
+  const PayloadKindTraits* traits = find_payload_kind(std::uint8_t(kind));
+  if (traits == nullptr) throw Error(fmt::format("unknown payload kind {}", int(kind)));
+  return *traits;
 }
 
-bool needs_alignment(PayloadKind k) { return k == PayloadKind::tucker || k == PayloadKind::tucker_zstd; }
+const char* payload_kind_name(PayloadKind kind) {
+  const PayloadKindTraits* traits = find_payload_kind(std::uint8_t(kind));
+  return traits != nullptr ? traits->name.data() : "unknown";
+}
+
+// Unknown kinds (read from a damaged index before check_entry names them) are packed.
+bool needs_alignment(PayloadKind kind) {
+  const PayloadKindTraits* traits = find_payload_kind(std::uint8_t(kind));
+  return traits != nullptr && traits->aligned;
+}
 
 // ---------------------------------------------------------------------------------------------
 // Writer

@@ -68,9 +68,11 @@ constexpr std::uint64_t kMaxInflatedBrick = std::uint64_t(64) << 20;
 std::span<const std::byte> plain_payload(store::PayloadKind kind, std::span<const std::byte> payload,
                                          const quant::QuantScheme& scheme, DecodeScratch& scratch,
                                          const std::string& context) {
-  if (kind == store::PayloadKind::tucker || kind == store::PayloadKind::global_core) return payload;
-  if (kind != store::PayloadKind::tucker_zstd && kind != store::PayloadKind::global_core_zstd)
-    throw Error(context + ": payload kind " + std::to_string(int(kind)) + " is not a Tucker brick");
+  const store::PayloadKindTraits* traits = store::find_payload_kind(std::uint8_t(kind));
+  const bool quantized = traits != nullptr && (traits->decoder == store::PayloadDecoder::tucker ||
+                                               traits->decoder == store::PayloadDecoder::global_core);
+  if (!quantized) throw Error(context + ": payload kind " + std::to_string(int(kind)) + " is not a Tucker brick");
+  if (!traits->zstd) return payload;
   store::zstd_decompress(payload, kMaxInflatedBrick, scratch.inflated, context, "zstd payload");
   scratch.unshuffled = scratch.inflated;
   auto [f0, f1] = factor_plane_range(scratch.inflated, scheme);
@@ -216,34 +218,41 @@ void dequantize_global_core(std::span<const std::byte> payload, const quant::Qua
 void dequantize_unmasked(store::PayloadKind kind, std::span<const std::byte> payload, const quant::QuantScheme& scheme,
                          int brick_width, int rank, DecodeScratch& scratch, quant::DequantizedModel& model,
                          const std::string& context, const BrickBases* bases) {
-  if (kind == store::PayloadKind::global_core || kind == store::PayloadKind::global_core_zstd) {
-    in_context(context, [&] {
-      dequantize_global_core(plain_payload(kind, payload, scheme, scratch, context), scheme, brick_width, rank, bases, model);
-    });
-    return;
+  const store::PayloadKindTraits* traits = store::find_payload_kind(std::uint8_t(kind));
+  switch (traits != nullptr ? traits->decoder : store::PayloadDecoder::none) {
+    case store::PayloadDecoder::global_core:
+      in_context(context, [&] {
+        dequantize_global_core(plain_payload(kind, payload, scheme, scratch, context), scheme, brick_width, rank, bases,
+                               model);
+      });
+      return;
+    case store::PayloadDecoder::coded_tucker:
+      // The rank slider truncates at reconstruction (reconstruct_model): the model stays whole.
+      quant::dequantize(quant::deserialize_coded(payload, brick_width, context), model);
+      return;
+    case store::PayloadDecoder::lossless:
+      model = quant::DequantizedModel{};
+      model.dims = {brick_width, brick_width, brick_width};
+      model.samples.resize(std::size_t(brick_width) * std::size_t(brick_width) * std::size_t(brick_width));
+      if (kind == store::PayloadKind::raw_zstd) decode_raw_brick(payload, model.samples, scratch.inflated, context);
+      else decode_packed_brick(payload, brick_width, model.samples, scratch.inflated, context);
+      return;
+    case store::PayloadDecoder::tucker:
+      in_context(context, [&] {
+        // plain_payload's own errors already name `context`; they get it once more here.
+        const quant::BrickView view(plain_payload(kind, payload, scheme, scratch, context), scheme);
+        const tensor::Dims3& d = view.dims();
+        if (d[0] != brick_width || d[1] != brick_width || d[2] != brick_width)
+          throw Error("brick extents " + tensor::to_string(d) + " differ from the brick width " +
+                      std::to_string(brick_width));
+        const tensor::Ranks3& r = view.ranks();
+        quant::dequantize(view, {std::min(rank, r[0]), std::min(rank, r[1]), std::min(rank, r[2])}, model);
+      });
+      return;
+    case store::PayloadDecoder::none:
+    case store::PayloadDecoder::masked: break;
   }
-  if (kind == store::PayloadKind::tucker_coded) {
-    // The rank slider truncates at reconstruction (reconstruct_model): the model stays whole.
-    quant::dequantize(quant::deserialize_coded(payload, brick_width, context), model);
-    return;
-  }
-  if (kind == store::PayloadKind::raw_zstd || kind == store::PayloadKind::raw_packed) {
-    model = quant::DequantizedModel{};
-    model.dims = {brick_width, brick_width, brick_width};
-    model.samples.resize(std::size_t(brick_width) * std::size_t(brick_width) * std::size_t(brick_width));
-    if (kind == store::PayloadKind::raw_zstd) decode_raw_brick(payload, model.samples, scratch.inflated, context);
-    else decode_packed_brick(payload, brick_width, model.samples, scratch.inflated, context);
-    return;
-  }
-  in_context(context, [&] {
-    // plain_payload's own errors already name `context`; they get it once more here.
-    const quant::BrickView view(plain_payload(kind, payload, scheme, scratch, context), scheme);
-    const tensor::Dims3& d = view.dims();
-    if (d[0] != brick_width || d[1] != brick_width || d[2] != brick_width)
-      throw Error("brick extents " + tensor::to_string(d) + " differ from the brick width " + std::to_string(brick_width));
-    const tensor::Ranks3& r = view.ranks();
-    quant::dequantize(view, {std::min(rank, r[0]), std::min(rank, r[1]), std::min(rank, r[2])}, model);
-  });
+  throw Error(context + ": payload kind " + std::to_string(int(kind)) + " is not a Tucker brick");
 }
 
 }  // namespace

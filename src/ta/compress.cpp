@@ -12,6 +12,7 @@
 #include "strata/core/error.hpp"
 #include "strata/io/slab_stream.hpp"
 #include "strata/store/container.hpp"
+#include "strata/ta/codec_registry.hpp"
 #include "strata/ta/target_codec.hpp"
 #include "ta/compress_steps.hpp"
 #include "ta/level_pipeline.hpp"
@@ -89,18 +90,10 @@ struct EncodedLevels {
   std::vector<std::unique_ptr<LevelPipeline>> levels;
 };
 
-// The ta-global codec's bases and, as bricks arrive, the rows of its feature-scale table.
-struct GlobalState {
-  GlobalFit fit;
-  std::unique_ptr<GlobalBases> bases;
-  GlobalCoding coding;
-  std::vector<float> table;  // rows of ladder.size() floats, in octree order (OctreeGeometry::brick_ordinal)
-};
-
 EncodedLevels encode_levels(io::VolumeSource& source, const std::filesystem::path& out, const CompressParams& params,
                             const OctreeGeometry& geometry, const HistogramRange& range,
                             const std::vector<BrickTarget>& targets, std::uint64_t slab_bytes, CompressReport& report,
-                            ProgressSink& progress, GlobalState* global) {
+                            ProgressSink& progress, const CodecRun& run) {
   EncodedLevels result;
   result.writer = std::make_unique<store::ContainerWriter>(out);
   store::ContainerWriter& writer = *result.writer;
@@ -111,11 +104,6 @@ EncodedLevels encode_levels(io::VolumeSource& source, const std::filesystem::pat
     {
       std::lock_guard lock(report_mutex);
       count_brick(report, key, b);
-      if (global && !b.rank_errors.empty())
-        std::copy(b.rank_errors.begin(), b.rank_errors.end(),
-                  global->table.begin() +
-                      std::ptrdiff_t(geometry.brick_ordinal(key.level, key.x, key.y, key.z)) *
-                          std::ptrdiff_t(global->coding.ladder.size()));
     }
     bricks_task.advance(1);
   };
@@ -126,8 +114,8 @@ EncodedLevels encode_levels(io::VolumeSource& source, const std::filesystem::pat
     LevelPipeline* next = l + 1 < geometry.level_count() ? result.levels[std::size_t(l + 1)].get() : nullptr;
     const std::optional<BrickTarget> target =
         targets.empty() ? std::nullopt : std::optional<BrickTarget>(targets[std::size_t(l)]);
-    result.levels[std::size_t(l)] = std::make_unique<LevelPipeline>(geometry, l, params.codec, target, range, sink, next);
-    if (global) result.levels[std::size_t(l)]->use_global_bases(&global->coding);
+    result.levels[std::size_t(l)] =
+        std::make_unique<LevelPipeline>(geometry, l, params.codec, run, target, range, sink, next);
   }
   io::for_each_slab(source, [&](const Volume& slab, std::int64_t) { push_slab_to_level0(slab, *result.levels[0]); },
                     silent_progress(), "read", slab_bytes);
@@ -215,7 +203,8 @@ std::uint64_t fixed_working_set(const OctreeGeometry& geometry, bool feature_ref
 
 std::uint64_t input_slab_bytes(const OctreeGeometry& geometry, const VolumeInfo& source, const CompressParams& params) {
   if (params.memory_limit == 0) return io::kDefaultSlabBytes;
-  const std::uint64_t fixed = fixed_working_set(geometry, params.kind == CodecKind::global) + kBaselineBytes;
+  const std::uint64_t fixed =
+      fixed_working_set(geometry, codec_for(params).needs_feature_reference()) + kBaselineBytes;
   // A slab is held in the source type plus its per-slice float copies while pushed.
   const double per_source_byte = 1.0 + double(sizeof(float)) / double(dtype_size(source.dtype));
   const std::uint64_t slice = source.bytes_per_slice();
@@ -237,36 +226,6 @@ std::vector<int> feature_scale_ladder(int rank) {
 }
 
 namespace {
-
-// ta-global: fits the global bases (paper 2 §4.1) and sizes the feature-scale table.
-std::unique_ptr<GlobalState> fit_global(io::VolumeSource& source, const CompressParams& params,
-                                        const OctreeGeometry& geometry, std::uint64_t slab_bytes, ProgressSink& progress) {
-  if (params.codec.target.kind != TargetKind::none)
-    throw ParameterError("CompressParams::kind", "the ta-global codec stores fixed-rank cores; error targets (--psnr, "
-                                                 "--rmse, --max-error) need the default codec, ta-bricked");
-  auto g = std::make_unique<GlobalState>();
-  GlobalFitOptions o = params.global;
-  o.rank = params.codec.rank;
-  o.slab_bytes = slab_bytes;
-  g->fit = fit_global_factors(source, o, progress);
-  g->bases = std::make_unique<GlobalBases>(g->fit.factors, geometry);
-  g->coding.bases = g->bases.get();
-  g->coding.ladder = feature_scale_ladder(std::min({g->bases->rank(1), g->bases->rank(2), g->bases->rank(3)}));
-  // Constant bricks are exact at every rank: their rows stay 0.
-  g->table.assign(std::size_t(geometry.total_bricks()) * g->coding.ladder.size(), 0.0f);
-  return g;
-}
-
-nlohmann::json global_metadata(const GlobalState& g) {
-  return {{"ranks", {g.bases->rank(1), g.bases->rank(2), g.bases->rank(3)}},
-          {"ladder", g.coding.ladder},
-          {"fit", g.fit.fit()},
-          {"sweeps", g.fit.fit_per_sweep.size()}};
-}
-
-std::span<const std::byte> as_bytes(const std::vector<float>& v) {
-  return {reinterpret_cast<const std::byte*>(v.data()), v.size() * sizeof(float)};
-}
 
 }  // namespace
 
@@ -305,13 +264,6 @@ void RangeScan::widen(const Volume& slab, StepCalibrator* calibrator) {
   });
 }
 
-void check_compress_params(const CompressParams& params) {
-  if (params.codec.rank < 1 || params.codec.rank > params.layout.brick)
-    throw ParameterError("CodecParams::rank", "must be between 1 and the brick width " + std::to_string(params.layout.brick) +
-                                                  ", got " + std::to_string(params.codec.rank));
-  check_target(params.codec.target);
-}
-
 store::BrickEntry index_entry(const store::BrickKey& key, const EncodedBrick& b, float lo, float hi,
                               std::uint64_t histogram) {
   store::BrickEntry entry{key, b.kind, 0, 0, 0, lo, hi, histogram};
@@ -335,27 +287,17 @@ int default_rank(const BrickLayout& layout, TargetKind target) {
 
 CompressReport compress_volume(io::VolumeSource& source, const std::filesystem::path& out,
                                const CompressParams& requested, ProgressSink& progress) {
-  // ta-global cores are core-only bricks: the scheme's factor part is unused (f32 stores no
-  // factor parameters).
-  CompressParams params = requested;
-  if (params.kind == CodecKind::global) {
-    params.codec.quant.factor_coding = quant::FactorCoding::f32;
-    params.codec.quant.factor_bits = 32;
-  }
+  validate(requested);
+  const BrickCodec& codec = codec_for(requested);
+  const CompressParams params = codec.normalized(requested);
   const auto start = Clock::now();
   const VolumeInfo& info = source.info();
-  check_compress_params(params);
   const OctreeGeometry geometry(info.dims, params.layout);
   CompressReport report;
   report.input_voxels = std::uint64_t(info.dims.voxel_count());
 
   const std::uint64_t slab_bytes = input_slab_bytes(geometry, info, params);
-  std::unique_ptr<GlobalState> global;
-  if (params.kind == CodecKind::global) {
-    global = fit_global(source, params, geometry, slab_bytes, progress);
-    report.global_fit = global->fit.fit_per_sweep;
-    report.global_seconds = global->fit.seconds;
-  }
+  const std::unique_ptr<CodecRun> run = codec.begin({source, params, geometry, slab_bytes, progress});
   const ErrorTarget& target = params.codec.target;
   const bool budget = target.kind == TargetKind::psnr || target.kind == TargetKind::rmse;
   std::optional<StepCalibrator> calibrator;
@@ -377,7 +319,7 @@ CompressReport compress_volume(io::VolumeSource& source, const std::filesystem::
     report.levels.assign(std::size_t(geometry.level_count()), LevelCounts{});
     report.core_bytes = report.factor_bytes = report.brick_header_bytes = 0;
     EncodedLevels encoded =
-        encode_levels(source, out, params, geometry, range, targets, slab_bytes, report, progress, global.get());
+        encode_levels(source, out, params, geometry, range, targets, slab_bytes, report, progress, *run);
     // A pass not kept is abandoned here: the writer's temporary goes with it.
     if (!search.accept(attempt, encoded.levels[0]->measured_error().mse())) continue;
     report.attempts = attempt + 1;
@@ -386,14 +328,9 @@ CompressReport compress_volume(io::VolumeSource& source, const std::filesystem::
       report.levels[l].rmse = std::sqrt(e.mse());
       report.levels[l].max_error = e.max_abs;
     }
-    nlohmann::json global_json;
-    if (global) {
-      encoded.writer->add_section("global_bases", global->bases->serialize());
-      encoded.writer->add_section("feature_scale", as_bytes(global->table));
-      global_json = global_metadata(*global);
-    }
-    report.file_bytes =
-        encoded.writer->finish(make_metadata(info, geometry, params, range, targets, report.levels, global_json));
+    nlohmann::json metadata = make_metadata(info, geometry, params, range, targets, report.levels);
+    run->finish(*encoded.writer, metadata, report);
+    report.file_bytes = encoded.writer->finish(std::move(metadata));
     break;
   }
   report.container_bytes = report.file_bytes - report.core_bytes - report.factor_bytes - report.brick_header_bytes;

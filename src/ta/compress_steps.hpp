@@ -25,9 +25,6 @@ struct RangeScan {
 // Throws Error (naming `file`) for a range the codec cannot hold in `params`' mode.
 void check_codable(const HistogramRange& range, const std::filesystem::path& file, const CompressParams& params);
 
-// Throws ParameterError for a rank outside [1, brick] or a malformed error target.
-void check_compress_params(const CompressParams& params);
-
 // Converts each slice of `slab` to floats and pushes it to `level0`.
 void push_slab_to_level0(const Volume& slab, LevelPipeline& level0);
 

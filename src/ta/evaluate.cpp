@@ -45,20 +45,20 @@ void add_payload(store::PayloadKind kind, std::span<const std::byte> stored, con
                  DecodeScratch& scratch, StorageReport& r) {
   const auto& c = volume.container();
   const int brick = volume.geometry().layout().brick;
-  if (kind == store::PayloadKind::constant) return;
-  if (kind == store::PayloadKind::masked) {
-    const std::size_t voxels = std::size_t(brick) * std::size_t(brick) * std::size_t(brick);
-    const MaskedPayload m = unwrap_masked(stored, voxels, scratch.inflated, c.name());
-    r.mask_bytes += stored.size() - m.inner_payload.size();
-    return add_payload(m.inner, m.inner_payload, volume, scratch, r);
-  }
-  if (kind == store::PayloadKind::raw_zstd || kind == store::PayloadKind::raw_packed) {
-    r.lossless_bytes += stored.size();
-    return;
-  }
-  if (kind == store::PayloadKind::tucker_coded) {
-    add_coded_parts(quant::deserialize_coded(stored, brick, c.name()), stored.size(), r);
-    return;
+  switch (store::payload_kind_traits(kind).decoder) {
+    case store::PayloadDecoder::none: return;
+    case store::PayloadDecoder::masked: {
+      const std::size_t voxels = std::size_t(brick) * std::size_t(brick) * std::size_t(brick);
+      const MaskedPayload m = unwrap_masked(stored, voxels, scratch.inflated, c.name());
+      r.mask_bytes += stored.size() - m.inner_payload.size();
+      return add_payload(m.inner, m.inner_payload, volume, scratch, r);
+    }
+    case store::PayloadDecoder::lossless: r.lossless_bytes += stored.size(); return;
+    case store::PayloadDecoder::coded_tucker:
+      add_coded_parts(quant::deserialize_coded(stored, brick, c.name()), stored.size(), r);
+      return;
+    case store::PayloadDecoder::tucker:
+    case store::PayloadDecoder::global_core: break;
   }
   const auto plain = plain_payload(kind, stored, volume.quant_scheme(), scratch, c.name());
   const auto parts = payload_parts(plain, volume.quant_scheme(), c.name());

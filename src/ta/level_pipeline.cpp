@@ -116,10 +116,12 @@ bool LevelPipeline::brick_tries_hosvd(std::int64_t row, std::int64_t index) cons
   return splitmix64(std::uint64_t(row) * bricks_in_row + std::uint64_t(index)) % every == 0;
 }
 
-LevelPipeline::LevelPipeline(const OctreeGeometry& geometry, int level, const CodecParams& codec,
+LevelPipeline::LevelPipeline(const OctreeGeometry& geometry, int level, const CodecParams& codec, const CodecRun& run,
                              std::optional<BrickTarget> target, HistogramRange range, BrickSink sink, LevelPipeline* next)
-    : geometry_(geometry), level_(level), dims_(geometry.level(level)), codec_(codec), target_(target), range_(range),
-      sink_(std::move(sink)), next_(next), end_row_(dims_.bricks.z),
+    : geometry_(geometry), level_(level), dims_(geometry.level(level)), codec_(codec), run_(run), target_(target),
+      range_(range),
+      sink_(std::move(sink)), next_(next), feature_reference_(run.codec().needs_feature_reference()),
+      end_row_(dims_.bricks.z),
       hosvd_all_(next ? next->hosvd_all_ : std::make_shared<HosvdEvidence>()) {}
 
 void LevelPipeline::restrict_rows(std::int64_t first, std::int64_t end) {
@@ -153,7 +155,7 @@ bool LevelPipeline::row_ready(std::int64_t row) const {
 void LevelPipeline::push_slice(std::vector<float> slice) {
   if (std::int64_t(slice.size()) != dims_.dims.x * dims_.dims.y)
     throw Error("compress: level " + std::to_string(level_) + " received a slice of the wrong size");
-  if (global_ && level_ == 0 && next_) emit_reference(slice.data(), nullptr);
+  if (feature_reference_ && level_ == 0 && next_) emit_reference(slice.data(), nullptr);
   window_.push_back(std::move(slice));
   ++slices_received_;
   while (next_row_ < end_row_ && row_ready(next_row_)) {
@@ -320,42 +322,12 @@ bool LevelPipeline::encode_and_decode(std::int64_t bx, std::int64_t by, std::int
                                       std::vector<float>& decoded, EncodedBrick& encoded,
                                       tensor::BrickReconstructor& reconstructor, DecodeScratch& scratch,
                                       bool try_hosvd) const {
-  if (global_) {
-    const BrickBases bases = global_->bases->brick_bases(level_, bx, by, bz);
-    tensor::Tensor3 core;
-    encoded = encode_global_brick(samples, bases, codec_.quant, codec_.zstd_level, core);
-    const bool constant = encoded.kind == store::PayloadKind::constant;
-    if (!constant) {
-      const CoreRegion c = core_region(bx, by, bz);
-      const Box region{{c.lo[0], c.lo[1], c.lo[2]}, {c.hi[0], c.hi[1], c.hi[2]}};
-      // Level 0 is the original; a coarse level is measured against the original's cells.
-      std::vector<double> errors;
-      if (level_ == 0) {
-        errors = rank_ladder_rmse(samples, core, bases, region, global_->ladder);
-      } else {
-        tensor::Tensor3 means(samples.dim(1), samples.dim(2), samples.dim(3));
-        const double variance = gather_reference(bx, by, bz, means);
-        errors = rank_ladder_rmse(means, core, bases, region, global_->ladder, variance);
-      }
-      for (double e : errors) encoded.rank_errors.push_back(float(e));
-    }
-    if (!constant || has_next())
-      decode_brick(encoded.kind, encoded.payload, encoded.constant_value, codec_.quant, geometry_.layout().brick,
-                   geometry_.layout().brick, reconstructor, scratch, decoded, "compress", &bases);
-    return constant;
-  }
-  if (target_) {
-    BrickTarget target = *target_;
-    target.try_hosvd = try_hosvd;
-    encoded = encode_brick_to_target(samples, core_region(bx, by, bz), target, decoded);
-    return encoded.kind == store::PayloadKind::constant;
-  }
-  encoded = encode_brick(samples, codec_);
-  const bool constant = encoded.kind == store::PayloadKind::constant;
-  if (!constant || has_next())
-    decode_brick(encoded.kind, encoded.payload, encoded.constant_value, codec_.quant, geometry_.layout().brick,
-                 codec_.rank, reconstructor, scratch, decoded, "compress");
-  return constant;
+  std::optional<BrickTarget> target = target_;
+  if (target) target->try_hosvd = try_hosvd;
+  BrickJob job{level_, bx, by, bz, &samples, core_region(bx, by, bz), target ? &*target : nullptr, has_next(), {}};
+  if (feature_reference_ && level_ > 0)
+    job.reference = [this, bx, by, bz](tensor::Tensor3& means) { return gather_reference(bx, by, bz, means); };
+  return run_.encode(job, decoded, encoded, reconstructor, scratch);
 }
 
 void LevelPipeline::encode_row(std::int64_t row) {
@@ -394,10 +366,10 @@ void LevelPipeline::encode_row(std::int64_t row) {
         RowResult& r = results[std::size_t(i)];
         const NonFiniteMask mask = has_non_finite(samples.values()) ? take_non_finite(samples.values(), samples.dims())
                                                                   : NonFiniteMask{};
-        if (global_ && !mask.empty())
-          throw Error("the ta-global codec does not store NaN or infinite voxels yet (level " + std::to_string(level_) +
-                      " brick " + std::to_string(bx) + "," + std::to_string(by) + "," + std::to_string(row) +
-                      " has some); compress with the default codec, ta-bricked");
+        if (!run_.codec().stores_non_finite() && !mask.empty())
+          throw Error("the " + std::string(run_.codec().name()) + " codec does not store NaN or infinite voxels yet (level " +
+                      std::to_string(level_) + " brick " + std::to_string(bx) + "," + std::to_string(by) + "," +
+                      std::to_string(row) + " has some); compress with the default codec, " + kBrickedCodecName);
         if (uniform_non_finite(mask, decoded.size())) {
           // All NaN (outside a field of view) or all one infinity: a constant brick of it.
           r.encoded = EncodedBrick{};

@@ -14,6 +14,7 @@
 
 #include "strata/store/container.hpp"
 #include "strata/ta/brick_codec.hpp"
+#include "strata/ta/codec_registry.hpp"
 #include "strata/ta/global_basis.hpp"
 #include "strata/ta/octree.hpp"
 #include "strata/ta/target_codec.hpp"
@@ -21,25 +22,17 @@
 
 namespace strata::ta {
 
-// The global-basis codec's inputs (paper 2): every brick is projected on these bases, and its
-// feature-scale row is measured at the ladder's ranks.
-struct GlobalCoding {
-  const GlobalBases* bases = nullptr;
-  std::vector<int> ladder;
-};
-
 // Called for every encoded brick (from worker threads; must be thread-safe).
 using BrickSink = std::function<void(const store::BrickKey&, const EncodedBrick&, float min, float max,
                                      std::uint64_t histogram)>;
 
 class LevelPipeline {
  public:
-  // `target`: this level's brick target in error-target mode (ta/target_codec.hpp), else empty.
-  LevelPipeline(const OctreeGeometry& geometry, int level, const CodecParams& codec, std::optional<BrickTarget> target,
-                HistogramRange range, BrickSink sink, LevelPipeline* next);
-
-  // Makes this level a level of the global-basis codec (`coding` outlives the pipeline).
-  void use_global_bases(const GlobalCoding* coding) { global_ = coding; }
+  // `run` encodes the bricks (ta/codec_registry.hpp; it outlives the pipeline); `codec` holds the
+  // zstd level of the masks of bricks with NaN or infinite voxels. `target`: this level's brick
+  // target in error-target mode (ta/target_codec.hpp), else empty.
+  LevelPipeline(const OctreeGeometry& geometry, int level, const CodecParams& codec, const CodecRun& run,
+                std::optional<BrickTarget> target, HistogramRange range, BrickSink sink, LevelPipeline* next);
 
   // Distributed compression (src/dist): this pipeline encodes only brick rows [first, end) of its
   // level. Its first pushed slice is then the first slice those rows read (first * core -
@@ -53,7 +46,8 @@ class LevelPipeline {
   // Appends the next slice (dims.x * dims.y floats) of this level.
   void push_slice(std::vector<float> slice);
 
-  // ta-global, coarse levels: the reference the feature-scale table is measured against (paper 2
+  // Codecs that need a feature reference (ta-global), coarse levels: the reference the
+  // feature-scale table is measured against (paper 2
   // §4.2, "against the original"). Each voxel of level l stands for a cell of 2^l x 2^l x 2^l
   // original voxels; `mean` is the original's mean over the cell and `variance` its variance about
   // that mean. A brick upsampled cell by cell then has the squared error variance + (mean -
@@ -107,12 +101,13 @@ class LevelPipeline {
   int level_;
   LevelGeometry dims_;
   CodecParams codec_;
+  const CodecRun& run_;
   std::optional<BrickTarget> target_;
   HistogramRange range_;
   BrickSink sink_;
   LevelPipeline* next_;
   std::function<void(std::vector<float>)> forward_;  // instead of next_ (restrict_rows)
-  const GlobalCoding* global_ = nullptr;
+  bool feature_reference_;  // the codec needs the original's cell means (BrickJob::reference)
 
   std::deque<std::vector<float>> window_;  // input slices [window_z0_, window_z0_ + size)
   std::int64_t window_z0_ = 0, slices_received_ = 0, next_row_ = 0;

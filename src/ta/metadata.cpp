@@ -33,13 +33,13 @@ nlohmann::json target_metadata(const ErrorTarget& target, const std::vector<Bric
 
 nlohmann::json make_metadata(const VolumeInfo& source, const OctreeGeometry& geometry, const CompressParams& params,
                              const HistogramRange& range, const std::vector<BrickTarget>& targets,
-                             const std::vector<LevelCounts>& measured, const nlohmann::json& global) {
+                             const std::vector<LevelCounts>& measured) {
   nlohmann::json levels = nlohmann::json::array();
   for (int l = 0; l < geometry.level_count(); ++l) {
     const LevelGeometry& g = geometry.level(l);
     levels.push_back({{"dims", {g.dims.x, g.dims.y, g.dims.z}}, {"bricks", {g.bricks.x, g.bricks.y, g.bricks.z}}});
   }
-  nlohmann::json m = {{"codec", "ta-bricked"},
+  nlohmann::json m = {{"codec", params.codec_name},
                       {"codec_version", 1},
                       {"source",
                        {{"dims", {source.dims.x, source.dims.y, source.dims.z}},
@@ -53,12 +53,6 @@ nlohmann::json make_metadata(const VolumeInfo& source, const OctreeGeometry& geo
                       {"hooi_iterations", params.codec.hooi_iterations},
                       {"zstd_level", params.codec.zstd_level},
                       {"levels", levels}};
-  if (!global.is_null()) {
-    // Cores only: no per-brick HOOI; `quant` is the cores' scheme, `zstd_level` their zstd stage.
-    m["codec"] = kGlobalCodecName;
-    m.erase("hooi_iterations");
-    m["global"] = global;
-  }
   if (!targets.empty()) {
     // Error-target bricks carry their own steps; no fixed quantization scheme applies.
     m["quant"] = kCodedQuantName;

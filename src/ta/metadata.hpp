@@ -8,11 +8,11 @@
 
 namespace strata::ta {
 
-// `targets`: the per-level brick targets of an error-target file (empty in fixed-rank mode);
-// `measured`: the error each level was measured to hold (error-target files); `global`: the
-// "global" object of a ta-global file (null for ta-bricked).
+// The members every TA codec writes ("codec" is params.codec_name; a codec adds its own in
+// CodecRun::finish). `targets`: the per-level brick targets of an error-target file (empty in
+// fixed-rank mode); `measured`: the error each level was measured to hold (error-target files).
 nlohmann::json make_metadata(const VolumeInfo& source, const OctreeGeometry& geometry, const CompressParams& params,
                              const HistogramRange& range, const std::vector<BrickTarget>& targets,
-                             const std::vector<LevelCounts>& measured, const nlohmann::json& global = nullptr);
+                             const std::vector<LevelCounts>& measured);
 
 }  // namespace strata::ta

@@ -30,17 +30,10 @@ float value_of(VoxelClass c) {
   return 0;
 }
 
+// Whether a payload of kind `k` may sit inside a masked payload (PayloadKindTraits::maskable).
 bool brick_kind(store::PayloadKind k) {
-  switch (k) {
-    case store::PayloadKind::constant:
-    case store::PayloadKind::tucker:
-    case store::PayloadKind::tucker_zstd:
-    case store::PayloadKind::tucker_coded:
-    case store::PayloadKind::raw_zstd:
-    case store::PayloadKind::raw_packed: return true;
-    case store::PayloadKind::masked: return false;
-  }
-  return false;
+  const store::PayloadKindTraits* traits = store::find_payload_kind(std::uint8_t(k));
+  return traits != nullptr && traits->maskable;
 }
 
 constexpr std::size_t kHeaderBytes = 9;  // inner kind u8, inner constant f32, mask frame size u32

@@ -10,6 +10,7 @@
 #include "strata/core/threads.hpp"
 #include "strata/store/brick_histogram.hpp"
 #include "strata/store/metadata_json.hpp"
+#include "strata/ta/codec_registry.hpp"
 #include "strata/ta/target_codec.hpp"
 
 namespace strata::ta {
@@ -20,17 +21,12 @@ using store::json_member;
 using store::json_object;
 using store::MetadataField;
 
-// Payload kinds each mode writes: fixed-rank files (a `quant` scheme) Tucker bricks, error-target
-// files (`quant` "coded") coded Tucker bricks and the lossless fallback; both constant bricks.
-bool kind_allowed(store::PayloadKind kind, bool coded, bool global) {
-  using store::PayloadKind;
-  if (global)
-    return kind == PayloadKind::constant || kind == PayloadKind::global_core || kind == PayloadKind::global_core_zstd;
-  // Either mode stores a brick losslessly (raw_packed) when that is smaller, and wraps a brick
-  // with NaN or infinite voxels (masked).
-  if (kind == PayloadKind::constant || kind == PayloadKind::raw_packed || kind == PayloadKind::masked) return true;
-  return coded ? kind == PayloadKind::tucker_coded || kind == PayloadKind::raw_zstd
-               : kind == PayloadKind::tucker || kind == PayloadKind::tucker_zstd;
+// "a, b or c": the payload kinds a codec writes, for messages.
+std::string kind_list(const std::vector<store::PayloadKind>& kinds) {
+  std::string text;
+  for (std::size_t i = 0; i < kinds.size(); ++i)
+    text += std::string(i == 0 ? "" : i + 1 == kinds.size() ? " or " : ", ") + store::payload_kind_name(kinds[i]);
+  return text;
 }
 
 std::string extent_text(const Extent& e) { return fmt::format("[{}, {}, {}]", e.x, e.y, e.z); }
@@ -47,12 +43,12 @@ TaVolume::TaVolume(std::unique_ptr<store::ContainerReader> container) : containe
   const nlohmann::json& m = container_->metadata();
   const MetadataField meta{file, "metadata"};
   const auto codec = m.find("codec");
-  const bool global =
-      codec != m.end() && codec->is_string() && codec->get_ref<const std::string&>() == kGlobalCodecName;
-  if (codec == m.end() || !codec->is_string() || (codec->get_ref<const std::string&>() != "ta-bricked" && !global))
+  if (codec == m.end() || !codec->is_string() || !is_codec_name(codec->get_ref<const std::string&>()))
     throw FormatError(file, "metadata.codec",
-                      "expected \"ta-bricked\" or \"ta-global\", found " +
+                      "expected " + quoted_codec_names() + ", found " +
                           (codec != m.end() ? store::json_excerpt(*codec) : std::string("none")));
+  codec_name_ = codec->get_ref<const std::string&>();
+  const bool global = codec_name_ == kGlobalCodecName;
   store::json_integer(json_member(m, "codec_version", meta), meta / "codec_version", 1, 1);
 
   const MetadataField src = meta / "source";
@@ -81,7 +77,14 @@ TaVolume::TaVolume(std::unique_ptr<store::ContainerReader> container) : containe
   geometry_ = std::make_unique<OctreeGeometry>(source_.dims, layout);
   rank_ = int(store::json_integer(json_member(m, "rank", meta), meta / "rank", 1, layout.brick));
   quant_ = store::json_string(json_member(m, "quant", meta), meta / "quant");
-  const bool coded = quant_ == kCodedQuantName && !global;
+  // Error-target files say so by their quant; a codec without that mode reads it as a scheme.
+  const BrickCodec* const coded_entry =
+      quant_ == kCodedQuantName ? find_codec(codec_name_, CodecMode::error_target) : nullptr;
+  const bool coded = coded_entry != nullptr;
+  const BrickCodec* entry = coded ? coded_entry : find_codec(codec_name_, CodecMode::fixed_rank);
+  if (entry == nullptr)  // a codec of error-target mode only, with a fixed-rank scheme
+    (meta / "quant").fail("the " + codec_name_ + " codec codes to an error target: expected \"" + kCodedQuantName + "\"");
+  const std::vector<store::PayloadKind> kinds = entry->payload_kinds();
   try {
     // Error-target files code every brick with its own steps; the default scheme is never used.
     if (!coded) scheme_ = quant::QuantScheme::parse(quant_);
@@ -116,13 +119,12 @@ TaVolume::TaVolume(std::unique_ptr<store::ContainerReader> container) : containe
     const Extent& grid = geometry_->level(e.key.level).bricks;
     if (e.key.x < 0 || e.key.y < 0 || e.key.z < 0 || e.key.x >= grid.x || e.key.y >= grid.y || e.key.z >= grid.z)
       throw FormatError(file, "index", name + " lies outside the level's brick grid " + extent_text(grid));
-    if (!kind_allowed(e.kind, coded, global))
+    if (std::find(kinds.begin(), kinds.end(), e.kind) == kinds.end())
       throw FormatError(file, name,
                         std::string("payload kind ") + store::payload_kind_name(e.kind) +
-                            (global ? " does not belong in a ta-global file (expected constant, global_core or global_core_zstd)"
-                                    : " does not belong in a file with quant \"" + quant_ + "\"" +
-                                          (coded ? " (expected constant, tucker_coded, raw_zstd, raw_packed or masked)"
-                                                 : " (expected constant, tucker, tucker_zstd, raw_packed or masked)")));
+                            (global ? " does not belong in a " + codec_name_ + " file (expected " + kind_list(kinds) + ")"
+                                    : " does not belong in a file with quant \"" + quant_ + "\" (expected " +
+                                          kind_list(kinds) + ")"));
     if (e.kind != store::PayloadKind::constant && e.size == 0)
       throw FormatError(file, name, std::string("a ") + store::payload_kind_name(e.kind) + " brick needs payload bytes, the index gives it none");
     ++bricks_per_level[e.key.level];
@@ -190,7 +192,7 @@ void TaVolume::read_global(const store::MetadataField& meta) {
 
 
 BrickBases TaVolume::brick_bases(const store::BrickKey& key) const {
-  if (!bases_) throw Error(container_->name() + ": a ta-bricked file has no global bases");
+  if (!bases_) throw Error(container_->name() + ": a " + codec_name_ + " file has no global bases");
   return bases_->brick_bases(key.level, key.x, key.y, key.z);
 }
 

@@ -191,8 +191,23 @@ TEST_F(HostileCli, LibraryTextIsExplained) {
   refused("compress " + q("p.nrrd") + " -o " + q("t.strata") + " --rmse 1e-300", 2, "--rmse: ");
   refused("compress " + q("p.nrrd") + " -o " + q("t.strata") + " --coarse-growth nan", 2, "--coarse-growth: ");
   refused("compress " + q("p.nrrd") + " -o " + q("t.strata") + " --memory-limit 1e30G", 2, "--memory-limit: ");
-  refused("compress " + q("p.nrrd") + " -o " + q("t.strata") + " --hooi 100000", 2, "");
+  refused("compress " + q("p.nrrd") + " -o " + q("t.strata") + " --hooi 100000", 2, "--hooi: ");
+  // The library's one parameter check, reported against the flag that set the value.
+  refused("compress " + q("p.nrrd") + " -o " + q("t.strata") + " --zstd 20", 2, "--zstd: ");
+  refused("compress " + q("p.nrrd") + " -o " + q("t.strata") + " --codec zfp", 2, "--codec: unknown codec");
+  refused("compress " + q("p.nrrd") + " -o " + q("t.strata") + " --psnr 40 --hooi 2", 2, "--hooi: ");
+  refused("labels encode " + q("p.nrrd") + " -o " + q("t.strata") + " --bits 17", 2, "--bits: ");
+  refused("labels encode " + q("p.nrrd") + " -o " + q("t.strata") + " --zstd 23", 2, "--zstd: ");
   EXPECT_FALSE(fs::exists(file("t.strata")));
+}
+
+// `compress --help` lists the codecs of the registry with what each stores.
+TEST_F(HostileCli, CompressHelpListsTheRegisteredCodecs) {
+  std::string out;
+  ASSERT_EQ(run_command(strata_cmd("compress --help"), &out), 0) << out;
+  EXPECT_TRUE(has(out, "ta-bricked:")) << out;
+  EXPECT_TRUE(has(out, "ta-global:")) << out;
+  EXPECT_TRUE(has(out, "error-target")) << out;
 }
 
 }  // namespace

@@ -217,8 +217,9 @@ TEST(CliLabels, NormalsGraphEncodesAndLightsFrames) {
   std::ifstream ao(dir / "ao.json");
   EXPECT_EQ(nlohmann::json::parse(ao)["frames"][0]["render"]["lighting"], "gradient-ao");
   // Every normals option out of range is refused before any work (exit 2), naming the flag.
-  for (const std::string& bad : {"--normals-radius 9", "--normals-radius 0", "--normals-band 4", "--normals-band -1",
-                                 "--normals-diffusion 65", "--normals-dither maybe"}) {
+  for (const char* option : {"--normals-radius 9", "--normals-radius 0", "--normals-band 4", "--normals-band -1",
+                             "--normals-diffusion 65", "--normals-dither maybe"}) {
+    const std::string bad = option;
     EXPECT_EQ(run_command(strata_cmd("labels encode " + in + " -o " + (dir / "z.strata").string() + " --normals " + bad), &out), 2)
         << bad << ": " << out;
     EXPECT_NE(out.find(bad.substr(0, bad.find(' '))), std::string::npos) << bad << ": " << out;

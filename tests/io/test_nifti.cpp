@@ -8,6 +8,7 @@
 #include <cstring>
 #include <set>
 
+#include "io/builtin_formats.hpp"
 #include "io/io_detail.hpp"
 #include "io/io_test_util.hpp"
 #include "strata/io/volume_io.hpp"
@@ -161,7 +162,10 @@ TEST(IoNifti, GzOutputIsTheSameFileGzipped) {
 
 TEST(IoNifti, WriterRejectsI8) {
   TempDir dir;
-  EXPECT_THROW(io::detail::create_nifti_writer(dir / "v.nii", VolumeInfo{{2, 2, 2}, DType::i8, {}}, {}), Error);
+  // The format's own writer refuses too, not only create_volume_writer's check of write_dtypes.
+  const io::VolumeFormat nifti = io::detail::nifti_format();
+  EXPECT_FALSE(nifti.writes(DType::i8));
+  EXPECT_THROW(nifti.create_writer(dir / "v.nii", VolumeInfo{{2, 2, 2}, DType::i8, {}}, {}), Error);
   EXPECT_FALSE(fs::exists(dir / "v.nii.tmp"));
 }
 

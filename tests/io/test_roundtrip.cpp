@@ -68,7 +68,7 @@ TEST(IoFormatChain, StreamedThroughSlabsAndATiffFolder) {
     writer->finish();
   };
   io::WriteOptions tiff_folder;
-  tiff_folder.format = io::FileFormat::tiff;
+  tiff_folder.format = "tiff";
   copy(dir / "a.nii", dir / "slices", tiff_folder);
   copy(dir / "slices", dir / "b.nrrd", {});
   copy(dir / "b.nrrd", dir / "c.nii.gz", {});

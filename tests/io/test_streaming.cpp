@@ -9,6 +9,7 @@
 #include "io/io_detail.hpp"
 #include "io/io_test_util.hpp"
 #include "strata/io/files.hpp"
+#include "strata/io/formats.hpp"
 #include "strata/io/volume_io.hpp"
 #include "support/test_support.hpp"
 
@@ -206,27 +207,25 @@ TEST(IoStreaming, ByteSwapReversesEachSample) {
 
 TEST(IoVolumeIo, DetectsFormatsByName) {
   test::TempDir dir;
-  EXPECT_EQ(detect_format("a.raw"), FileFormat::raw);
-  EXPECT_EQ(detect_format("a.BIN"), FileFormat::raw);
-  EXPECT_EQ(detect_format("a.nrrd"), FileFormat::nrrd);
-  EXPECT_EQ(detect_format("a.nhdr"), FileFormat::nrrd);
-  EXPECT_EQ(detect_format("a.nii"), FileFormat::nifti);
-  EXPECT_EQ(detect_format("dir/a.nii.gz"), FileFormat::nifti);
-  EXPECT_EQ(detect_format("a.tif"), FileFormat::tiff);
-  EXPECT_EQ(detect_format("a.tiff"), FileFormat::tiff);
-  EXPECT_EQ(detect_format(dir.path()), FileFormat::tiff);
+  EXPECT_EQ(detect_format("a.raw").name, "raw");
+  EXPECT_EQ(detect_format("a.BIN").name, "raw");
+  EXPECT_EQ(detect_format("a.nrrd").name, "nrrd");
+  EXPECT_EQ(detect_format("a.nhdr").name, "nrrd");
+  EXPECT_EQ(detect_format("a.nii").name, "nifti");
+  EXPECT_EQ(detect_format("dir/a.nii.gz").name, "nifti");
+  EXPECT_EQ(detect_format("a.tif").name, "tiff");
+  EXPECT_EQ(detect_format("a.tiff").name, "tiff");
+  EXPECT_EQ(detect_format(dir.path()).name, "tiff");
   EXPECT_THROW(detect_format("a.gz"), Error);
   EXPECT_THROW(detect_format("volume"), Error);
-  EXPECT_STREQ(format_name(FileFormat::nrrd), "nrrd");
-  EXPECT_STREQ(format_name(FileFormat::nifti), "nifti");
 }
 
 TEST(IoVolumeIo, FormatSupportsDtypes) {
   for (DType t : kAllDtypes) {
-    EXPECT_TRUE(format_supports(FileFormat::raw, t));
-    EXPECT_TRUE(format_supports(FileFormat::nrrd, t));
-    EXPECT_TRUE(format_supports(FileFormat::tiff, t));
-    EXPECT_EQ(format_supports(FileFormat::nifti, t), t != DType::i8);
+    EXPECT_TRUE(find_format("raw")->writes(t));
+    EXPECT_TRUE(find_format("nrrd")->writes(t));
+    EXPECT_TRUE(find_format("tiff")->writes(t));
+    EXPECT_EQ(find_format("nifti")->writes(t), t != DType::i8);
   }
   test::TempDir dir;
   EXPECT_THROW(create_volume_writer(dir / "x.nii", VolumeInfo{{2, 2, 2}, DType::i8, {}}), Error);
@@ -236,7 +235,7 @@ TEST(IoVolumeIo, FormatOptionOverridesTheExtension) {
   test::TempDir dir;
   Volume v = pattern_slab({4, 3, 2}, 0, 2);
   WriteOptions options;
-  options.format = FileFormat::nrrd;
+  options.format = "nrrd";
   write_volume(dir / "vol.dat", v, options);
   EXPECT_EQ(read_text(dir / "vol.dat").rfind("NRRD0004\n", 0), 0u);
 }

@@ -163,7 +163,7 @@ TEST_P(IoTiffRoundTrip, IsBitExactWithSpacingAndBoxes) {
   const fs::path path = folder ? dir / "slices" : dir / "stack.tif";
   const Volume original = random_volume({9, 7, 5}, dtype, 17);
   // A new folder has no extension to detect the format from.
-  const io::WriteOptions options{.compress = compress, .format = io::FileFormat::tiff};
+  const io::WriteOptions options{.compress = compress, .format = "tiff"};
   {
     auto writer = io::create_volume_writer(path, original.info(), options);
     writer->write_slab(original.crop({{0, 0, 0}, {9, 7, 3}}));
@@ -217,7 +217,7 @@ TEST(IoTiff, FolderWriterNamesSlicesAndLeavesNoStaging) {
 
 TEST(IoTiff, FolderWriterReplacesOldSlicesButNotOtherFiles) {
   TempDir dir;
-  const io::WriteOptions options{.format = io::FileFormat::tiff};
+  const io::WriteOptions options{.format = "tiff"};
   io::write_volume(dir / "out", random_volume({4, 4, 9}, DType::u8, 1), options);
   const Volume small = random_volume({4, 4, 3}, DType::u8, 2);
   io::write_volume(dir / "out", small, options);
@@ -232,7 +232,7 @@ TEST(IoTiff, FolderWriterReplacesOldSlicesButNotOtherFiles) {
 TEST(IoTiff, UnfinishedWritersLeaveNothing) {
   TempDir dir;
   const Volume v = random_volume({4, 4, 4}, DType::u16, 3);
-  const io::WriteOptions options{.format = io::FileFormat::tiff};
+  const io::WriteOptions options{.format = "tiff"};
   for (const char* name : {"stack.tif", "folder"}) {
     {
       auto writer = io::create_volume_writer(dir / name, v.info(), options);
@@ -460,7 +460,7 @@ TEST(IoTiffErrors, NotATiffAndEmptyFolder) {
 
 TEST(IoTiffStreaming, FolderReadsOnlyRequestedSlices) {
   TempDir dir;
-  const io::WriteOptions options{.format = io::FileFormat::tiff};
+  const io::WriteOptions options{.format = "tiff"};
   const Volume v = random_volume({6, 5, 6}, DType::u16, 8);
   io::write_volume(dir / "stack", v, options);
   auto source = io::open_volume(dir / "stack");

@@ -18,8 +18,8 @@ namespace strata::lod::testing {
 inline constexpr std::uint64_t kAllBins = ~std::uint64_t(0);
 
 // A 64^3 prisms volume in 16-wide bricks (core 12): 4 levels with 216, 27, 8 and 1 bricks.
-// Compressed once per test program by codec `Kind`; rank 8 of stored 8.
-template <ta::CodecKind Kind>
+// Compressed once per test program by codec `*Codec`; rank 8 of stored 8.
+template <const char* const* Codec>
 class PrismsVolume {
  public:
   static const ta::TaVolume& volume() {
@@ -31,7 +31,7 @@ class PrismsVolume {
   PrismsVolume() {
     const auto path = dir_ / "prisms64.strata";
     ta::CompressParams params = ta::testing::params(16, 2, 8, "u16,b8log+");
-    params.kind = Kind;
+    params.codec_name = *Codec;
     ta::testing::compress(ta::testing::prisms({64, 64, 64}, 11), path, params);
     volume_ = std::make_unique<ta::TaVolume>(path);
   }
@@ -40,7 +40,9 @@ class PrismsVolume {
 };
 
 // The per-brick codec (ta-bricked).
-using Prisms64 = PrismsVolume<ta::CodecKind::bricked>;
+inline constexpr const char* kBricked = ta::kBrickedCodecName;
+inline constexpr const char* kGlobal = ta::kGlobalCodecName;
+using Prisms64 = PrismsVolume<&kBricked>;
 
 // A perspective view from `eye` towards `target` (up = +y unless parallel), square image of
 // `pixels` rows, vertical field of view `fov_deg`.

@@ -19,7 +19,7 @@ using namespace strata::lod::testing;
 namespace {
 
 // The prisms of Prisms64 coded by ta-global at rank 8 (ladder 2, 4, 6, 8).
-using GlobalPrisms64 = PrismsVolume<ta::CodecKind::global>;
+using GlobalPrisms64 = PrismsVolume<&kGlobal>;
 
 using KeyTuple = std::tuple<int, int, int, int>;
 KeyTuple tuple_of(const store::BrickKey& k) { return {k.level, k.x, k.y, k.z}; }

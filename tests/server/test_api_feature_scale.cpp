@@ -22,7 +22,7 @@ namespace {
 std::filesystem::path global_prisms(const std::filesystem::path& dir) {
   io::write_volume(dir / "prisms.nrrd", ServerData::get().scalar_source());
   ta::CompressParams params;
-  params.kind = ta::CodecKind::global;
+  params.codec_name = ta::kGlobalCodecName;
   params.layout = {16, 2};
   params.codec.rank = 8;
   params.codec.quant = quant::QuantScheme::parse("u16,b8log+");

@@ -17,9 +17,9 @@ TEST(TaEvaluate, CoarseLevelsMatchTheWholePyramidInMemory) {
   test::TempDir dir;
   const Volume v = testing::prisms({37, 29, 101}, 4);
   io::write_volume(dir / "v.nrrd", v);
-  for (CodecKind kind : {CodecKind::bricked, CodecKind::global}) {
+  for (const char* codec : {kBrickedCodecName, kGlobalCodecName}) {
     CompressParams p = testing::params(16, 2, 6, "u16,b8log+");
-    p.kind = kind;
+    p.codec_name = codec;
     testing::compress(v, dir / "v.strata", p);
     const TaVolume t(dir / "v.strata");
     ASSERT_GE(t.geometry().level_count(), 4);

@@ -216,7 +216,7 @@ TEST_F(TaForgedFiles, TruncatedFilesAreFormatErrors) {
 // and every failure names the file and the field or section.
 TEST_F(TaForgedFiles, GlobalBasesAndTheFeatureScaleTableAreChecked) {
   CompressParams g = params(16, 2, 8, "u16,b8log+");
-  g.kind = CodecKind::global;
+  g.codec_name = kGlobalCodecName;
   const fs::path good_global = *dir_ / "global.strata";
   compress(prisms({30, 30, 30}, 4), good_global, g);
   EXPECT_EQ(open_and_decode(good_global), "");

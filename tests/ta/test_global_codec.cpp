@@ -19,7 +19,7 @@ namespace {
 
 CompressParams global_params(int rank, const std::string& quant) {
   CompressParams p = testing::params(16, 2, rank, quant);
-  p.kind = CodecKind::global;
+  p.codec_name = kGlobalCodecName;
   return p;
 }
 
@@ -205,7 +205,7 @@ TEST(TaGlobalCodec, UnsupportedInputAndDamageAreNamed) {
   CompressParams target = global_params(8, "u16,b8log+");
   target.codec.target = {TargetKind::psnr, 40};
   EXPECT_EQ(test::parameter_of([&] { testing::compress(testing::prisms({20, 20, 20}), dir / "t.strata", target); }),
-            "CompressParams::kind");
+            "CompressParams::codec_name");
   Volume nan(Extent{20, 20, 20}, DType::f32);
   nan.view<float>()(3, 4, 5) = std::nanf("");
   EXPECT_NE(test::error_of([&] { testing::compress(nan, dir / "n.strata", global_params(8, "u16,b8log+")); })

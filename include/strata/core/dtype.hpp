@@ -1,4 +1,7 @@
 #pragma once
+/// @file
+/// @brief Voxel sample types: their sizes and names, the C++ type of each, and visit_dtype, which
+/// runs a template once per type so typed kernels are written once.
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -9,9 +12,10 @@
 
 namespace strata {
 
-// Voxel sample types. Storage is always native little endian in memory.
+/// @brief Voxel sample types. Storage is always native little endian in memory.
 enum class DType : std::uint8_t { u8, i8, u16, i16, u32, i32, f32, f64 };
 
+/// @brief Bytes per sample: 1, 2, 4 or 8.
 constexpr std::size_t dtype_size(DType t) {
   switch (t) {
     case DType::u8: case DType::i8: return 1;
@@ -27,11 +31,13 @@ constexpr bool dtype_is_signed(DType t) {
 }
 constexpr bool dtype_is_integer(DType t) { return !dtype_is_float(t); }
 
+/// @brief "u8", "i8", "u16", "i16", "u32", "i32", "f32" or "f64".
 std::string_view dtype_name(DType t);
-// Accepts our names (u8, i16, f32, ...) and common spellings (uint8, int16, float, double).
-// Throws Error naming `context` when the name is unknown.
+/// @brief Accepts our names (u8, i16, f32, ...) and common spellings (uint8, int16, float, double).
+/// Throws Error naming `context` when the name is unknown.
 DType parse_dtype(std::string_view name, std::string_view context = "dtype");
 
+/// @brief The DType of the C++ sample type T (defined for the eight sample types only).
 template <class T> constexpr DType dtype_of();
 template <> constexpr DType dtype_of<std::uint8_t>() { return DType::u8; }
 template <> constexpr DType dtype_of<std::int8_t>() { return DType::i8; }
@@ -42,7 +48,7 @@ template <> constexpr DType dtype_of<std::int32_t>() { return DType::i32; }
 template <> constexpr DType dtype_of<float>() { return DType::f32; }
 template <> constexpr DType dtype_of<double>() { return DType::f64; }
 
-// Calls f(T{}) with the C++ type of `t`, so typed kernels are written once as templates.
+/// @brief Calls f(T{}) with the C++ type of `t`, so typed kernels are written once as templates.
 template <class F>
 decltype(auto) visit_dtype(DType t, F&& f) {
   switch (t) {

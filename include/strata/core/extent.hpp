@@ -1,4 +1,6 @@
 #pragma once
+/// @file
+/// @brief Voxel sizes, positions and boxes (Extent, Box) in 64-bit integers, and their text forms.
 #include <algorithm>
 #include <cstdint>
 #include <optional>
@@ -8,7 +10,7 @@
 
 namespace strata {
 
-// A size or a position in voxels, x fastest. 64-bit so terabyte volumes index safely.
+/// @brief A size or a position in voxels, x fastest. 64-bit so terabyte volumes index safely.
 struct Extent {
   std::int64_t x = 0, y = 0, z = 0;
 
@@ -26,7 +28,7 @@ struct Extent {
   [[noreturn]] void throw_voxel_count_overflow() const;
 };
 
-// A half-open axis-aligned box [lo, hi) in voxel coordinates.
+/// @brief A half-open axis-aligned box [lo, hi) in voxel coordinates.
 struct Box {
   Extent lo, hi;
 
@@ -46,9 +48,9 @@ struct Box {
   std::string to_string() const;  // "x0,y0,z0:x1,y1,z1"
 };
 
-// Parses "x0,y0,z0:x1,y1,z1"; throws Error on malformed text.
+/// @brief Parses "x0,y0,z0:x1,y1,z1"; throws Error on malformed text.
 Box parse_box(const std::string& text);
-// Parses "X" (cube) or "X,Y,Z" / "XxYxZ"; throws Error on malformed text.
+/// @brief Parses "X" (cube) or "X,Y,Z" / "XxYxZ"; throws Error on malformed text.
 Extent parse_extent(const std::string& text);
 
 }  // namespace strata

@@ -1,4 +1,7 @@
 #pragma once
+/// @file
+/// @brief Summary statistics of a volume (range, mean, spread, histogram, non-finite counts, distinct
+/// labels), accumulated slab by slab: what `strata info` prints.
 #include <array>
 #include <cstdint>
 #include <optional>
@@ -9,9 +12,9 @@
 
 namespace strata {
 
-// Summary statistics of a volume, accumulated slab by slab (streaming). Float volumes may hold
-// NaN (masked or out-of-field voxels, as SPM, FSL and simulations write) and infinities: those
-// are counted apart, and everything else describes the finite values.
+/// @brief Summary statistics of a volume, accumulated slab by slab (streaming). Float volumes may hold
+/// NaN (masked or out-of-field voxels, as SPM, FSL and simulations write) and infinities: those
+/// are counted apart, and everything else describes the finite values.
 struct VolumeStatistics {
   std::uint64_t voxel_count = 0;
   std::uint64_t nan_count = 0, positive_infinity_count = 0, negative_infinity_count = 0;
@@ -28,6 +31,7 @@ struct VolumeStatistics {
   double zero_fraction = 0;
 };
 
+/// @brief Builds VolumeStatistics slab by slab: add() once per slab, then result().
 class StatisticsAccumulator {
  public:
   // Distinct integer values are tracked up to this many; beyond it they are reported unknown.
@@ -52,6 +56,7 @@ class StatisticsAccumulator {
   std::uint64_t sample_stride_ = 1, sample_phase_ = 0;
 };
 
+/// @brief The statistics of one whole in-memory volume.
 VolumeStatistics compute_statistics(const Volume& v);
 
 }  // namespace strata

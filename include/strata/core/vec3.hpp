@@ -1,10 +1,12 @@
 #pragma once
-// A small double-precision 3-vector for geometry (cameras, rays, frusta). Kernels that touch
-// voxels use floats and plain arrays; this type is for per-frame and per-ray set-up.
+/// @file
+/// @brief A small double-precision 3-vector for geometry (cameras, rays, frusta). Kernels that touch
+/// voxels use floats and plain arrays; this type is for per-frame and per-ray set-up.
 #include <cmath>
 
 namespace strata {
 
+/// @brief A point or direction (x, y, z) with the arithmetic the geometry code needs.
 struct Vec3 {
   double x = 0, y = 0, z = 0;
 
@@ -25,6 +27,7 @@ constexpr Vec3 cross(const Vec3& a, const Vec3& b) {
 }
 constexpr Vec3 hadamard(const Vec3& a, const Vec3& b) { return {a.x * b.x, a.y * b.y, a.z * b.z}; }
 inline double length(const Vec3& v) { return std::sqrt(dot(v, v)); }
+/// @brief `v` scaled to length 1; a zero vector is returned unchanged.
 inline Vec3 normalized(const Vec3& v) {
   const double n = length(v);
   return n > 0 ? v / n : v;

@@ -1,4 +1,7 @@
 #pragma once
+/// @file
+/// @brief The in-memory volume (Volume: dims, sample type, spacing and x-fastest samples), its typed
+/// views, and VolumeInfo, what a file header says about a volume.
 #include <cstddef>
 #include <cstring>
 #include <optional>
@@ -10,13 +13,13 @@
 
 namespace strata {
 
-// Physical voxel size (e.g. millimetres), as read from the file headers.
+/// @brief Physical voxel size (e.g. millimetres), as read from the file headers.
 struct Spacing {
   double x = 1.0, y = 1.0, z = 1.0;
   bool operator==(const Spacing&) const = default;
 };
 
-// What a file header says about a volume, without its samples.
+/// @brief What a file header says about a volume, without its samples.
 struct VolumeInfo {
   Extent dims;
   DType dtype = DType::u8;
@@ -35,7 +38,7 @@ struct VolumeInfo {
   std::size_t byte_size() const;
 };
 
-// Typed, non-owning view of x-fastest voxels.
+/// @brief Typed, non-owning view of x-fastest voxels.
 template <class T>
 struct VolumeView {
   T* data = nullptr;
@@ -48,8 +51,8 @@ struct VolumeView {
   std::span<T> span() const { return {data, std::size_t(dims.voxel_count())}; }
 };
 
-// An in-memory volume (or a slab/box of one), x fastest. Large inputs are processed as
-// slabs through io::VolumeSource instead of one Volume.
+/// @brief An in-memory volume (or a slab/box of one), x fastest. Large inputs are processed as
+/// slabs through io::VolumeSource instead of one Volume.
 class Volume {
  public:
   Volume() = default;
@@ -67,7 +70,7 @@ class Volume {
   std::byte* bytes() { return bytes_.data(); }
   const std::byte* bytes() const { return bytes_.data(); }
 
-  // Typed access; throws Error if T does not match dtype().
+  /// @brief Typed access; throws Error if T does not match dtype().
   template <class T> VolumeView<T> view() {
     check_type(dtype_of<T>());
     return {reinterpret_cast<T*>(bytes_.data()), info_.dims};
@@ -79,13 +82,13 @@ class Volume {
   template <class T> std::span<T> samples() { return view<T>().span(); }
   template <class T> std::span<const T> samples() const { return view<T>().span(); }
 
-  // Any-type sample access, for tests and tools (slow path; kernels use view<T>()).
+  /// @brief Any-type sample access, for tests and tools (slow path; kernels use view<T>()).
   double value(std::int64_t x, std::int64_t y, std::int64_t z) const;
   void set_value(std::int64_t x, std::int64_t y, std::int64_t z, double v);
 
-  // Copies of a box (must lie inside) as a new Volume with the same dtype and spacing.
+  /// @brief Copies of a box (must lie inside) as a new Volume with the same dtype and spacing.
   Volume crop(const Box& box) const;
-  // Converts samples to another dtype (values are rounded and clamped for integer targets).
+  /// @brief Converts samples to another dtype (values are rounded and clamped for integer targets).
   Volume converted(DType to) const;
 
   bool operator==(const Volume& o) const { return info_.dims == o.info_.dims && info_.dtype == o.info_.dtype && bytes_ == o.bytes_; }

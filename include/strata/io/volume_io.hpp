@@ -3,18 +3,15 @@
 #include <filesystem>
 #include <memory>
 #include <optional>
+#include <string>
 
 #include "strata/core/progress.hpp"
 #include "strata/core/volume.hpp"
 
 namespace strata::io {
 
-enum class FileFormat { raw, nrrd, nifti, tiff };
-
-// By extension: .raw/.bin -> raw, .nrrd/.nhdr -> nrrd, .nii/.nii.gz -> nifti,
-// .tif/.tiff or a directory -> tiff. Throws Error naming the path when unknown.
-FileFormat detect_format(const std::filesystem::path& path);
-const char* format_name(FileFormat f);
+// The formats themselves (names, extensions, detection, what each can do) are the entries of
+// the registry in strata/io/formats.hpp; open_volume and create_volume_writer dispatch through it.
 
 // Options for reading. Raw files need dims and dtype, from these fields or from a JSON
 // sidecar `<file>.json` ({"dims":[x,y,z],"dtype":"u16","spacing":[sx,sy,sz]}); without
@@ -35,7 +32,9 @@ struct ReadOptions {
 
 struct WriteOptions {
   bool compress = true;  // gzip for NRRD (encoding gzip); .nii.gz follows the file name
-  std::optional<FileFormat> format;  // override detection by extension
+  // A registered format's name (formats.hpp: "nrrd", "tiff", ...) that overrides detection by
+  // the extension, e.g. for a new folder of TIFF slices; empty: from the path (output_format).
+  std::string format;
 };
 
 // Random access to a volume on disk without loading it whole. Raw and raw-encoded NRRD are
@@ -54,6 +53,8 @@ class VolumeSource {
   Volume read_all();
 };
 
+/// @brief Opens the volume at `path` with the reader of its format (detect_format): refuses an
+/// empty file, and a volume other than 0 of a format that holds one (FormatCapabilities::multi_volume).
 std::unique_ptr<VolumeSource> open_volume(const std::filesystem::path& path, const ReadOptions& options = {});
 /// @brief A volume in memory served as a source (boxes are copied out), so code written for
 /// streamed files takes it too; `volume` must outlive the source. `name` is shown in errors.
@@ -70,11 +71,10 @@ class VolumeWriter {
   virtual void finish() = 0;
 };
 
+/// @brief A writer of `info` in the format of output_format(path, options.format): throws Error
+/// naming the path when the format has no writer or cannot store info.dtype, or dims are not positive.
 std::unique_ptr<VolumeWriter> create_volume_writer(const std::filesystem::path& path, const VolumeInfo& info,
                                                    const WriteOptions& options = {});
 void write_volume(const std::filesystem::path& path, const Volume& volume, const WriteOptions& options = {});
-
-// Which dtypes a format can store (NIfTI-1: no i8 writing is supported by all readers, etc.).
-bool format_supports(FileFormat f, DType t);
 
 }  // namespace strata::io

@@ -1,9 +1,10 @@
 #pragma once
-// The asynchronous loader (paper 1, §3 and §6.1): worker threads (std::jthread) take brick
-// requests from a priority queue, coarse levels first and nearest first within a level, and run
-// a job that fetches, dequantizes and reconstructs into the caches. Each worker owns its
-// BrickReconstructor and decode scratch. A new frame's requests replace the queued ones, so
-// work for views the user has left is dropped; requests already running finish.
+/// @file
+/// @brief The asynchronous loader (paper 1, §3 and §6.1): worker threads (std::jthread) take brick
+/// requests from a priority queue, coarse levels first and nearest first within a level, and run
+/// a job that fetches, dequantizes and reconstructs into the caches. Each worker owns its
+/// BrickReconstructor and decode scratch. A new frame's requests replace the queued ones, so
+/// work for views the user has left is dropped; requests already running finish.
 #include <condition_variable>
 #include <cstdint>
 #include <exception>
@@ -20,33 +21,35 @@
 
 namespace strata::lod {
 
+/// @brief One brick to load at one rank, with its view depth (nearer first within a level).
 struct LoadRequest {
   RankedKey key;
   double depth = 0;  // view depth of the brick (or of the cut brick it stands in for)
 };
 
-// Loader threads when the caller does not choose: one per spare core, at most two, so the
-// render threads keep the rest of the machine.
+/// @brief Loader threads when the caller does not choose: one per spare core, at most two, so the
+/// render threads keep the rest of the machine.
 int default_loader_threads();
 
+/// @brief The loader itself (see the file comment).
 class BrickLoader {
  public:
   using Job = std::function<void(const LoadRequest&, tensor::BrickReconstructor&, ta::DecodeScratch&)>;
 
-  // threads = 0: default_loader_threads(). `job` must be thread-safe.
+  /// @brief threads = 0: default_loader_threads(). `job` must be thread-safe.
   BrickLoader(Job job, int threads = 0);
   ~BrickLoader();  // drops the queue, lets running jobs finish, joins the workers
   BrickLoader(const BrickLoader&) = delete;
   BrickLoader& operator=(const BrickLoader&) = delete;
 
-  // Replaces the queue by `requests` (duplicates and requests already running are skipped).
+  /// @brief Replaces the queue by `requests` (duplicates and requests already running are skipped).
   void submit(const std::vector<LoadRequest>& requests);
-  // Runs queued requests on the calling thread too, until the queue is empty (exact frames).
+  /// @brief Runs queued requests on the calling thread too, until the queue is empty (exact frames).
   void drain(tensor::BrickReconstructor& reconstructor, ta::DecodeScratch& scratch);
-  // Blocks until nothing is queued or running; rethrows the first failure of a job since the
-  // last call (a corrupt brick), so errors reach the caller instead of dying in a thread.
+  /// @brief Blocks until nothing is queued or running; rethrows the first failure of a job since the
+  /// last call (a corrupt brick), so errors reach the caller instead of dying in a thread.
   void wait_idle();
-  // Rethrows a pending job failure without waiting.
+  /// @brief Rethrows a pending job failure without waiting.
   void rethrow_failure();
 
   std::size_t queued() const;

@@ -1,12 +1,13 @@
 #pragma once
-// What the ray caster asks for each frame: the bricks of a LOD cut, reconstructed at rank K.
-// Resident bricks are handed out at once; misses go to the asynchronous loader and, until they
-// arrive, the nearest resident stand-in is drawn (the same brick at another rank, else its
-// nearest resident ancestor), so a frame never waits (paper 1, §3 and §6.1). In exact mode the
-// frame waits for every miss and the calling thread decodes alongside the loader.
-//
-// A stand-in ancestor covers the region of several cut bricks and may overlap cut bricks that
-// are resident; the sampler should prefer the finest brick that covers a point.
+/// @file
+/// @brief What the ray caster asks for each frame: the bricks of a LOD cut, reconstructed at rank K.
+/// Resident bricks are handed out at once; misses go to the asynchronous loader and, until they
+/// arrive, the nearest resident stand-in is drawn (the same brick at another rank, else its
+/// nearest resident ancestor), so a frame never waits (paper 1, §3 and §6.1). In exact mode the
+/// frame waits for every miss and the calling thread decodes alongside the loader.
+///
+/// A stand-in ancestor covers the region of several cut bricks and may overlap cut bricks that
+/// are resident; the sampler should prefer the finest brick that covers a point.
 #include <atomic>
 #include <cstdint>
 #include <vector>
@@ -20,35 +21,38 @@
 
 namespace strata::lod {
 
+/// @brief Cache budgets and loader threads of a BrickProvider.
 struct ProviderOptions {
   std::uint64_t cache_bytes = 1ull << 30;        // reconstructed bricks; should hold a whole cut
   std::uint64_t model_cache_bytes = 256ull << 20;  // dequantized models (the rank slider's source)
   int loader_threads = 0;                          // 0 = default_loader_threads()
 };
 
+/// @brief The bricks of each frame of one TA volume (see the file comment).
 class BrickProvider {
  public:
-  // `volume` must outlive the provider.
+  /// @brief `volume` must outlive the provider.
   explicit BrickProvider(const ta::TaVolume& volume, const ProviderOptions& options = {});
   BrickProvider(const BrickProvider&) = delete;
   BrickProvider& operator=(const BrickProvider&) = delete;
 
-  // The bricks for one frame at rank K (clamped to 1..stored rank; a cut brick with a rank of its
-  // own, chosen by a feature scale, is reconstructed at the lower of the two). Progressive (exact = false):
-  // never blocks on a miss. Exact: returns every cut brick itself. One caller at a time.
-  // Rethrows a loader failure (e.g. a corrupt payload) from an earlier request.
-  // stats.bytes_read and stats.decode_ms count the loading finished since the previous call, by
-  // the loader threads and (exact mode) this thread; hits and misses count cut bricks only
-  // (constant bricks are hits: they need no decode).
+  /// @brief The bricks for one frame at rank K (clamped to 1..stored rank; a cut brick with a rank of its
+  /// own, chosen by a feature scale, is reconstructed at the lower of the two). Progressive (exact = false):
+  /// never blocks on a miss. Exact: returns every cut brick itself. One caller at a time.
+  /// Rethrows a loader failure (e.g. a corrupt payload) from an earlier request.
+  /// stats.bytes_read and stats.decode_ms count the loading finished since the previous call, by
+  /// the loader threads and (exact mode) this thread; hits and misses count cut bricks only
+  /// (constant bricks are hits: they need no decode).
   FrameBricks acquire(const Selection& cut, int rank, bool exact);
 
-  // Queues the cut's missing bricks at rank K on the loader and returns at once (a viewer's
-  // guess at what it shows next); the loading counts in the next acquire's stats.
+  /// @brief Queues the cut's missing bricks at rank K on the loader and returns at once (a viewer's
+  /// guess at what it shows next); the loading counts in the next acquire's stats.
   void prefetch(const Selection& cut, int rank);
 
-  // Blocks until the loader has nothing queued or running (tests, --exact batch rendering).
+  /// @brief Blocks until the loader has nothing queued or running (tests, --exact batch rendering).
   void wait_idle();
 
+  /// @brief K clamped to 1..the volume's stored rank.
   int clamp_rank(int k) const;
   const BrickCache& cache() const { return cache_; }
   const ModelCache& models() const { return models_; }

@@ -1,10 +1,11 @@
 #pragma once
-// The contract between level-of-detail management (lod) and the ray caster (render): the set
-// of reconstructed bricks a frame may sample. A brick's samples are the B^3 floats that
-// ta::TaVolume::decode_brick produces (x fastest, overlap included), so a sampler at level-l
-// position q (level-l voxel units, voxel centres at j + 0.5) reads local index
-// q - 0.5 - core_origin + overlap with trilinear interpolation and central differences inside
-// the stored overlap.
+/// @file
+/// @brief The contract between level-of-detail management (lod) and the ray caster (render): the set
+/// of reconstructed bricks a frame may sample. A brick's samples are the B^3 floats that
+/// ta::TaVolume::decode_brick produces (x fastest, overlap included), so a sampler at level-l
+/// position q (level-l voxel units, voxel centres at j + 0.5) reads local index
+/// q - 0.5 - core_origin + overlap with trilinear interpolation and central differences inside
+/// the stored overlap.
 #include <cstdint>
 #include <memory>
 #include <vector>
@@ -13,6 +14,7 @@
 
 namespace strata::lod {
 
+/// @brief One reconstructed brick a frame may sample, or a constant brick's value.
 struct ResidentBrick {
   store::BrickKey key;
   int rank = 0;                                        // reconstruction rank K of `samples`
@@ -21,7 +23,7 @@ struct ResidentBrick {
   bool is_constant() const { return !samples; }
 };
 
-// Per-frame loader figures (paper 1, Figs. 4-5 breakdown).
+/// @brief Per-frame loader figures (paper 1, Figs. 4-5 breakdown).
 struct LoadStats {
   std::uint64_t selected = 0;     // bricks in the LOD cut
   std::uint64_t resident = 0;     // bricks handed to the renderer (cut bricks or stand-in ancestors)
@@ -31,9 +33,9 @@ struct LoadStats {
   std::uint64_t pending = 0;      // misses still queued for the loader threads
 };
 
-// Bricks that together cover every non-empty region of the cut: each cut brick itself when
-// resident, otherwise its nearest resident ancestor (progressive refinement). Regions whose
-// bricks are empty under the transfer function are simply absent.
+/// @brief Bricks that together cover every non-empty region of the cut: each cut brick itself when
+/// resident, otherwise its nearest resident ancestor (progressive refinement). Regions whose
+/// bricks are empty under the transfer function are simply absent.
 struct FrameBricks {
   std::vector<ResidentBrick> bricks;
   LoadStats stats;

@@ -1,6 +1,7 @@
 #pragma once
-// A least-recently-used map with a byte budget: the storage policy shared by the brick caches.
-// Not thread-safe; the caches that use it hold a lock around every call.
+/// @file
+/// @brief A least-recently-used map with a byte budget: the storage policy shared by the brick caches.
+/// Not thread-safe; the caches that use it hold a lock around every call.
 #include <cstdint>
 #include <list>
 #include <unordered_map>
@@ -9,12 +10,13 @@
 
 namespace strata::lod {
 
+/// @brief Values of any type, each charged `bytes` against the budget when inserted.
 template <class Key, class Value, class Hash = std::hash<Key>>
 class LruCache {
  public:
   explicit LruCache(std::uint64_t budget_bytes) : budget_(budget_bytes) {}
 
-  // The value, marked as most recently used; nullptr when absent.
+  /// @brief The value, marked as most recently used; nullptr when absent.
   const Value* find(const Key& key) {
     auto it = index_.find(key);
     if (it == index_.end()) return nullptr;
@@ -23,9 +25,9 @@ class LruCache {
   }
   bool contains(const Key& key) const { return index_.contains(key); }
 
-  // Stores (or replaces) `key`, evicting least recently used entries until the total fits the
-  // budget; their keys are appended to `evicted`. An item larger than the whole budget is not
-  // stored (returns false) so the budget is never exceeded.
+  /// @brief Stores (or replaces) `key`, evicting least recently used entries until the total fits the
+  /// budget; their keys are appended to `evicted`. An item larger than the whole budget is not
+  /// stored (returns false) so the budget is never exceeded.
   bool insert(const Key& key, Value value, std::uint64_t bytes, std::vector<Key>* evicted = nullptr) {
     erase(key);
     if (bytes > budget_) return false;

@@ -1,8 +1,9 @@
 #pragma once
-// The cache of dequantized Tucker models at full stored rank, keyed by brick. It is what makes
-// the rank slider cheap (paper 1, §3): a new K re-runs only the reconstruction (TTM) from the
-// cached core and factors, never the file read, checksum and dequantization. A model is a few
-// times smaller than its reconstructed brick (R^3 + 3 B R floats against B^3). Thread-safe.
+/// @file
+/// @brief The cache of dequantized Tucker models at full stored rank, keyed by brick. It is what makes
+/// the rank slider cheap (paper 1, §3): a new K re-runs only the reconstruction (TTM) from the
+/// cached core and factors, never the file read, checksum and dequantization. A model is a few
+/// times smaller than its reconstructed brick (R^3 + 3 B R floats against B^3). Thread-safe.
 #include <cstdint>
 #include <memory>
 #include <mutex>
@@ -13,11 +14,13 @@
 
 namespace strata::lod {
 
+/// @brief One brick's dequantized model at its full stored rank, shared with the loaders using it.
 using BrickModel = std::shared_ptr<const quant::DequantizedModel>;
 
-// Bytes of a model's floats (what the cache budget counts).
+/// @brief Bytes of a model's floats (what the cache budget counts).
 std::uint64_t model_bytes(const quant::DequantizedModel& model);
 
+/// @brief The cache itself (see the file comment).
 class ModelCache {
  public:
   explicit ModelCache(std::uint64_t budget_bytes);

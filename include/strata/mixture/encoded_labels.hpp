@@ -68,6 +68,16 @@ struct EncodeOptions {
   std::uint64_t memory_limit = 0;
 };
 
+/// @brief Most bits of a quantized interpolation weight (EncodeOptions::bits).
+inline constexpr int kMaxWeightBits = 16;
+/// @brief Highest zstd level of the id sections (EncodeOptions::ids_zstd).
+inline constexpr int kMaxIdsZstdLevel = 22;
+
+/// @brief The one check of label-encoding options: bits in [1, kMaxWeightBits], ids_zstd in
+/// [0, kMaxIdsZstdLevel] and the normals' options (NormalOptions::validate). Throws
+/// ParameterError naming the field; encode_labels checks this first.
+void validate(const EncodeOptions& options);
+
 /// @brief Slices per input slab of encode_labels() under `memory_limit` (0 = none): a multiple
 /// of 8 (all slices when fewer). Throws ParameterError("EncodeOptions::memory_limit") when the
 /// limit cannot hold the coarser levels' ids and one slab.

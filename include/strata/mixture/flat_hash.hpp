@@ -1,8 +1,9 @@
 #pragma once
-// Open-addressing hash map (linear probing, backward-shift deletion, power-of-two capacity)
-// used by the mixture module for its hot tables: pair scores, node dedupe, label values.
-// std::unordered_map allocates one node per entry; at millions of pairs that costs both
-// memory (the paper's §3.7 remark) and time. Keys need an `empty` sentinel that never occurs.
+/// @file
+/// @brief Open-addressing hash map (linear probing, backward-shift deletion, power-of-two capacity)
+/// used by the mixture module for its hot tables: pair scores, node dedupe, label values.
+/// std::unordered_map allocates one node per entry; at millions of pairs that costs both
+/// memory (the paper's §3.7 remark) and time. Keys need an `empty` sentinel that never occurs.
 #include <cstddef>
 #include <cstdint>
 #include <utility>
@@ -12,11 +13,12 @@
 
 namespace strata::mixture::detail {
 
+/// @brief The default hash of FlatMap: splitmix64 of the key.
 struct U64Hash {
   std::uint64_t operator()(std::uint64_t k) const { return splitmix64(k); }
 };
 
-// Key and Value must be cheap to copy. `empty` is the sentinel key marking free slots.
+/// @brief Key and Value must be cheap to copy. `empty` is the sentinel key marking free slots.
 template <class Key, class Value, class Hash = U64Hash>
 class FlatMap {
  public:
@@ -31,9 +33,9 @@ class FlatMap {
   bool empty() const { return size_ == 0; }
   std::size_t capacity() const { return slots_.size(); }
 
-  // Capacity for n entries at a load factor of at most 3/4 (linear probing still finds a key
-  // in a few probes there; the maps of a large factorisation hold tens of millions of entries,
-  // so a lower bound would cost gigabytes).
+  /// @brief Capacity for n entries at a load factor of at most 3/4 (linear probing still finds a key
+  /// in a few probes there; the maps of a large factorisation hold tens of millions of entries,
+  /// so a lower bound would cost gigabytes).
   void reserve(std::size_t n) {
     std::size_t cap = 16;
     while (3 * cap < 4 * n) cap <<= 1;
@@ -50,8 +52,8 @@ class FlatMap {
   }
   const Value* find(const Key& k) const { return const_cast<FlatMap*>(this)->find(k); }
 
-  // Returns the value slot for k, inserting `init` when absent; .second tells whether it was
-  // inserted. The pointer is valid until the next insertion.
+  /// @brief Returns the value slot for k, inserting `init` when absent; .second tells whether it was
+  /// inserted. The pointer is valid until the next insertion.
   std::pair<Value*, bool> insert(const Key& k, const Value& init) {
     if (4 * (size_ + 1) > 3 * slots_.size()) rehash(slots_.empty() ? 16 : slots_.size() * 2);
     for (std::size_t i = home(k);; i = (i + 1) & mask_) {

@@ -1,5 +1,6 @@
 #pragma once
-// The "mixture_graph" section of a label file (byte layout: docs/format.md, "Codec mixture-graph").
+/// @file
+/// @brief The "mixture_graph" section of a label file (byte layout: docs/format.md, "Codec mixture-graph").
 #include <cstddef>
 #include <cstdint>
 #include <span>
@@ -11,8 +12,8 @@
 
 namespace strata::mixture {
 
-// The graph bitstream (paper Table 1 header, node triples, 20-bit codebook). `name` names the
-// input in errors. Decoded codebook values are the 20-bit quantised ones (uses are not stored).
+/// @brief The graph bitstream (paper Table 1 header, node triples, 20-bit codebook). `name` names the
+/// input in errors. Decoded codebook values are the 20-bit quantised ones (uses are not stored).
 struct GraphHeader {
   std::uint32_t num_sources = 0;
   bool fractional = false;
@@ -23,7 +24,10 @@ struct GraphHeader {
   WeightBins layout = WeightBins::symmetric;
   std::uint64_t internal_nodes = 0;
 };
+/// @brief The section's bytes for graph `g`; throws Error for a graph the layout cannot hold.
 std::vector<std::byte> write_graph_bitstream(const MixtureGraph& g, bool fractional, Extent resolution);
+/// @brief The graph of a section's bytes (and its header when `header` is set); throws FormatError
+/// naming `name` and the field for malformed bytes.
 MixtureGraph read_graph_bitstream(std::span<const std::byte> bytes, const std::string& name,
                                   GraphHeader* header = nullptr);
 

@@ -1,6 +1,7 @@
 #pragma once
-// Per-level node ids of an encoded label volume, behind one interface so queries, rendering
-// and decoding work the same on an in-memory factorization and on a stored .strata file.
+/// @file
+/// @brief Per-level node ids of an encoded label volume, behind one interface so queries, rendering
+/// and decoding work the same on an in-memory factorization and on a stored .strata file.
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -10,17 +11,18 @@
 
 namespace strata::mixture {
 
+/// @brief The node id of every voxel of every level, however it is stored.
 class NodeGrid {
  public:
   virtual ~NodeGrid() = default;
   virtual int level_count() const = 0;
   virtual Extent level_dims(int level) const = 0;
   virtual std::uint32_t node_at(int level, std::int64_t x, std::int64_t y, std::int64_t z) const = 0;
-  // Node ids of `box` (inside the level), x-fastest, into `out` (box.voxel_count() entries).
+  /// @brief Node ids of `box` (inside the level), x-fastest, into `out` (box.voxel_count() entries).
   virtual void decode_box(int level, const Box& box, std::span<std::uint32_t> out) const;
 };
 
-// The node ids a factorization produced, held in memory (tests, encode-then-query).
+/// @brief The node ids a factorization produced, held in memory (tests, encode-then-query).
 class FactorizationGrid final : public NodeGrid {
  public:
   explicit FactorizationGrid(const Factorization& f) : f_(f) {}

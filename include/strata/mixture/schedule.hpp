@@ -1,7 +1,8 @@
 #pragma once
-// Topological levels of the Mixture Graph and the load-balanced evaluation schedule of
-// paper §3.4: sources have level 0, an internal node max(level(a), level(b)) + 1; the depth
-// is the largest level (= the number of synchronisation barriers).
+/// @file
+/// @brief Topological levels of the Mixture Graph and the load-balanced evaluation schedule of
+/// paper §3.4: sources have level 0, an internal node max(level(a), level(b)) + 1; the depth
+/// is the largest level (= the number of synchronisation barriers).
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -10,15 +11,15 @@
 
 namespace strata::mixture {
 
-// Level of every node (sources 0). One linear scan: predecessors come first.
+/// @brief Level of every node (sources 0). One linear scan: predecessors come first.
 std::vector<std::uint32_t> topological_levels(const MixtureGraph& g);
 std::uint32_t topological_depth(const MixtureGraph& g);
 
-// Internal nodes grouped into phases 1..depth; nodes within a phase are independent. A node
-// of level v whose earliest successor has level s may run in any phase v..s-1 (sinks: up to
-// depth). Balanced: each phase runs its urgent nodes (deadline now) and then, earliest
-// deadline first, deferred ones until it holds at least ceil(internal nodes / depth).
-// Unbalanced: phase = level.
+/// @brief Internal nodes grouped into phases 1..depth; nodes within a phase are independent. A node
+/// of level v whose earliest successor has level s may run in any phase v..s-1 (sinks: up to
+/// depth). Balanced: each phase runs its urgent nodes (deadline now) and then, earliest
+/// deadline first, deferred ones until it holds at least ceil(internal nodes / depth).
+/// Unbalanced: phase = level.
 struct Schedule {
   std::uint32_t depth = 0;
   std::vector<std::uint32_t> order;          // node ids, phase by phase, ascending within one
@@ -28,6 +29,7 @@ struct Schedule {
     return {order.data() + phase_offsets[p - 1], std::size_t(phase_offsets[p] - phase_offsets[p - 1])};
   }
 };
+/// @brief The schedule of `g`, balanced as above unless `balanced` is false.
 Schedule make_schedule(const MixtureGraph& g, bool balanced = true);
 
 }  // namespace strata::mixture

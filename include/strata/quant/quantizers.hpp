@@ -1,24 +1,26 @@
 #pragma once
-// Scalar quantizers of paper 1 §4.1. Codes are unsigned integers of `bits` bits. The signed
-// (logarithmic, mu-law) quantizers use sign-magnitude codes: bit (bits-1) is the sign, the low
-// bits-1 bits the magnitude, so "8-bit log" has 7 magnitude bits (M = 127 levels above zero), as
-// the paper's byte-aligned Q = 8 with a separate sign bit implies. Zero always encodes to code 0
-// and decodes to exactly 0.
-//
-// Error bounds (what the tests check), for |x| within the quantizer's range:
-//   linear : |x̃ - x| <= step / 2,  step = (hi - lo) / (2^bits - 1)
-//   log    : codes are uniform in L(x) = log2(1 + |x|) with step h = L(xmax) / M, so
-//            |x̃ - x| <= (1 + |x|)(2^(h/2) - 1)
-//   mu-law : uniform in L(x) = log2(1 + mu |x| / xmax), h = log2(1 + mu) / M, so
-//            |x̃ - x| <= (xmax / mu + |x|)(2^(h/2) - 1)
-// plus float rounding of the decoded value (a few ulps).
+/// @file
+/// @brief Scalar quantizers of paper 1 §4.1: linear, logarithmic and mu-law.
+///
+/// Codes are unsigned integers of `bits` bits. The signed (logarithmic, mu-law) quantizers use
+/// sign-magnitude codes: bit (bits-1) is the sign, the low bits-1 bits the magnitude, so "8-bit
+/// log" has 7 magnitude bits (M = 127 levels above zero), as the paper's byte-aligned Q = 8 with a
+/// separate sign bit implies. Zero always encodes to code 0 and decodes to exactly 0.
+///
+/// Error bounds (what the tests check), for |x| within the quantizer's range:
+///   linear : |x̃ - x| <= step / 2,  step = (hi - lo) / (2^bits - 1)
+///   log    : codes are uniform in L(x) = log2(1 + |x|) with step h = L(xmax) / M, so
+///            |x̃ - x| <= (1 + |x|)(2^(h/2) - 1)
+///   mu-law : uniform in L(x) = log2(1 + mu |x| / xmax), h = log2(1 + mu) / M, so
+///            |x̃ - x| <= (xmax / mu + |x|)(2^(h/2) - 1)
+/// plus float rounding of the decoded value (a few ulps).
 #include <cstdint>
 
 namespace strata::quant {
 
-// 2^x for x in [-126, 128) to ~1 ulp, branch-free so loops over it vectorise. Shared by the
-// scalar and the bulk decoders; the bulk decoder's FMA builds round the Horner steps once
-// instead of twice, so values agree to a few ulps (identical within one build).
+/// @brief 2^x for x in [-126, 128) to ~1 ulp, branch-free so loops over it vectorise. Shared by the
+/// scalar and the bulk decoders; the bulk decoder's FMA builds round the Horner steps once
+/// instead of twice, so values agree to a few ulps (identical within one build).
 inline float exp2_approx(float x) {
   // x = n + f with n integer, f in [-0.5, 0.5]: 2^x = 2^n 2^f. Adding and subtracting 1.5 * 2^23
   // rounds to nearest in float arithmetic without a rounding instruction (SSE2 has none).
@@ -39,7 +41,7 @@ inline float exp2_approx(float x) {
   return p * __builtin_bit_cast(float, bits);
 }
 
-// Eq. 1: code = round((2^bits - 1)(x - lo) / (hi - lo)). Values outside [lo, hi] are clamped.
+/// @brief Eq. 1: code = round((2^bits - 1)(x - lo) / (hi - lo)). Values outside [lo, hi] are clamped.
 class LinearQuantizer {
  public:
   LinearQuantizer(float lo, float hi, int bits);  // bits in 1..24; lo <= hi, both finite
@@ -57,7 +59,7 @@ class LinearQuantizer {
   std::uint32_t levels_;
 };
 
-// Eq. 2 with a separate sign bit.
+/// @brief Eq. 2 with a separate sign bit.
 class LogQuantizer {
  public:
   LogQuantizer(float max_abs, int bits);  // bits in 2..24 (sign + magnitude); max_abs finite, >= 0
@@ -78,8 +80,8 @@ class LogQuantizer {
   int magnitude_bits_;
 };
 
-// Scale-invariant logarithmic curve: Eq. 2 applied to mu |x| / xmax instead of |x|, so the
-// code distribution does not depend on the units of the data.
+/// @brief Scale-invariant logarithmic curve: Eq. 2 applied to mu |x| / xmax instead of |x|, so the
+/// code distribution does not depend on the units of the data.
 class MuLawQuantizer {
  public:
   MuLawQuantizer(float max_abs, float mu, int bits);  // mu > 0

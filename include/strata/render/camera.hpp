@@ -1,14 +1,15 @@
 #pragma once
-// An orbit camera: it looks at `target` from `distance` away, at `azimuth` degrees around the
-// world z axis and `elevation` degrees above the xy plane. Produces primary rays per pixel and
-// the lod::View the brick selection needs.
-//
-// Orientation (world space as defined in strata/lod/view.hpp, level-0 voxel units times spacing):
-//   azimuth 0, elevation 0: the eye is on the -y side of the target looking along +y, with
-//   world +x to the right of the image and world +z up. Positive azimuth moves the eye
-//   counter-clockwise seen from +z (towards +x); positive elevation moves it towards +z.
-//   The image right vector is (cos az, sin az, 0) for every elevation, so looking straight down
-//   (elevation +-90) stays well defined.
+/// @file
+/// @brief An orbit camera: it looks at `target` from `distance` away, at `azimuth` degrees
+/// around the world z axis and `elevation` degrees above the xy plane. Produces primary rays per
+/// pixel and the lod::View the brick selection needs.
+///
+/// Orientation (world space as defined in strata/lod/view.hpp, level-0 voxel units times spacing):
+///   azimuth 0, elevation 0: the eye is on the -y side of the target looking along +y, with
+///   world +x to the right of the image and world +z up. Positive azimuth moves the eye
+///   counter-clockwise seen from +z (towards +x); positive elevation moves it towards +z.
+///   The image right vector is (cos az, sin az, 0) for every elevation, so looking straight down
+///   (elevation +-90) stays well defined.
 #include <cstdint>
 
 #include "strata/core/extent.hpp"
@@ -18,13 +19,16 @@
 
 namespace strata::render {
 
+/// @brief How rays leave the eye: from one point (perspective) or parallel (orthographic).
 enum class Projection : std::uint8_t { perspective, orthographic };
 
+/// @brief A primary ray in world space.
 struct Ray {
   Vec3 origin;
   Vec3 direction;  // unit length
 };
 
+/// @brief Where the eye is: angles and distance about a target.
 struct OrbitParams {
   double azimuth_deg = 30;
   double elevation_deg = 20;
@@ -33,6 +37,7 @@ struct OrbitParams {
   bool target_set = false;   // false = the volume centre
 };
 
+/// @brief Everything that defines a camera: image size, projection, orbit and framing.
 struct CameraSpec {
   int width = 1024, height = 768;
   Projection projection = Projection::perspective;
@@ -60,16 +65,18 @@ inline constexpr double kMaxDistance = 1e12;
 /// distance in [0, kMaxDistance], and the orthographic height and a set target are finite.
 void validate(const CameraSpec& spec);
 
+/// @brief A CameraSpec resolved for one volume: eye, axes and image plane; rays per pixel.
 class Camera {
  public:
-  // Resolves defaults (target = volume centre, distance framing the volume's bounding sphere
-  // in both the vertical and the horizontal field of view). Throws ParameterError when
-  // validate(spec) does.
+  /// @brief Resolves defaults (target = volume centre, distance framing the volume's bounding
+  /// sphere, or CameraSpec::frame_radius, in both the vertical and the horizontal field of
+  /// view). Throws ParameterError when validate(spec) does.
   Camera(const CameraSpec& spec, const Extent& volume_dims, const Spacing& spacing);
 
   int width() const { return spec_.width; }
   int height() const { return spec_.height; }
-  const CameraSpec& spec() const { return spec_; }  // with defaults resolved (target, distance)
+  /// @brief The spec with its defaults resolved (target, distance).
+  const CameraSpec& spec() const { return spec_; }
   Vec3 eye() const { return eye_; }
   Vec3 forward() const { return forward_; }
   Vec3 right() const { return right_; }
@@ -77,14 +84,15 @@ class Camera {
   Vec3 target() const { return spec_.orbit.target; }
   double distance() const { return spec_.orbit.distance; }
   bool perspective() const { return spec_.projection == Projection::perspective; }
-  // Half extents of the image plane: perspective, tangents of the half angles; orthographic,
-  // world units.
+  /// @brief Half extents of the image plane: perspective, tangents of the half angles;
+  /// orthographic, world units.
   double half_width() const { return half_width_; }
   double half_height() const { return half_height_; }
 
-  // Ray through the centre of pixel (px, py); py = 0 is the top row. Fractional positions
-  // address sub-pixel points (pixel (0,0) spans [-0.5, 0.5) around its centre).
+  /// @brief Ray through the centre of pixel (px, py); py = 0 is the top row. Fractional
+  /// positions address sub-pixel points (pixel (0,0) spans [-0.5, 0.5) around its centre).
   Ray ray(double px, double py) const;
+  /// @brief The view the LOD selection and the label caster's footprints use.
   lod::View view() const;
 
  private:

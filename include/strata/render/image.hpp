@@ -1,6 +1,7 @@
 #pragma once
-// An 8-bit RGBA image (row 0 at the top) and PNG output through libspng, written to a
-// temporary file and renamed, so a failed write never leaves a partial image.
+/// @file
+/// @brief An 8-bit RGBA image (row 0 at the top) and PNG output through libspng, written to a
+/// temporary file and renamed, so a failed write never leaves a partial image.
 #include <cstdint>
 #include <filesystem>
 #include <span>
@@ -8,14 +9,17 @@
 
 namespace strata::render {
 
+/// @brief One pixel: straight (not premultiplied) 8-bit RGBA.
 struct Rgba8 {
   std::uint8_t r = 0, g = 0, b = 0, a = 255;
   bool operator==(const Rgba8&) const = default;
 };
 
+/// @brief width x height pixels, row by row from the top; at(x, y) does not check bounds.
 class Image {
  public:
   Image() = default;
+  /// @brief Every pixel `fill`.
   Image(int width, int height, Rgba8 fill = {});
 
   int width() const { return width_; }
@@ -31,11 +35,12 @@ class Image {
   std::vector<Rgba8> pixels_;
 };
 
-// Bilinear resampling to width x height, pixel centres aligned (edges clamp): shows a frame
-// cast at a reduced image resolution (interactive image-space level of detail) at full size.
+/// @brief Bilinear resampling to width x height, pixel centres aligned (edges clamp): shows a
+/// frame cast at a reduced image resolution (interactive image-space level of detail) at full size.
 Image resize_bilinear(const Image& image, int width, int height);
 
-void write_png(const Image& image, const std::filesystem::path& path);  // throws Error naming the file
+/// @brief Writes `image` as a PNG file, atomically. Throws Error naming the file.
+void write_png(const Image& image, const std::filesystem::path& path);
 /// @brief The PNG file bytes of `image` (RGBA, 8 bits), encoded for speed over size (deflate level
 /// 1, one filter): the images a viewer is served. Throws Error on an empty image.
 std::vector<std::uint8_t> encode_png(const Image& image);
@@ -45,6 +50,7 @@ std::vector<std::uint8_t> encode_grey_png(std::span<const std::uint8_t> grey, in
 /// @brief A baseline JPEG of `image`'s colour (alpha dropped), 4:2:0, quality 1..100 (libturbojpeg):
 /// the small frames a viewer shows while the camera moves. Throws Error on an empty image.
 std::vector<std::uint8_t> encode_jpeg(const Image& image, int quality = 80);
-Image read_png(const std::filesystem::path& path);                       // for tests and comparisons
+/// @brief Reads a PNG file as RGBA (for tests and comparisons). Throws Error naming the file.
+Image read_png(const std::filesystem::path& path);
 
 }  // namespace strata::render

@@ -1,16 +1,17 @@
 #pragma once
-// CPU ray casting of a label volume from its Mixture Graph palette (paper §4).
-//
-// Per sample: the mip level comes from the pixel footprint (world size of one pixel at the
-// sample's view depth over the level-0 voxel size, log2, plus `lod_bias`); the sample is the
-// trilinear interpolation of the premultiplied palette colours of the 8 nearest voxels of
-// that level - pre-filtered, because each coarse voxel's colour is already the mean over its
-// footprint. The step length grows with the level (step x voxel size of the level) and the
-// opacity is corrected for it; compositing is front to back with early termination; empty
-// cubes of the scene's skip hierarchy (LabelScene) are jumped over whole.
-//
-// World space as in strata/lod/view.hpp: level-0 voxel units times spacing. Label opacities
-// are per level-0 voxel thickness (the geometric mean of the spacing).
+/// @file
+/// @brief CPU ray casting of a label volume from its Mixture Graph palette (paper §4).
+///
+/// Per sample: the mip level comes from the pixel footprint (world size of one pixel at the
+/// sample's view depth over the level-0 voxel size, log2, plus `lod_bias`); the sample is the
+/// trilinear interpolation of the premultiplied palette colours of the 8 nearest voxels of
+/// that level - pre-filtered, because each coarse voxel's colour is already the mean over its
+/// footprint. The step length grows with the level (step x voxel size of the level) and the
+/// opacity is corrected for it; compositing is front to back with early termination; empty
+/// cubes of the scene's skip hierarchy (LabelScene) are jumped over whole.
+///
+/// World space as in strata/lod/view.hpp: level-0 voxel units times spacing. Label opacities
+/// are per level-0 voxel thickness (the geometric mean of the spacing).
 #include <cstdint>
 
 #include <nlohmann/json_fwd.hpp>
@@ -29,6 +30,8 @@ enum class LabelLighting {
   normals,   ///< pre-filtered light from the file's normals graph (label_shading.hpp)
 };
 
+/// @brief Sampling, level choice, lighting and scheduling of a label frame (checked by
+/// render_labels).
 struct LabelRenderOptions {
   double lod_bias = 0.0;       // added to the level from the footprint; > 0 = coarser, blurrier
   int finest_level = 0;        // never sample (or decode) finer than this level
@@ -51,6 +54,7 @@ struct LabelRenderOptions {
   int tile = 16;               // pixels per tile edge (tiles are the unit of parallel work)
 };
 
+/// @brief Counters and timings of one label frame, written by render_labels.
 struct LabelRenderStats {
   double ms = 0;               // whole frame, including prepare work
   double march_ms = 0;         // ray marching only
@@ -65,16 +69,17 @@ struct LabelRenderStats {
   int finest_level = 0, coarsest_level = 0;  // level range this frame may sample
 };
 
-// Renders `scene` as seen by `camera` (whose volume dims/spacing should be the scene's).
-// Calls scene.prepare() first, so the first frame decodes the needed levels' ids and later
-// frames only recompute what a colour-map change invalidated. Throws ParameterError naming the
-// LabelRenderOptions field on bad options (the step as check_step in sampling_limits.hpp), and
-// for normals lighting without `normals` (the file's normals graph). The normals light is a
-// headlight at infinity: towards the eye along the view direction.
+/// @brief Renders `scene` as seen by `camera` (whose volume dims/spacing should be the scene's).
+/// Calls scene.prepare() first, so the first frame decodes the needed levels' ids and later
+/// frames only recompute what a colour-map change invalidated. Throws ParameterError naming the
+/// LabelRenderOptions field on bad options (the step as check_step in sampling_limits.hpp), and
+/// for normals lighting without `normals` (the file's normals graph). The normals light is a
+/// headlight at infinity: towards the eye along the view direction. Casts on
+/// strata::thread_count() OpenMP threads, tile by tile (src/render/traversal.hpp).
 Image render_labels(LabelScene& scene, const Camera& camera, const LabelRenderOptions& options = {},
                     LabelRenderStats* stats = nullptr, LabelShading* normals = nullptr);
 
-// A frame's statistics as the JSON `strata render --stats` writes: {"render": {...}}.
+/// @brief A frame's statistics as the JSON `strata render --stats` writes: {"render": {...}}.
 nlohmann::json stats_json(const LabelRenderStats& stats);
 
 }  // namespace strata::render

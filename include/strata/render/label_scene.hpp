@@ -1,25 +1,26 @@
 #pragma once
-// A label volume ready for rendering from its Mixture Graph (paper §3.4, §4).
-//
-// Two kinds of state with different lifetimes:
-// * node ids per mip level - the "brick payload" of a label file. Decoded from the
-//   EncodedLabels once per level, on first need, and kept; never read again.
-// * everything derived from the colour map: the palette (premultiplied RGBA per graph node,
-//   by propagating the per-label colours through the DAG - the pre-filtered colour of every
-//   voxel of every level), a conservative per-node visibility, and per level a skip grid.
-//   A colour-map change only marks these stale; prepare() rebuilds them from cached ids.
-//
-// Empty-space skipping: the palette's alpha is the mean label opacity of a voxel's footprint
-// (the paper's opacity mipmap). For the skip decision we also propagate the MAXIMUM opacity
-// (a node is visible if either predecessor is): mean opacity is zero exactly when all labels
-// are transparent only while every interpolation weight is non-zero, and a 20-bit codebook
-// can round a tiny weight to 0. A level-l voxel is "empty" when no visible node lies in its
-// 3x3x3 neighbourhood, because trilinear sampling at any level <= l inside the voxel's cube
-// reads voxels within one level-l voxel of the sample: the ray may then skip the whole cube.
-// Skip grids start at level 1 (kFinestSkipLevel).
-//
-// Not thread-safe for mutation: set_color_map() and prepare() must not overlap a render; the
-// accessors used while rendering are const and read-only.
+/// @file
+/// @brief A label volume ready for rendering from its Mixture Graph (paper §3.4, §4).
+///
+/// Two kinds of state with different lifetimes:
+/// * node ids per mip level - the "brick payload" of a label file. Decoded from the
+///   EncodedLabels once per level, on first need, and kept; never read again.
+/// * everything derived from the colour map: the palette (premultiplied RGBA per graph node,
+///   by propagating the per-label colours through the DAG - the pre-filtered colour of every
+///   voxel of every level), a conservative per-node visibility, and per level a skip grid.
+///   A colour-map change only marks these stale; prepare() rebuilds them from cached ids.
+///
+/// Empty-space skipping: the palette's alpha is the mean label opacity of a voxel's footprint
+/// (the paper's opacity mipmap). For the skip decision we also propagate the MAXIMUM opacity
+/// (a node is visible if either predecessor is): mean opacity is zero exactly when all labels
+/// are transparent only while every interpolation weight is non-zero, and a 20-bit codebook
+/// can round a tiny weight to 0. A level-l voxel is "empty" when no visible node lies in its
+/// 3x3x3 neighbourhood, because trilinear sampling at any level <= l inside the voxel's cube
+/// reads voxels within one level-l voxel of the sample: the ray may then skip the whole cube.
+/// Skip grids start at level 1 (kFinestSkipLevel).
+///
+/// Not thread-safe for mutation: set_color_map() and prepare() must not overlap a render; the
+/// accessors used while rendering are const and read-only.
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -31,7 +32,7 @@
 
 namespace strata::render {
 
-// What one prepare() call did (the per-frame part of the render stats).
+/// @brief What one prepare() call did (the per-frame part of the render stats).
 struct LabelPrepareReport {
   double palette_ms = 0;          // palette + visibility propagation (0 when unchanged)
   double ids_ms = 0;              // decoding node ids of newly needed levels
@@ -39,13 +40,15 @@ struct LabelPrepareReport {
   std::uint64_t id_voxels_decoded = 0;
 };
 
+/// @brief A label file's node ids per level (decoded once) and what the colour map makes of
+/// them (palette, visibility, skip grids), as the label ray caster reads them.
 class LabelScene {
  public:
-  // Skip grids exist for levels >= this: a level-0 grid would cost a byte per voxel and a
-  // full pass per colour change to skip single voxels, which is hardly cheaper than sampling.
+  /// @brief Skip grids exist for levels >= this: a level-0 grid would cost a byte per voxel and
+  /// a full pass per colour change to skip single voxels, which is hardly cheaper than sampling.
   static constexpr int kFinestSkipLevel = 1;
 
-  // Keeps a reference: `labels` must outlive the scene. Decodes nothing yet.
+  /// @brief Keeps a reference: `labels` must outlive the scene. Decodes nothing yet.
   explicit LabelScene(const mixture::EncodedLabels& labels, LabelColorMap colors = {});
 
   int level_count() const { return int(levels_.size()); }
@@ -53,25 +56,27 @@ class LabelScene {
   Extent dims() const { return level_dims(0); }
   Spacing spacing() const { return labels_.spacing(); }
 
-  // Takes effect at the next prepare(); node ids stay cached.
+  /// @brief A new colour map; takes effect at the next prepare() (node ids stay cached).
   void set_color_map(LabelColorMap colors);
 
-  // Makes levels finest..level_count()-1 renderable for the current colour map: decodes
-  // the ids of levels not yet cached, rebuilds the palette if the colour map changed, and
-  // (with skip_grids) the skip grids that are missing or stale.
+  /// @brief Makes levels finest..level_count()-1 renderable for the current colour map:
+  /// decodes the ids of levels not yet cached, rebuilds the palette if the colour map changed,
+  /// and (with skip_grids) the skip grids that are missing or stale. Throws Error when
+  /// `finest_level` is not a level.
   LabelPrepareReport prepare(int finest_level, bool skip_grids = true);
 
-  // Valid after prepare(): premultiplied RGBA per node (4 floats per node id).
+  /// @brief Valid after prepare(): premultiplied RGBA per node (4 floats per node id).
   std::span<const float> palette() const { return palette_; }
-  // Node ids of a prepared level, x fastest.
+  /// @brief Node ids of a prepared level, x fastest.
   std::span<const std::uint32_t> level_ids(int level) const { return levels_.at(std::size_t(level)).ids; }
-  // Per voxel of a prepared level >= kFinestSkipLevel (empty below): 1 when a visible node
-  // lies in its 3x3x3 neighbourhood.
+  /// @brief Per voxel of a prepared level >= kFinestSkipLevel (empty below): 1 when a visible
+  /// node lies in its 3x3x3 neighbourhood.
   std::span<const std::uint8_t> occupied(int level) const { return levels_.at(std::size_t(level)).occupied; }
-  // Whether any label of the volume is visible under the current (prepared) colour map.
+  /// @brief Whether any label of the volume is visible under the current (prepared) colour
+  /// map. Throws Error before prepare().
   bool anything_visible() const;
 
-  // Totals since construction (tests assert that colour changes decode no ids).
+  /// @brief Totals since construction (tests assert that colour changes decode no ids).
   std::uint64_t id_voxels_decoded() const { return id_voxels_decoded_; }
   std::uint64_t palette_builds() const { return palette_builds_; }
 

@@ -1,4 +1,5 @@
 #pragma once
+/// @file
 /// @brief Pre-filtered lighting of a label volume from its normals graph (paper 4, "Lighting";
 /// mixture/label_normals.hpp). The normals graph is a label volume of 9-bit normal codes; its
 /// "colour map" gives each code the diffuse factor ambient + (1 − ambient)·|n·l| (red) and
@@ -15,6 +16,7 @@
 
 namespace strata::render {
 
+/// @brief A light at infinity and its Blinn-Phong terms.
 struct LabelLight {
   Vec3 towards{0, 0, 1};   ///< unit vector from the surface towards the light (world space)
   double ambient = 0.35;   ///< 0..1
@@ -26,6 +28,8 @@ struct LabelLight {
 /// @brief The shading factors of one normal code under `light` (red: diffuse, green: specular).
 LabelRgba shade_normal_code(int code, const LabelLight& light);
 
+/// @brief The normals graph of a label file as a scene whose palette is the light (red: diffuse,
+/// green: specular), rebuilt when the light changes.
 class LabelShading {
  public:
   /// @brief Takes the normals graph (mixture::EncodedLabels::open_normals()).
@@ -35,6 +39,7 @@ class LabelShading {
   void set_light(const LabelLight& light);
   /// @brief As LabelScene::prepare (no skip grids: shading never decides what is empty).
   LabelPrepareReport prepare(int finest_level) { return scene_.prepare(finest_level, false); }
+  /// @brief The lit scene the label ray caster samples (valid after prepare()).
   const LabelScene& scene() const { return scene_; }
 
  private:

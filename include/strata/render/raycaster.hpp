@@ -139,6 +139,7 @@ class RayCaster {
   RayCaster(RayCaster&&) noexcept;
   RayCaster& operator=(RayCaster&&) noexcept;
 
+  /// @brief The transfer function and options fixed at construction.
   const TransferFunction& transfer_function() const { return tf_; }
   const RenderOptions& options() const { return options_; }
 

@@ -37,6 +37,8 @@ class EncodedLabels;
 
 namespace strata::render {
 
+class RenderSource;  // src/render/render_source.hpp
+
 /// @brief What a file holds: a TA octree ("scalar"), a Mixture Graph ("labels") or a plain
 /// volume held in memory ("plain").
 enum class DatasetKind : std::uint8_t { scalar, labels, plain };
@@ -102,16 +104,20 @@ void validate(const SessionOptions& options);
 
 class RenderSession {
  public:
-  /// @brief Opens `input` (a .strata file of either codec, or any volume file io reads).
-  /// Throws Error (FormatError naming the file) when it cannot be read, and ParameterError
-  /// naming the SessionOptions field when validate(options) does.
+  /// @brief Opens `input` (a .strata file of either codec, or any volume file io reads): the
+  /// first opener of the table in src/render/render_source.hpp that accepts the file makes its
+  /// source, once. Throws Error (FormatError naming the file) when it cannot be read, and
+  /// ParameterError naming the SessionOptions field when validate(options) does.
   RenderSession(const std::filesystem::path& input, const SessionOptions& options = {});
   ~RenderSession();
   RenderSession(const RenderSession&) = delete;
   RenderSession& operator=(const RenderSession&) = delete;
 
+  /// @brief What the file holds (the kind of source its opener made).
   DatasetKind kind() const;
+  /// @brief Voxels of level 0.
   Extent dims() const;
+  /// @brief World size of a level-0 voxel.
   Spacing spacing() const;
   /// @brief Octree levels (TA), mip levels (labels), 1 (plain).
   int level_count() const;
@@ -165,20 +171,16 @@ class RenderSession {
   const mixture::EncodedLabels& labels() const;
 
  private:
-  struct Scalar;
-  struct Labels;
-  struct Plain;
   std::filesystem::path path_;
   SessionOptions options_;
-  std::unique_ptr<Plain> plain_;
-  std::unique_ptr<Scalar> scalar_;
-  std::unique_ptr<Labels> labels_;
+  // What the file holds, behind one interface (src/render/render_source.hpp): the opener that
+  // accepted the file chose the implementation; nothing here tells kinds apart.
+  std::unique_ptr<RenderSource> source_;
   double image_scale_ = 1;  // image edge divisor of interactive frames, adapted per frame
   double frame_radius_ = 0;  // the content's sphere about the volume centre (CameraSpec::frame_radius)
   bool calibrated_ = false;
   void adapt_image_scale(double used_scale, double frame_ms);
   void check_level(int level) const;
-  Labels& require_labels() const;  // throws Error naming the file for other kinds
 };
 
 /// @brief Mean frame time, frames/s, CPU seconds per frame and the decode share of frame time,

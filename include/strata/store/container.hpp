@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "strata/io/files.hpp"
+#include "strata/store/payload_kinds.hpp"
 
 namespace strata::store {
 
@@ -31,26 +32,6 @@ inline constexpr std::size_t kHeaderSize = 64;
 /// (the logical entry; a compressed index stores far fewer).
 inline constexpr std::size_t kIndexEntrySize = 64;
 inline constexpr std::size_t kPayloadAlignment = 64;
-
-// What a brick's payload holds. New codecs add kinds; readers reject kinds they do not know.
-enum class PayloadKind : std::uint8_t {
-  constant = 1,  // no payload bytes: every voxel equals `min` (== `max`)
-  tucker = 2,    // quantized rank-reduced Tucker brick (ta module, docs/format.md)
-  tucker_zstd = 3,  // the same bytes, factor codes split into byte planes, then zstd-compressed
-  tucker_coded = 4,  // Tucker brick coded to an error target (quant/coded_brick.hpp), format 1.1
-  raw_zstd = 5,      // the float samples, byte planes, zstd: lossless (ta/raw_brick.hpp), format 1.1
-  raw_packed = 6,    // the samples' non-repeating box, integer codes where exact, zstd: lossless (ta/raw_brick.hpp), format 1.3
-  masked = 7,        // a brick with NaN or infinite voxels: their mask, then the brick of the others (ta/non_finite.hpp), format 1.4
-  global_core = 8,   // a core-only quantized brick whose factors are the volume's global row-block bases (ta-global codec), format 1.5
-  global_core_zstd = 9,  // the same bytes, zstd-compressed (ta-global codec), format 1.5
-};
-const char* payload_kind_name(PayloadKind k);
-
-/// @brief True for kinds whose payload starts at a multiple of kPayloadAlignment (`tucker`,
-/// `tucker_zstd`: fixed-layout code arrays a decoder may want to address in place). Entropy-coded
-/// kinds (`tucker_coded`, `raw_zstd`) are always copied and decoded, so they are packed without
-/// padding; `constant` has no bytes. The compressed index derives offsets from this rule.
-bool needs_alignment(PayloadKind k);
 
 struct BrickKey {
   std::uint8_t level = 0;  // 0 = full resolution
@@ -161,7 +142,7 @@ class ContainerReader {
   std::uint64_t index_bytes() const { return index_size_; }
   /// @brief True when the file stores its index compressed (header flag bit 0, format 1.2).
   bool index_compressed() const { return index_compressed_; }
-  /// @brief The header's minor version (3 for files written now).
+  /// @brief The header's minor version (kFormatVersionMinor for files written now).
   std::uint16_t version_minor() const { return minor_; }
 
  private:

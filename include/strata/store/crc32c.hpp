@@ -1,4 +1,6 @@
 #pragma once
+/// @file
+/// @brief CRC-32C, the checksum of every payload, section and header of a .strata file.
 #include <cstddef>
 #include <cstdint>
 

@@ -20,6 +20,7 @@
 #include "strata/quant/brick.hpp"
 #include "strata/quant/scheme.hpp"
 #include "strata/store/container.hpp"
+#include "strata/ta/codec_names.hpp"
 #include "strata/tensor/reconstruct.hpp"
 #include "strata/tensor/tensor3.hpp"
 
@@ -69,9 +70,6 @@ struct EncodedBrick {
   std::size_t core_bytes = 0, factor_bytes = 0, header_bytes = 0;
   // Error-target mode, when both bases were coded: each one's payload size (else 0).
   std::size_t block_dct_bytes = 0, hosvd_bytes = 0;
-  // Global-basis codec: the brick's row of the feature-scale table (ta/global_basis.hpp), the
-  // RMSE of its core region at each rank of the ladder; empty otherwise.
-  std::vector<float> rank_errors;
 };
 
 /// @brief The row-block bases of one brick of the global-basis codec (ta-global, paper 2), for

@@ -3,6 +3,7 @@
 #include <array>
 #include <cstdint>
 #include <filesystem>
+#include <string>
 #include <vector>
 
 #include "strata/core/progress.hpp"
@@ -13,14 +14,15 @@
 
 namespace strata::ta {
 
-/// @brief Which codec `compress` writes: per-brick bases (paper 1, "ta-bricked") or one set of
-/// global bases with per-brick cores (paper 2, "ta-global"; fixed rank only, no NaN yet).
-enum class CodecKind { bricked, global };
-
+/// @brief What `compress` writes and how (validate(const CompressParams&) in
+/// ta/codec_registry.hpp checks it).
 struct CompressParams {
   BrickLayout layout;
   CodecParams codec;
-  CodecKind kind = CodecKind::bricked;
+  /// The registered codec (ta/codec_registry.hpp) that writes the file: per-brick bases (paper
+  /// 1, the default) or one set of global bases with per-brick cores (paper 2, kGlobalCodecName;
+  /// fixed rank only, no NaN yet), or any codec registered since.
+  std::string codec_name{kBrickedCodecName};
   /// ta-global: the global fit. Its rank is codec.rank and its slab size that of the input slabs.
   GlobalFitOptions global;
   // Bound on the compressor's working memory in bytes (0 = none: 64 MiB input slabs). The

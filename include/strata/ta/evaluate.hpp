@@ -1,6 +1,7 @@
 #pragma once
-// Storage cost and reconstruction error of a TA-compressed file against its original
-// (`strata eval`, the demo, and the benchmark tables share this).
+/// @file
+/// @brief Storage cost and reconstruction error of a TA-compressed file against its original
+/// (`strata eval`, the demo, and the benchmark tables share this).
 #include <cstdint>
 #include <vector>
 

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "strata/ta/codec_names.hpp"
 #include "strata/core/extent.hpp"
 #include "strata/core/progress.hpp"
 #include "strata/io/volume_io.hpp"
@@ -24,8 +25,6 @@ namespace strata::ta {
 /// pass over the data and are deterministic without a seed.
 enum class GlobalInit { dct, random };
 
-/// The codec name of global-basis files (docs/format.md, "Codec ta-global").
-inline constexpr const char* kGlobalCodecName = "ta-global";
 
 struct GlobalFitOptions {
   int rank = 16;                               ///< R per mode (clamped to each extent); paper: half the brick width

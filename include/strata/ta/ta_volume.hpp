@@ -30,6 +30,8 @@ class TaVolume {
   double value_min() const { return value_lo_; }
   double value_max() const { return value_hi_; }
 
+  /// @brief The file's codec (metadata "codec", a name of ta/codec_registry.hpp).
+  const std::string& codec_name() const { return codec_name_; }
   /// @brief True for a global-basis file (codec ta-global, paper 2).
   bool global() const { return bases_ != nullptr; }
   /// @brief ta-global: the row-block bases brick `key` is rebuilt with (its factors).
@@ -64,6 +66,7 @@ class TaVolume {
   std::unique_ptr<store::ContainerReader> container_;
   VolumeInfo source_;
   std::unique_ptr<OctreeGeometry> geometry_;
+  std::string codec_name_;
   int rank_ = 0;
   std::string quant_;
   quant::QuantScheme scheme_;

@@ -1,4 +1,7 @@
 #pragma once
+/// @file
+/// @brief Dense 3-way tensors (first index fastest, the layout of a brick) and the factor-matrix and
+/// extent types the tensor code shares.
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -12,22 +15,22 @@
 
 namespace strata::tensor {
 
-// Extents of a 3-way tensor, (I1, I2, I3) in the paper's notation.
+/// @brief Extents of a 3-way tensor, (I1, I2, I3) in the paper's notation.
 using Dims3 = std::array<std::int64_t, 3>;
-// Per-mode ranks (R1, R2, R3), or the leading ranks (K1, K2, K3) used at decode.
+/// @brief Per-mode ranks (R1, R2, R3), or the leading ranks (K1, K2, K3) used at decode.
 using Ranks3 = std::array<int, 3>;
 
-// Column-major (Eigen default) factor matrix: U^(n) is I_n x R_n.
+/// @brief Column-major (Eigen default) factor matrix: U^(n) is I_n x R_n.
 template <class T>
 using Matrix = Eigen::Matrix<T, Eigen::Dynamic, Eigen::Dynamic>;
 
-// The three factor matrices of a Tucker model: factors[n - 1] is U^(n).
+/// @brief The three factor matrices of a Tucker model: factors[n - 1] is U^(n).
 template <class T>
 using Factors = std::array<Matrix<T>, 3>;
 
-// A dense 3-way tensor with contiguous storage, first index fastest: element (i1, i2, i3)
-// lives at i1 + I1 * (i2 + I2 * i3). This is the layout of a brick of an x-fastest volume,
-// so a brick converts to a tensor without reordering. Modes are numbered 1..3 as in the paper.
+/// @brief A dense 3-way tensor with contiguous storage, first index fastest: element (i1, i2, i3)
+/// lives at i1 + I1 * (i2 + I2 * i3). This is the layout of a brick of an x-fastest volume,
+/// so a brick converts to a tensor without reordering. Modes are numbered 1..3 as in the paper.
 template <class T>
 class BasicTensor3 {
  public:
@@ -55,14 +58,14 @@ class BasicTensor3 {
   std::span<T> values() { return values_; }
   std::span<const T> values() const { return values_; }
 
-  // Frobenius norm, accumulated in double whatever T is.
+  /// @brief Frobenius norm, accumulated in double whatever T is.
   double norm() const {
     double sum = 0;
     for (T v : values_) sum += double(v) * double(v);
     return std::sqrt(sum);
   }
 
-  // Element-wise conversion (e.g. float storage to double for a decomposition).
+  /// @brief Element-wise conversion (e.g. float storage to double for a decomposition).
   template <class U>
   BasicTensor3<U> cast() const {
     BasicTensor3<U> out(dims_);

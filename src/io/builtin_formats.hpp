@@ -1,0 +1,17 @@
+#pragma once
+// The built-in volume formats, each defined in its own file and registered by one line in
+// format_registry.cpp.
+#include "strata/io/formats.hpp"
+
+namespace strata::io::detail {
+
+// raw (raw.cpp): bare samples whose dims and dtype come from a JSON sidecar or ReadOptions.
+VolumeFormat raw_format();
+// NRRD (nrrd.cpp): attached and detached headers, raw or gzip data, 4-D files.
+VolumeFormat nrrd_format();
+// NIfTI-1 and NIfTI-2 single files (nifti.cpp), plain or gzip-compressed.
+VolumeFormat nifti_format();
+// TIFF (tiff.cpp): multi-page files and folders of slices.
+VolumeFormat tiff_format();
+
+}  // namespace strata::io::detail
