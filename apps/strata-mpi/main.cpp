@@ -184,7 +184,8 @@ int run(int argc, char** argv, int rank) {
   auto compress_args = std::make_shared<cli::CompressArgs>();
   CLI::App* compress = app.add_subcommand(
       "compress", "Compress a volume into a bricked tensor-approximation octree (.strata) across the MPI ranks; the "
-                  "file is byte-identical to `strata compress` with the same flags (fixed rank, ta-bricked)");
+                  "file is byte-identical to `strata compress` with the same flags (fixed rank, " +
+                      std::string(ta::kBrickedCodecName) + ")");
   cli::add_compress_flags(*compress, *compress_args);
   auto label_args = std::make_shared<cli::LabelsEncodeArgs>();
   CLI::App* labels = app.add_subcommand("labels", "Label (segmentation) volumes");

@@ -155,7 +155,7 @@ nlohmann::json add_normals(const Volume& labels, const std::filesystem::path& ou
   const auto start = std::chrono::steady_clock::now();
   const LabelNormals normals = quantize_label_normals(labels, options.normal_options);
   const std::filesystem::path dir = out.has_parent_path() ? out.parent_path() : std::filesystem::path(".");
-  const io::TempFile nested(dir, "." + out.filename().string() + ".normals");
+  const io::TempFile nested(dir, fmt::format(".{}.normals", out.filename().string()));
   EncodeOptions inner = options;
   inner.normals = false;
   inner.measure_error = false;

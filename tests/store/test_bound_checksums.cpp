@@ -3,6 +3,8 @@
 // container itself checks in the metadata and the index of a hostile file.
 #include <gtest/gtest.h>
 
+#include <fmt/format.h>
+
 #include "strata/core/bytes.hpp"
 #include "strata/core/error.hpp"
 #include "strata/store/container.hpp"
@@ -210,7 +212,7 @@ TEST(StoreContainerChecks, MalformedSectionsAndMetadataNameTheField) {
   };
   int i = 0;
   for (const Case& c : cases) {
-    const auto path = dir / ("m" + std::to_string(i++) + ".strata");
+    const auto path = dir / fmt::format("m{}.strata", i++);
     write_sample(path);
     forge::replace_metadata_text(path, c.text);
     const std::string msg = format_error_of([&] { ContainerReader r(path); });

@@ -74,8 +74,11 @@ TEST_F(StoreVolumeSet, EveryMemberOpensLikeItsOwnFile) {
   EXPECT_EQ(open_volume(set, 1)->path(), set);
   // A member's tucker payloads stay 64-byte aligned in memory (sections are aligned).
   const auto member = open_volume(set, 1);
-  for (const BrickEntry& e : member->bricks())
-    if (needs_alignment(e.kind)) EXPECT_EQ(reinterpret_cast<std::uintptr_t>(member->payload(e).data()) % 64, 0u);
+  for (const BrickEntry& e : member->bricks()) {
+    if (needs_alignment(e.kind)) {
+      EXPECT_EQ(reinterpret_cast<std::uintptr_t>(member->payload(e).data()) % 64, 0u);
+    }
+  }
 }
 
 TEST_F(StoreVolumeSet, AVolumeMustBeChosenAndExist) {
