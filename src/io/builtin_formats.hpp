@@ -13,5 +13,7 @@ VolumeFormat nrrd_format();
 VolumeFormat nifti_format();
 // TIFF (tiff.cpp): multi-page files and folders of slices.
 VolumeFormat tiff_format();
+// MRC / MRCS / REC / CCP4 map (mrc.cpp): cryo-EM and cryo-ET volumes.
+VolumeFormat mrc_format();
 
 }  // namespace strata::io::detail

@@ -57,6 +57,7 @@ Entries builtin_formats() {
   add(entries, detail::nrrd_format());
   add(entries, detail::nifti_format());
   add(entries, detail::tiff_format());
+  add(entries, detail::mrc_format());
   return entries;
 }
 

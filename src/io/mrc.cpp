@@ -1,0 +1,241 @@
+// MRC / MRCS / REC / CCP4 map volumes (cryo-EM, cryo-ET), as the MRC2014 standard defines them:
+// a 1024-byte header, an extended header of `nsymbt` bytes (skipped), then x-fastest samples,
+// memory-mapped. The voxel size is the cell length over the sampling (xlen / mx). Read: modes 0
+// (int8), 1 (int16), 2 (float32) and 6 (uint16), either byte order (machine stamp), columns, rows
+// and sections in x, y, z order. Written: the same four modes, little-endian, with the sample
+// statistics (dmin, dmax, dmean, rms) patched into the header at the end; uint8 samples (most
+// EM volumes) are widened to mode 6 (uint16), as the reference library mrcfile does, because
+// MRC2014's mode 0 is signed.
+//
+// Header fields read or written (byte offset, type; MRC2014):
+// | offset | type     | field                 | here                                            |
+// | ------ | -------- | --------------------- | ----------------------------------------------- |
+// | 0      | 3 x i32  | nx, ny, nz            | dims (columns, rows, sections)                  |
+// | 12     | i32      | mode                  | 0 i8, 1 i16, 2 f32, 6 u16; others refused       |
+// | 28     | 3 x i32  | mx, my, mz            | sampling of the cell                            |
+// | 40     | 3 x f32  | xlen, ylen, zlen      | cell size in Å: spacing = xlen / mx             |
+// | 64     | 3 x i32  | mapc, mapr, maps      | axis order; only 1, 2, 3 is read                |
+// | 76     | 4 x f32  | dmin, dmax, dmean     | written from the samples (rms at 216)           |
+// | 88     | i32      | ispg                  | written 1 (a volume)                            |
+// | 92     | i32      | nsymbt                | extended header bytes, skipped                  |
+// | 108    | i32      | nversion              | written 20140                                   |
+// | 208    | char[4]  | map                   | "MAP ": the signature sniffed                   |
+// | 212    | u8[4]    | machst                | 0x44 0x44: little-endian, 0x11 0x11: big-endian |
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <limits>
+#include <string_view>
+
+#include <fmt/format.h>
+
+#include "io/builtin_formats.hpp"
+#include "io/io_detail.hpp"
+#include "strata/core/bytes.hpp"
+#include "strata/core/error.hpp"
+
+namespace strata::io::detail {
+
+namespace {
+
+constexpr std::size_t kHeaderBytes = 1024;
+constexpr std::size_t kMapOffset = 208, kStampOffset = 212;
+constexpr std::string_view kMapSignature = "MAP ";
+// The largest extended header a reader takes (FEI/EPU headers are a few MB).
+constexpr std::int32_t kMaxExtendedHeader = 1 << 30;
+
+struct ModeType {
+  std::int32_t mode;
+  DType dtype;
+};
+// The modes whose samples are one of Strata's sample types.
+constexpr std::array<ModeType, 4> kModes{{{0, DType::i8}, {1, DType::i16}, {2, DType::f32}, {6, DType::u16}}};
+
+bool has_mrc_signature(std::span<const std::byte> head) {
+  return head.size() >= kMapOffset + kMapSignature.size() &&
+         std::memcmp(head.data() + kMapOffset, kMapSignature.data(), kMapSignature.size()) == 0;
+}
+
+std::string mode_problem(std::int32_t mode) {
+  if (mode == 12) return "mode 12 (float16) is not read yet; convert it to mode 2 (float32)";
+  if (mode == 3 || mode == 4) return fmt::format("mode {} holds complex samples, which a volume cannot", mode);
+  return fmt::format("unknown mode {} (expected 0 int8, 1 int16, 2 float32 or 6 uint16)", mode);
+}
+
+struct MrcLayout {
+  VolumeInfo info;
+  std::uint64_t data_offset = kHeaderBytes;
+  bool big_endian = false;
+};
+
+MrcLayout parse_header(const std::filesystem::path& path, std::span<const std::byte> header) {
+  const std::string file = path.string();
+  if (header.size() < kHeaderBytes)
+    throw FormatError(file, "header", fmt::format("{} bytes, an MRC header has {}", header.size(), kHeaderBytes));
+  MrcLayout layout;
+  const auto stamp = std::to_integer<unsigned>(header[kStampOffset]);
+  layout.big_endian = stamp == 0x11;
+  const std::endian order = layout.big_endian ? std::endian::big : std::endian::little;
+  const auto i32 = [&](std::size_t at) { return load_field<std::int32_t>(header, at, order); };
+  const auto f32 = [&](std::size_t at) { return load_field<float>(header, at, order); };
+
+  const std::int32_t n[3] = {i32(0), i32(4), i32(8)};
+  for (int a = 0; a < 3; ++a)
+    if (n[a] < 1) throw FormatError(file, "nx, ny, nz", fmt::format("must be positive, got {} {} {}", n[0], n[1], n[2]));
+  layout.info.dims = {n[0], n[1], n[2]};
+  const std::int32_t mode = i32(12);
+  const auto type = std::find_if(kModes.begin(), kModes.end(), [&](const ModeType& m) { return m.mode == mode; });
+  if (type == kModes.end()) throw FormatError(file, "mode", mode_problem(mode));
+  layout.info.dtype = type->dtype;
+  if (i32(64) != 1 || i32(68) != 2 || i32(72) != 3)
+    throw FormatError(file, "mapc, mapr, maps",
+                      fmt::format("axis order {} {} {} is not read yet (expected 1 2 3: columns along x)", i32(64),
+                                  i32(68), i32(72)));
+  // Voxel size: the cell length over its sampling; 1 where the header leaves either at 0.
+  double spacing[3] = {1, 1, 1};
+  for (int a = 0; a < 3; ++a) {
+    const std::int32_t m = i32(28 + 4 * std::size_t(a));
+    const float length = f32(40 + 4 * std::size_t(a));
+    if (m > 0 && std::isfinite(length) && length > 0) spacing[a] = double(length) / m;
+  }
+  layout.info.spacing = {spacing[0], spacing[1], spacing[2]};
+  const std::int32_t extended = i32(92);
+  if (extended < 0 || extended > kMaxExtendedHeader)
+    throw FormatError(file, "nsymbt", fmt::format("extended header of {} bytes (expected 0..{})", extended, kMaxExtendedHeader));
+  layout.data_offset = kHeaderBytes + std::uint64_t(extended);
+  return layout;
+}
+
+std::unique_ptr<VolumeSource> open_mrc(const std::filesystem::path& path, const ReadOptions&) {
+  auto file = std::make_shared<MappedFile>(path);
+  const MrcLayout layout = parse_header(path, {file->data(), std::min<std::uint64_t>(file->size(), kHeaderBytes)});
+  const std::uint64_t expected = layout.data_offset + layout.info.byte_size();
+  if (file->size() != expected)
+    throw FormatError(path.string(), "size",
+                      fmt::format("expected {} bytes ({}-byte headers, then {} {}), found {}", expected,
+                                  layout.data_offset, layout.info.dims.to_string(), dtype_name(layout.info.dtype),
+                                  file->size()));
+  return make_mapped_source(std::move(file), layout.data_offset, layout.info, layout.big_endian, path, "size");
+}
+
+// Writes the header with placeholder statistics, the slabs as they come, then the statistics.
+class MrcWriter final : public VolumeWriter {
+ public:
+  MrcWriter(const std::filesystem::path& path, const VolumeInfo& info) : out_(path), info_(info) {
+    widen_ = info.dtype == DType::u8;
+    const DType stored = widen_ ? DType::u16 : info.dtype;
+    const auto type = std::find_if(kModes.begin(), kModes.end(), [&](const ModeType& m) { return m.dtype == stored; });
+    if (type == kModes.end())
+      throw Error(fmt::format("{}: MRC stores uint8 (as uint16), int8, int16, uint16 or float32 samples, not {}",
+                              path.string(), dtype_name(info.dtype)));
+    mode_ = type->mode;
+    const std::array<std::byte, kHeaderBytes> header = make_header();
+    out_.write(header.data(), header.size());
+  }
+
+  void write_slab(const Volume& slab) override {
+    visit_dtype(slab.dtype(), [&](auto tag) {
+      using T = decltype(tag);
+      for (T v : slab.samples<T>()) {
+        const double d = double(v);
+        if (!std::isfinite(d)) continue;
+        lo_ = std::min(lo_, d);
+        hi_ = std::max(hi_, d);
+        sum_ += d;
+        sum_squares_ += d * d;
+        ++count_;
+      }
+    });
+    if (widen_) {
+      const Volume wide = slab.converted(DType::u16);
+      out_.write(wide.bytes(), wide.byte_size());
+    } else {
+      out_.write(slab.bytes(), slab.byte_size());
+    }
+  }
+
+  void finish() override {
+    // The statistics of the finite samples; MRC2014 marks unknown ones with dmax < dmin.
+    std::array<std::byte, 16> stats{};
+    const double mean = count_ > 0 ? sum_ / double(count_) : 0;
+    const double rms = count_ > 0 ? std::sqrt(std::max(0.0, sum_squares_ / double(count_) - mean * mean)) : -1;
+    store_field(stats, 0, float(count_ > 0 ? lo_ : 0));
+    store_field(stats, 4, float(count_ > 0 ? hi_ : -1));
+    store_field(stats, 8, float(mean));
+    std::array<std::byte, 4> rms_field{};
+    store_field(rms_field, 0, float(rms));
+    patch(76, stats);
+    patch(216, rms_field);
+    out_.commit();
+  }
+
+ private:
+  std::array<std::byte, kHeaderBytes> make_header() const {
+    std::array<std::byte, kHeaderBytes> h{};
+    const std::int64_t n[3] = {info_.dims.x, info_.dims.y, info_.dims.z};
+    const double s[3] = {info_.spacing.x, info_.spacing.y, info_.spacing.z};
+    for (std::size_t a = 0; a < 3; ++a) {
+      store_field(h, 4 * a, std::int32_t(n[a]));
+      store_field(h, 28 + 4 * a, std::int32_t(n[a]));           // mx, my, mz: one cell = the volume
+      store_field(h, 40 + 4 * a, float(double(n[a]) * s[a]));  // xlen, ylen, zlen
+      store_field(h, 52 + 4 * a, 90.0f);                       // cell angles
+      store_field(h, 64 + 4 * a, std::int32_t(a + 1));         // mapc, mapr, maps
+    }
+    store_field(h, 12, mode_);
+    store_field(h, 88, std::int32_t(1));  // ispg: a volume
+    store_field(h, 108, std::int32_t(20140));
+    std::memcpy(h.data() + kMapOffset, kMapSignature.data(), kMapSignature.size());
+    h[kStampOffset] = h[kStampOffset + 1] = std::byte{0x44};  // little-endian
+    store_field(h, 220, std::int32_t(1));                     // one label
+    constexpr std::string_view label = "Strata";
+    std::memcpy(h.data() + 224, label.data(), label.size());
+    return h;
+  }
+
+  void patch(long offset, std::span<const std::byte> bytes) {
+    std::FILE* f = out_.handle();
+    if (std::fflush(f) != 0 || std::fseek(f, offset, SEEK_SET) != 0 || std::fwrite(bytes.data(), 1, bytes.size(), f) != bytes.size() ||
+        std::fseek(f, 0, SEEK_END) != 0)
+      throw Error(fmt::format("{}: cannot write the MRC header's statistics", out_.path().string()));
+  }
+
+  AtomicOutputFile out_;
+  VolumeInfo info_;
+  std::int32_t mode_ = 0;
+  bool widen_ = false;  // uint8 samples stored as mode 6
+  double lo_ = std::numeric_limits<double>::infinity(), hi_ = -std::numeric_limits<double>::infinity();
+  double sum_ = 0, sum_squares_ = 0;
+  std::uint64_t count_ = 0;
+};
+
+std::unique_ptr<VolumeWriter> create_mrc_writer(const std::filesystem::path& path, const VolumeInfo& info,
+                                                const WriteOptions&) {
+  return std::make_unique<MrcWriter>(path, info);
+}
+
+}  // namespace
+
+VolumeFormat mrc_format() {
+  return {
+      .name = "mrc",
+      .title = "MRC",
+      .description = "cryo-EM and cryo-ET maps, stacks and tomograms (MRC2014): a 1024-byte header, then the samples",
+      .extensions = {".mrc", ".mrcs", ".rec", ".map"},
+      .magic_bytes = kMapOffset + kMapSignature.size(),
+      .sniff = has_mrc_signature,
+      .open = open_mrc,
+      .create_writer = create_mrc_writer,
+      .capabilities = {.streaming = true, .multi_volume = false, .spatial_metadata = true},
+      .read_dtypes = {DType::i8, DType::i16, DType::u16, DType::f32},
+      .write_dtypes = {DType::u8, DType::i8, DType::i16, DType::u16, DType::f32},
+      .read_notes = "modes 0 (int8), 1 (int16), 2 (float32), 6 (uint16), either byte order; voxel size from the cell "
+                    "(xlen / mx); extended headers skipped; memory-mapped",
+      .write_notes = "the same modes, little-endian, with dmin/dmax/dmean/rms of the samples; u8 as mode 6 (u16), as "
+                     "mrcfile writes it (mode 0 is signed)",
+  };
+}
+
+}  // namespace strata::io::detail
