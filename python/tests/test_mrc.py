@@ -58,9 +58,10 @@ def test_unsigned_bytes_are_written_as_mode_6_like_mrcfile(tmp_path):
         np.testing.assert_array_equal(m.data, a)
 
 
-def test_float16_is_refused_naming_the_mode(tmp_path):
-    path = tmp_path / "half.mrc"
-    with mrcfile.new(path) as m:
-        m.set_data(np.zeros((2, 2, 2), dtype=np.float16))
-    with pytest.raises(strata.FormatError, match="mode 12"):
-        strata.read(path)
+def test_float16_reads_as_float32(tmp_path):
+    a = (np.arange(24).reshape(2, 3, 4) * 0.125 - 1).astype(np.float16)
+    with mrcfile.new(tmp_path / "half.mrc") as m:
+        m.set_data(a)
+    b = strata.read(tmp_path / "half.mrc")
+    assert b.dtype == np.float32
+    np.testing.assert_array_equal(b, a.astype(np.float32))

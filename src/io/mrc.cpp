@@ -11,7 +11,7 @@
 // | offset | type     | field                 | here                                            |
 // | ------ | -------- | --------------------- | ----------------------------------------------- |
 // | 0      | 3 x i32  | nx, ny, nz            | dims (columns, rows, sections)                  |
-// | 12     | i32      | mode                  | 0 i8, 1 i16, 2 f32, 6 u16; others refused       |
+// | 12     | i32      | mode                  | 0 i8, 1 i16, 2 f32, 6 u16, 12 f16 (as f32)      |
 // | 28     | 3 x i32  | mx, my, mz            | sampling of the cell                            |
 // | 40     | 3 x f32  | xlen, ylen, zlen      | cell size in Å: spacing = xlen / mx             |
 // | 64     | 3 x i32  | mapc, mapr, maps      | axis order; only 1, 2, 3 is read                |
@@ -53,6 +53,56 @@ struct ModeType {
 };
 // The modes whose samples are one of Strata's sample types.
 constexpr std::array<ModeType, 4> kModes{{{0, DType::i8}, {1, DType::i16}, {2, DType::f32}, {6, DType::u16}}};
+// IEEE half precision, read as float32 (no Strata sample type holds it).
+constexpr std::int32_t kFloat16Mode = 12;
+
+// The float32 of an IEEE binary16 value: exact for every half (normal, subnormal, zero, infinity
+// and NaN).
+float half_to_float(std::uint16_t h) {
+  const std::uint32_t sign = std::uint32_t(h & 0x8000u) << 16;
+  const std::uint32_t exponent = (h >> 10) & 0x1Fu, mantissa = h & 0x3FFu;
+  if (exponent == 0x1F) return std::bit_cast<float>(sign | 0x7F800000u | (mantissa << 13));  // inf, NaN
+  if (exponent != 0) return std::bit_cast<float>(sign | ((exponent + 112) << 23) | (mantissa << 13));
+  // Zero and subnormals: mantissa * 2^-24, exact in float.
+  const float magnitude = float(mantissa) * 0x1p-24f;
+  return sign ? -magnitude : magnitude;
+}
+
+// Mode 12 samples served as float32: each box is converted from the mapped halves.
+class Float16Source final : public VolumeSource {
+ public:
+  Float16Source(std::shared_ptr<MappedFile> file, std::uint64_t offset, VolumeInfo info, bool big_endian,
+                std::filesystem::path path)
+      : file_(std::move(file)), offset_(offset), info_(info), big_endian_(big_endian), path_(std::move(path)) {}
+  const VolumeInfo& info() const override { return info_; }
+  const std::filesystem::path& path() const override { return path_; }
+  Volume read_box(const Box& box) override {
+    if (box.empty() || !Box::whole(info_.dims).contains(box))
+      throw Error(fmt::format("{}: box {} is not inside the volume {}", path_.string(), box.to_string(),
+                              info_.dims.to_string()));
+    Volume out(box.size(), DType::f32, info_.spacing);
+    float* dst = out.samples<float>().data();
+    const Extent& d = info_.dims;
+    for (std::int64_t z = box.lo.z; z < box.hi.z; ++z)
+      for (std::int64_t y = box.lo.y; y < box.hi.y; ++y) {
+        const std::uint64_t first = std::uint64_t((z * d.y + y) * d.x + box.lo.x);
+        const std::byte* src = file_->data() + offset_ + 2 * first;
+        for (std::int64_t x = box.lo.x; x < box.hi.x; ++x, src += 2) {
+          const auto lo = std::to_integer<std::uint16_t>(src[big_endian_ ? 1 : 0]);
+          const auto hi = std::to_integer<std::uint16_t>(src[big_endian_ ? 0 : 1]);
+          *dst++ = half_to_float(std::uint16_t(lo | (hi << 8)));
+        }
+      }
+    return out;
+  }
+
+ private:
+  std::shared_ptr<MappedFile> file_;
+  std::uint64_t offset_;
+  VolumeInfo info_;
+  bool big_endian_;
+  std::filesystem::path path_;
+};
 
 bool has_mrc_signature(std::span<const std::byte> head) {
   return head.size() >= kMapOffset + kMapSignature.size() &&
@@ -60,13 +110,13 @@ bool has_mrc_signature(std::span<const std::byte> head) {
 }
 
 std::string mode_problem(std::int32_t mode) {
-  if (mode == 12) return "mode 12 (float16) is not read yet; convert it to mode 2 (float32)";
   if (mode == 3 || mode == 4) return fmt::format("mode {} holds complex samples, which a volume cannot", mode);
-  return fmt::format("unknown mode {} (expected 0 int8, 1 int16, 2 float32 or 6 uint16)", mode);
+  return fmt::format("unknown mode {} (expected 0 int8, 1 int16, 2 float32, 6 uint16 or 12 float16)", mode);
 }
 
 struct MrcLayout {
   VolumeInfo info;
+  bool float16 = false;  // mode 12: info.dtype is f32, the file holds 2 bytes a sample
   std::uint64_t data_offset = kHeaderBytes;
   bool big_endian = false;
 };
@@ -88,8 +138,9 @@ MrcLayout parse_header(const std::filesystem::path& path, std::span<const std::b
   layout.info.dims = {n[0], n[1], n[2]};
   const std::int32_t mode = i32(12);
   const auto type = std::find_if(kModes.begin(), kModes.end(), [&](const ModeType& m) { return m.mode == mode; });
-  if (type == kModes.end()) throw FormatError(file, "mode", mode_problem(mode));
-  layout.info.dtype = type->dtype;
+  layout.float16 = mode == kFloat16Mode;
+  if (type == kModes.end() && !layout.float16) throw FormatError(file, "mode", mode_problem(mode));
+  layout.info.dtype = layout.float16 ? DType::f32 : type->dtype;
   if (i32(64) != 1 || i32(68) != 2 || i32(72) != 3)
     throw FormatError(file, "mapc, mapr, maps",
                       fmt::format("axis order {} {} {} is not read yet (expected 1 2 3: columns along x)", i32(64),
@@ -112,12 +163,15 @@ MrcLayout parse_header(const std::filesystem::path& path, std::span<const std::b
 std::unique_ptr<VolumeSource> open_mrc(const std::filesystem::path& path, const ReadOptions&) {
   auto file = std::make_shared<MappedFile>(path);
   const MrcLayout layout = parse_header(path, {file->data(), std::min<std::uint64_t>(file->size(), kHeaderBytes)});
-  const std::uint64_t expected = layout.data_offset + layout.info.byte_size();
+  const std::uint64_t sample_bytes = layout.float16 ? 2 * std::uint64_t(layout.info.dims.voxel_count()) : layout.info.byte_size();
+  const std::uint64_t expected = layout.data_offset + sample_bytes;
   if (file->size() != expected)
     throw FormatError(path.string(), "size",
                       fmt::format("expected {} bytes ({}-byte headers, then {} {}), found {}", expected,
-                                  layout.data_offset, layout.info.dims.to_string(), dtype_name(layout.info.dtype),
-                                  file->size()));
+                                  layout.data_offset, layout.info.dims.to_string(),
+                                  layout.float16 ? "f16" : dtype_name(layout.info.dtype), file->size()));
+  if (layout.float16)
+    return std::make_unique<Float16Source>(std::move(file), layout.data_offset, layout.info, layout.big_endian, path);
   return make_mapped_source(std::move(file), layout.data_offset, layout.info, layout.big_endian, path, "size");
 }
 
@@ -231,8 +285,8 @@ VolumeFormat mrc_format() {
       .capabilities = {.streaming = true, .multi_volume = false, .spatial_metadata = true},
       .read_dtypes = {DType::i8, DType::i16, DType::u16, DType::f32},
       .write_dtypes = {DType::u8, DType::i8, DType::i16, DType::u16, DType::f32},
-      .read_notes = "modes 0 (int8), 1 (int16), 2 (float32), 6 (uint16), either byte order; voxel size from the cell "
-                    "(xlen / mx); extended headers skipped; memory-mapped",
+      .read_notes = "modes 0 (int8), 1 (int16), 2 (float32), 6 (uint16), 12 (float16, read as f32), either byte "
+                    "order; voxel size from the cell (xlen / mx); extended headers skipped; memory-mapped",
       .write_notes = "the same modes, little-endian, with dmin/dmax/dmean/rms of the samples; u8 as mode 6 (u16), as "
                      "mrcfile writes it (mode 0 is signed)",
   };
