@@ -46,8 +46,7 @@ ta::CompressParams to_params(const CompressArgs& args) {
   const auto [target, target_flag] = to_target(args);
   p.codec.target = target;
   // With a target the rank is only a cap: each brick keeps the ranks its error needs.
-  p.codec.rank = args.rank > 0 ? args.rank : ta::default_rank(p.layout, p.codec.target.kind);
-  if (args.rank < 0) p.codec.rank = args.rank;
+  p.codec.rank = args.rank != 0 ? args.rank : ta::default_rank(p.layout, p.codec.target.kind);
   if (!args.quant.empty()) p.codec.quant = quant::QuantScheme::parse(args.quant);
   p.codec.hooi_iterations = args.hooi;
   p.codec.zstd_level = args.zstd;

@@ -9,6 +9,7 @@
 
 #include "io/builtin_formats.hpp"
 #include "io/io_detail.hpp"
+#include "strata/core/text.hpp"
 #include "strata/io/file_names.hpp"
 
 namespace strata::io {
@@ -69,14 +70,6 @@ struct Registry {
 Registry& registry() {
   static Registry r;
   return r;
-}
-
-// "a, b and c".
-std::string joined(const std::vector<std::string>& items, std::string_view conjunction) {
-  std::string text;
-  for (std::size_t i = 0; i < items.size(); ++i)
-    text += (i == 0 ? "" : i + 1 == items.size() ? fmt::format(" {} ", conjunction) : ", ") + items[i];
-  return text;
 }
 
 bool is_folder(const fs::path& path) {
@@ -210,7 +203,7 @@ const VolumeFormat& output_format(const fs::path& path, std::string_view name) {
     std::vector<std::string> names;
     for (const VolumeFormat* f : formats()) names.push_back(f->name);
     throw ParameterError("WriteOptions::format",
-                         fmt::format("unknown format \"{}\" (expected {})", name, joined(names, "or")));
+                         fmt::format("unknown format \"{}\" (expected {})", name, joined_list(names, "or")));
   }
   const bool folder = is_folder(path);
   if (const VolumeFormat* f = by_extension(path, folder)) return *f;
@@ -225,13 +218,13 @@ std::string known_extensions_text() {
     names.insert(names.end(), f->extensions.begin(), f->extensions.end());
     if (!f->directory.empty()) names.push_back(f->directory);
   }
-  return joined(names, "or");
+  return joined_list(names, "or");
 }
 
 std::string format_titles_text(std::string_view conjunction) {
   std::vector<std::string> titles;
   for (const VolumeFormat* f : formats()) titles.push_back(f->title);
-  return joined(titles, conjunction);
+  return joined_list(titles, conjunction);
 }
 
 }  // namespace strata::io

@@ -28,6 +28,7 @@
 #include <cstdio>
 #include <cstring>
 #include <limits>
+#include <optional>
 #include <string_view>
 
 #include <fmt/format.h>
@@ -77,9 +78,7 @@ class Float16Source final : public VolumeSource {
   const VolumeInfo& info() const override { return info_; }
   const std::filesystem::path& path() const override { return path_; }
   Volume read_box(const Box& box) override {
-    if (box.empty() || !Box::whole(info_.dims).contains(box))
-      throw Error(fmt::format("{}: box {} is not inside the volume {}", path_.string(), box.to_string(),
-                              info_.dims.to_string()));
+    check_box_inside(box, info_.dims, path_);
     Volume out(box.size(), DType::f32, info_.spacing);
     float* dst = out.samples<float>().data();
     const Extent& d = info_.dims;
@@ -93,6 +92,11 @@ class Float16Source final : public VolumeSource {
           *dst++ = half_to_float(std::uint16_t(lo | (hi << 8)));
         }
       }
+    // The pages read go back to the page cache, as the other mapped sources' do: a tomogram
+    // larger than memory streams through.
+    const auto first = std::uint64_t((box.lo.z * d.y + box.lo.y) * d.x + box.lo.x);
+    const auto last = std::uint64_t(((box.hi.z - 1) * d.y + box.hi.y - 1) * d.x + box.hi.x);
+    file_->release(offset_ + 2 * first, 2 * (last - first));
     return out;
   }
 
@@ -163,8 +167,13 @@ MrcLayout parse_header(const std::filesystem::path& path, std::span<const std::b
 std::unique_ptr<VolumeSource> open_mrc(const std::filesystem::path& path, const ReadOptions&) {
   auto file = std::make_shared<MappedFile>(path);
   const MrcLayout layout = parse_header(path, {file->data(), std::min<std::uint64_t>(file->size(), kHeaderBytes)});
-  const std::uint64_t sample_bytes = layout.float16 ? 2 * std::uint64_t(layout.info.dims.voxel_count()) : layout.info.byte_size();
-  const std::uint64_t expected = layout.data_offset + sample_bytes;
+  // The dims come from the file: a product past 2^63 bytes is a damaged header, not a size.
+  const std::optional<std::int64_t> voxels = layout.info.dims.checked_voxel_count();
+  const std::uint64_t sample_size = layout.float16 ? 2 : dtype_size(layout.info.dtype);
+  if (!voxels || std::uint64_t(*voxels) > (std::numeric_limits<std::uint64_t>::max() / 2 - layout.data_offset) / sample_size)
+    throw FormatError(path.string(), "nx, ny, nz",
+                      fmt::format("{} voxels do not fit in a file", layout.info.dims.to_string()));
+  const std::uint64_t expected = layout.data_offset + std::uint64_t(*voxels) * sample_size;
   if (file->size() != expected)
     throw FormatError(path.string(), "size",
                       fmt::format("expected {} bytes ({}-byte headers, then {} {}), found {}", expected,

@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "strata/core/error.hpp"
+#include "strata/core/text.hpp"
 #include "ta/builtin_codecs.hpp"
 
 namespace strata::ta {
@@ -39,13 +40,6 @@ Registry& registry() {
   }();
   (void)built_in;
   return r;
-}
-
-std::string with_or(const std::vector<std::string>& items) {
-  std::string text;
-  for (std::size_t i = 0; i < items.size(); ++i)
-    text += (i == 0 ? "" : i + 1 == items.size() ? " or " : ", ") + items[i];
-  return text;
 }
 
 }  // namespace
@@ -99,7 +93,7 @@ bool is_codec_name(std::string_view name) {
 std::string quoted_codec_names() {
   std::vector<std::string> quoted;
   for (const std::string& n : codec_names()) quoted.push_back("\"" + n + "\"");
-  return with_or(quoted);
+  return joined_list(quoted, "or");
 }
 
 const BrickCodec& codec_for(const CompressParams& params) {
@@ -115,11 +109,11 @@ const BrickCodec& codec_for(const CompressParams& params) {
     throw ParameterError("CompressParams::codec_name",
                          fmt::format("the {} codec stores fixed-rank cores; error targets (--psnr, --rmse, --max-error) "
                                      "need {}",
-                                     params.codec_name, with_or(others)));
+                                     params.codec_name, joined_list(others, "or")));
   throw ParameterError("CompressParams::codec_name",
                        fmt::format("the {} codec codes to an error target only; give one (--psnr, --rmse or "
                                    "--max-error) or use {}",
-                                   params.codec_name, with_or(others)));
+                                   params.codec_name, joined_list(others, "or")));
 }
 
 void validate(const CompressParams& params) {

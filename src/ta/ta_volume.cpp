@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "strata/core/error.hpp"
+#include "strata/core/text.hpp"
 #include "strata/core/threads.hpp"
 #include "strata/store/brick_histogram.hpp"
 #include "strata/store/metadata_json.hpp"
@@ -23,10 +24,9 @@ using store::MetadataField;
 
 // "a, b or c": the payload kinds a codec writes, for messages.
 std::string kind_list(const std::vector<store::PayloadKind>& kinds) {
-  std::string text;
-  for (std::size_t i = 0; i < kinds.size(); ++i)
-    text += std::string(i == 0 ? "" : i + 1 == kinds.size() ? " or " : ", ") + store::payload_kind_name(kinds[i]);
-  return text;
+  std::vector<std::string> names;
+  for (store::PayloadKind k : kinds) names.emplace_back(store::payload_kind_name(k));
+  return joined_list(names, "or");
 }
 
 std::string extent_text(const Extent& e) { return fmt::format("[{}, {}, {}]", e.x, e.y, e.z); }

@@ -184,6 +184,12 @@ TEST(IoMrc, ModesAndLayoutsThatAreNotReadAreRefusedNamingTheField) {
   write_file(dir / "short.mrc", truncated);
   expect_refused([&] { (void)open_volume(dir / "short.mrc"); }, "size", "expected 1280 bytes");
 
+  // Dims whose product overflows are a damaged header, named as such.
+  write_file(dir / "huge.mrc", header(std::endian::little, {1 << 30, 1 << 30, 1 << 30}, 2, {1, 1, 1}, {1, 1, 1}, 0));
+  expect_refused([&] { (void)open_volume(dir / "huge.mrc"); }, "nx, ny, nz", "do not fit");
+  write_file(dir / "big.mrc", header(std::endian::little, {1 << 20, 1 << 20, 1 << 20}, 2, {1, 1, 1}, {1, 1, 1}, 0));
+  expect_refused([&] { (void)open_volume(dir / "big.mrc"); }, "size", "expected");
+
   write_file(dir / "tiny.mrc", body(100));
   EXPECT_THROW((void)open_volume(dir / "tiny.mrc"), FormatError);
 }

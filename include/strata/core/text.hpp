@@ -1,0 +1,13 @@
+#pragma once
+/// @file
+/// @brief Text for messages and help: lists of names written as a person writes them.
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace strata {
+
+/// @brief `items` as a list in prose: "a", "a or b", "a, b or c" (with `conjunction` "or").
+std::string joined_list(const std::vector<std::string>& items, std::string_view conjunction);
+
+}  // namespace strata
