@@ -48,6 +48,8 @@ constexpr ParameterFlag kParameterFlags[] = {
     {"ReadOptions::raw_dims", "--dims"},
     {"ReadOptions::raw_dtype", "--dtype"},
     {"ReadOptions::volume", "--volume"},
+    {"ReadOptions::dataset", "--dataset"},
+    {"ReadOptions::level", "--level"},
     {"RenderOptions::step", "--step"},
     {"RenderOptions::background", "--background"},
     {"SessionOptions::background", "--background"},

@@ -17,6 +17,12 @@ void RawInputArgs::add_to(CLI::App& cmd) {
   cmd.add_option("--spacing", spacing, "Raw input: voxel spacing SX,SY,SZ");
   cmd.add_flag("--big-endian", big_endian, "Raw input: samples are big endian");
   add_volume_option(cmd, volume);
+  cmd.add_option("--dataset", dataset,
+                 "The array inside a container: an HDF5 dataset (/group/data; also written file.h5:/group/data) or "
+                 "the array of a Zarr group");
+  cmd.add_option("--level", level, "Resolution level of a multiscale input (OME-Zarr, Neuroglancer precomputed), "
+                                   "0 = finest (default)")
+      ->check(kNonNegativeInteger);
 }
 
 void add_volume_option(CLI::App& cmd, std::optional<std::int64_t>& volume) {
@@ -41,6 +47,8 @@ io::ReadOptions RawInputArgs::to_read_options() const {
   }
   o.raw_big_endian = big_endian;
   o.volume = volume;
+  o.dataset = dataset;
+  o.level = level;
   return o;
 }
 

@@ -13,12 +13,14 @@
 
 namespace strata::cli {
 
-// --dims/--dtype/--spacing/--big-endian for raw inputs without a JSON sidecar, and --volume
-// for files of several volumes.
+// --dims/--dtype/--spacing/--big-endian for raw inputs without a JSON sidecar, --volume for
+// files of several volumes, --dataset and --level for containers and multiscale files.
 struct RawInputArgs {
   std::string dims, dtype, spacing;
   bool big_endian = false;
   std::optional<std::int64_t> volume;
+  std::string dataset;
+  std::optional<std::int64_t> level;
   void add_to(CLI::App& cmd);
   io::ReadOptions to_read_options() const;
 };

@@ -12,7 +12,8 @@ namespace strata::python {
 
 namespace {
 
-constexpr const char* kSupportedTypes = "uint8, int8, uint16, int16, uint32, int32, float32 or float64";
+constexpr const char* kSupportedTypes =
+    "uint8, int8, uint16, int16, uint32, int32, uint64, int64, float32 or float64";
 
 template <class T>
 bool holds(const py::array& a) {
@@ -22,7 +23,7 @@ bool holds(const py::array& a) {
 // The sample type of an array of native byte order, or nullopt.
 std::optional<DType> sample_type(const py::array& a) {
   std::optional<DType> found;
-  for (const DType t : {DType::u8, DType::i8, DType::u16, DType::i16, DType::u32, DType::i32, DType::f32, DType::f64})
+  for (const DType t : kAllDTypes)
     visit_dtype(t, [&](auto v) {
       if (!found && holds<decltype(v)>(a)) found = t;
     });
@@ -55,7 +56,7 @@ DType dtype_from_python(py::handle obj, const char* what) {
   } catch (const py::error_already_set&) {
     throw py::type_error(fmt::format("{}: not a sample type: {}", what, std::string(py::repr(obj))));
   }
-  for (const DType t : {DType::u8, DType::i8, DType::u16, DType::i16, DType::u32, DType::i32, DType::f32, DType::f64})
+  for (const DType t : kAllDTypes)
     if (d.attr("__eq__")(numpy_dtype(t)).cast<bool>()) return t;
   throw py::type_error(
       fmt::format("{}: {} samples are not supported; volumes hold {}", what, std::string(py::str(d)), kSupportedTypes));

@@ -156,7 +156,7 @@ constexpr std::string_view kStrataSignature{"\x89STRATA\n", 8};
 
 std::vector<DType> DTypeSet::list() const {
   std::vector<DType> types;
-  for (DType t : {DType::u8, DType::i8, DType::u16, DType::i16, DType::u32, DType::i32, DType::f32, DType::f64})
+  for (DType t : kAllDTypes)
     if (contains(t)) types.push_back(t);
   return types;
 }

@@ -62,14 +62,16 @@ struct DatatypeCode {
   std::int16_t code;
   DType dtype;
 };
-constexpr std::array<DatatypeCode, 8> kDatatypeCodes{{{2, DType::u8},
+constexpr std::array<DatatypeCode, 10> kDatatypeCodes{{{2, DType::u8},
                                                       {256, DType::i8},
                                                       {4, DType::i16},
                                                       {512, DType::u16},
                                                       {8, DType::i32},
                                                       {768, DType::u32},
                                                       {16, DType::f32},
-                                                      {64, DType::f64}}};
+                                                      {64, DType::f64},
+                                                      {1024, DType::i64},
+                                                      {1280, DType::u64}}};
 
 std::int16_t datatype_code(DType t) {
   for (const auto& entry : kDatatypeCodes)
@@ -173,7 +175,7 @@ DType read_dtype(const HeaderBytes& h, const std::string& file) {
   if (it == kDatatypeCodes.end())
     throw FormatError(file, "datatype",
                       fmt::format("code {} is not supported; expected one of 2 (u8), 256 (i8), 4 (i16), 512 (u16), "
-                                  "8 (i32), 768 (u32), 16 (f32), 64 (f64)",
+                                  "8 (i32), 768 (u32), 16 (f32), 64 (f64), 1024 (i64), 1280 (u64)",
                                   code));
   const auto bitpix = h.get<std::int16_t>(h.layout.bitpix);
   const auto expected_bits = std::int16_t(8 * dtype_size(it->dtype));

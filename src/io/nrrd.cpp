@@ -93,16 +93,18 @@ struct HeaderParser {
         {"int32_t", DType::i32},     {"uint", DType::u32},              {"unsigned int", DType::u32},
         {"uint32", DType::u32},      {"uint32_t", DType::u32},          {"float", DType::f32},
         {"double", DType::f64},
+        {"longlong", DType::i64},    {"long long", DType::i64},         {"long long int", DType::i64},
+        {"signed long long", DType::i64}, {"signed long long int", DType::i64}, {"int64", DType::i64},
+        {"int64_t", DType::i64},     {"ulonglong", DType::u64},         {"unsigned long long", DType::u64},
+        {"unsigned long long int", DType::u64}, {"uint64", DType::u64}, {"uint64_t", DType::u64},
     };
-    static const std::vector<std::string> kUnsupported = {
-        "longlong", "long long", "long long int", "signed long long", "signed long long int", "int64", "int64_t",
-        "ulonglong", "unsigned long long", "unsigned long long int", "uint64", "uint64_t", "block"};
+    static const std::vector<std::string> kUnsupported = {"block"};
     // Spellings may use several spaces ("unsigned  char"); normalise to single spaces.
     std::string key;
     for (const auto& w : words(ascii_lower(value))) key += (key.empty() ? "" : " ") + w;
     if (auto it = kTypes.find(key); it != kTypes.end()) return it->second;
     if (std::find(kUnsupported.begin(), kUnsupported.end(), key) != kUnsupported.end())
-      fail("type", fmt::format("\"{}\" samples are not supported (64-bit integers and blocks have no dtype here)", value));
+      fail("type", fmt::format("\"{}\" samples are not supported (blocks have no dtype here)", value));
     fail("type", fmt::format("unknown type \"{}\" (expected e.g. uint8, int16, uint16, int32, uint32, float, double)",
                              value));
   }
@@ -475,6 +477,8 @@ const char* nrrd_type_name(DType t) {
     case DType::i32: return "int32";
     case DType::f32: return "float";
     case DType::f64: return "double";
+    case DType::u64: return "uint64";
+    case DType::i64: return "int64";
   }
   throw Error("nrrd: invalid dtype");
 }

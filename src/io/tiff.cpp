@@ -137,13 +137,15 @@ DType dtype_of_format(const PageFormat& f, const std::string& where) {
   if (uint && f.bits == 8) return DType::u8;
   if (uint && f.bits == 16) return DType::u16;
   if (uint && f.bits == 32) return DType::u32;
+  if (uint && f.bits == 64) return DType::u64;
   if (sint && f.bits == 8) return DType::i8;
   if (sint && f.bits == 16) return DType::i16;
   if (sint && f.bits == 32) return DType::i32;
+  if (sint && f.bits == 64) return DType::i64;
   if (real && f.bits == 32) return DType::f32;
   if (real && f.bits == 64) return DType::f64;
   throw FormatError(where, "BitsPerSample/SampleFormat",
-                    fmt::format("{} bits with SampleFormat {} is not supported; expected 8/16/32-bit unsigned (1) or "
+                    fmt::format("{} bits with SampleFormat {} is not supported; expected 8/16/32/64-bit unsigned (1) or "
                                 "signed (2) integers, or 32/64-bit floats (3)",
                                 f.bits, f.sample_format));
 }

@@ -85,7 +85,30 @@ std::unique_ptr<VolumeSource> memory_source(const Volume& volume, std::filesyste
   return std::make_unique<MemorySource>(volume, std::move(name));
 }
 
-std::unique_ptr<VolumeSource> open_volume(const std::filesystem::path& path, const ReadOptions& options) {
+std::pair<std::filesystem::path, std::string> split_container_path(const std::filesystem::path& path) {
+  std::error_code ec;
+  const std::string text = path.string();
+  if (std::filesystem::exists(path, ec)) return {path, {}};
+  // The last colon whose left part exists: "C:" style prefixes and colons inside folder names
+  // still resolve to the longest existing container.
+  for (std::size_t colon = text.rfind(':'); colon != std::string::npos && colon > 0; colon = text.rfind(':', colon - 1)) {
+    const std::filesystem::path container = text.substr(0, colon);
+    if (std::filesystem::exists(container, ec)) return {container, text.substr(colon + 1)};
+    if (colon == 0) break;
+  }
+  return {path, {}};
+}
+
+std::unique_ptr<VolumeSource> open_volume(const std::filesystem::path& given_path, const ReadOptions& given_options) {
+  auto [path, inner] = split_container_path(given_path);
+  ReadOptions options = given_options;
+  if (!inner.empty()) {
+    if (!options.dataset.empty() && options.dataset != inner)
+      throw ParameterError("ReadOptions::dataset",
+                           fmt::format("{}: the path names the array '{}' and the options name '{}'",
+                                       given_path.string(), inner, options.dataset));
+    options.dataset = inner;
+  }
   const VolumeFormat& format = detect_format(path);
   // Every format needs some bytes; an empty file is reported as such, not as a bad header.
   std::error_code ec;
@@ -96,6 +119,13 @@ std::unique_ptr<VolumeSource> open_volume(const std::filesystem::path& path, con
   if (!format.capabilities.multi_volume && options.volume.value_or(0) != 0)
     throw ParameterError("ReadOptions::volume", fmt::format("{}: volume {} does not exist; a {} file holds one volume (0)",
                                                             path.string(), *options.volume, format.name));
+  if (!format.capabilities.datasets && !options.dataset.empty())
+    throw ParameterError("ReadOptions::dataset", fmt::format("{}: a {} file holds no named arrays (asked for '{}')",
+                                                             path.string(), format.name, options.dataset));
+  if (!format.capabilities.multiscale && options.level.value_or(0) != 0)
+    throw ParameterError("ReadOptions::level", fmt::format("{}: level {} does not exist; a {} file holds one "
+                                                           "resolution (level 0)", path.string(), *options.level,
+                                                           format.name));
   return format.open(path, options);
 }
 

@@ -28,8 +28,7 @@ TEST(CoreDType, ParsesNamesAndRejectsUnknown) {
     EXPECT_NE(std::string(e.what()).find("sidecar.json: dtype"), std::string::npos);
     EXPECT_NE(std::string(e.what()).find("complex"), std::string::npos);
   }
-  for (DType t : {DType::u8, DType::i8, DType::u16, DType::i16, DType::u32, DType::i32, DType::f32, DType::f64})
-    EXPECT_EQ(parse_dtype(dtype_name(t)), t);
+  for (DType t : kAllDTypes) EXPECT_EQ(parse_dtype(dtype_name(t)), t);
 }
 
 TEST(CoreExtent, ParsesSizesAndBoxes) {

@@ -25,8 +25,7 @@
 
 namespace strata::test::io {
 
-inline constexpr DType kAllDtypes[] = {DType::u8,  DType::i8,  DType::u16, DType::i16,
-                                       DType::u32, DType::i32, DType::f32, DType::f64};
+inline constexpr auto kAllDtypes = kAllDTypes;
 
 // Every bit pattern for integers (so extremes and negatives occur) and spread-out floats;
 // the first two samples are the type's lowest and highest values.

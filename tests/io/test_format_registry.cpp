@@ -308,9 +308,9 @@ TEST(IoFormatRegistry, CapabilitiesOfTheBuiltIns) {
     EXPECT_EQ(bool(f.sniff), std::string(name) != "raw") << name;
   }
   EXPECT_EQ(find_format("nifti")->label_dtypes(),
-            (DTypeSet{DType::u8, DType::u16, DType::i16, DType::u32, DType::i32}));
+            (DTypeSet{DType::u8, DType::u16, DType::i16, DType::u32, DType::i32, DType::u64, DType::i64}));
   EXPECT_EQ(find_format("tiff")->directory.empty(), false);
-  EXPECT_EQ(DTypeSet::all().without(DType::f64).list().size(), 7u);
+  EXPECT_EQ(DTypeSet::all().without(DType::f64).list().size(), 9u);
 }
 
 // The acceptance rule of the registry: outside tests and docs, a format's extension is a string

@@ -10,6 +10,7 @@
 
 #include "strata/core/dtype.hpp"
 #include "strata/core/extent.hpp"
+#include "strata/core/geometry.hpp"
 
 namespace strata {
 
@@ -27,6 +28,8 @@ struct VolumeInfo {
   /// 3D volumes of `dims` the file holds (NIfTI dim[4..7]: time points, components); a source
   /// reads one of them (io::ReadOptions::volume).
   std::int64_t volumes = 1;
+  /// Origin, direction cosines, world space and unit (identity and 0 when the file has none).
+  Geometry geometry{};
 
   /// dims.x * dims.y * sample size and dims.x * dims.y * dims.z * sample size, or std::nullopt
   /// when a dimension is negative or the product does not fit in a signed 64-bit count (the
@@ -57,7 +60,7 @@ class Volume {
  public:
   Volume() = default;
   Volume(Extent dims, DType dtype, Spacing spacing = {});
-  explicit Volume(const VolumeInfo& info) : Volume(info.dims, info.dtype, info.spacing) {}
+  explicit Volume(const VolumeInfo& info) : Volume(info.dims, info.dtype, info.spacing) { info_.geometry = info.geometry; }
 
   const Extent& dims() const { return info_.dims; }
   DType dtype() const { return info_.dtype; }

@@ -36,22 +36,24 @@ class DTypeSet {
   constexpr DTypeSet(std::initializer_list<DType> types) {
     for (DType t : types) bits_ |= bit(t);
   }
-  /// @brief All eight sample types.
+  /// @brief All ten sample types.
   static constexpr DTypeSet all() {
-    return {DType::u8, DType::i8, DType::u16, DType::i16, DType::u32, DType::i32, DType::f32, DType::f64};
+    DTypeSet s;
+    for (DType t : kAllDTypes) s.bits_ |= bit(t);
+    return s;
   }
   constexpr bool contains(DType t) const { return (bits_ & bit(t)) != 0; }
   constexpr bool empty() const { return bits_ == 0; }
   /// @brief This set without `t`.
   constexpr DTypeSet without(DType t) const {
     DTypeSet s = *this;
-    s.bits_ &= std::uint8_t(~bit(t));
+    s.bits_ &= std::uint16_t(~bit(t));
     return s;
   }
   /// @brief The integer types of this set: the label (segmentation) volumes it can hold.
   constexpr DTypeSet integers() const {
     DTypeSet s = *this;
-    s.bits_ &= std::uint8_t(~(bit(DType::f32) | bit(DType::f64)));
+    s.bits_ &= std::uint16_t(~(bit(DType::f32) | bit(DType::f64)));
     return s;
   }
   /// @brief The members in DType order.
@@ -59,8 +61,8 @@ class DTypeSet {
   constexpr bool operator==(const DTypeSet&) const = default;
 
  private:
-  static constexpr std::uint8_t bit(DType t) { return std::uint8_t(1u << unsigned(t)); }
-  std::uint8_t bits_ = 0;
+  static constexpr std::uint16_t bit(DType t) { return std::uint16_t(1u << unsigned(t)); }
+  std::uint16_t bits_ = 0;
 };
 
 /// @brief What a format can do beyond reading a 3D volume.
@@ -74,6 +76,11 @@ struct FormatCapabilities {
   bool multi_volume = false;
   /// The voxel spacing travels with the samples (read and written).
   bool spatial_metadata = false;
+  /// A file holds named arrays, chosen by ReadOptions::dataset (HDF5 datasets, Zarr groups).
+  bool datasets = false;
+  /// A file holds several resolutions of one volume, chosen by ReadOptions::level (OME-Zarr,
+  /// Neuroglancer precomputed).
+  bool multiscale = false;
 };
 
 /// @brief Opens a volume file of the format for reading; throws FormatError(file, field, ...) on

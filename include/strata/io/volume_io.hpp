@@ -4,6 +4,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 
 #include "strata/core/progress.hpp"
 #include "strata/core/volume.hpp"
@@ -25,6 +26,14 @@ struct ReadOptions {
   // Which 3D volume of a file that holds several (NIfTI dim[0] > 3: time points, components),
   // from 0. Required for such files; a file of one volume takes only 0.
   std::optional<std::int64_t> volume;
+  // The array inside a container file: an HDF5 dataset ("/group/dataset"), the array of a Zarr
+  // group. Also given in the path, `file.h5:/group/dataset` (open_volume splits it off). Formats
+  // without FormatCapabilities::datasets refuse it.
+  std::string dataset;
+  // Which resolution level of a multiscale file (OME-Zarr `multiscales`, Neuroglancer precomputed
+  // `scales`), from 0, the finest (the default). Formats without FormatCapabilities::multiscale
+  // refuse any level but 0.
+  std::optional<std::int64_t> level;
   // Where compressed inputs (gzip) are decoded for random access; default: the system temp dir.
   std::optional<std::filesystem::path> temp_dir;
   ProgressSink* progress = nullptr;  // for decoding compressed inputs
@@ -54,10 +63,16 @@ class VolumeSource {
 };
 
 /// @brief Opens the volume at `path` with the reader of its format (detect_format): refuses an
-/// empty file, and a volume other than 0 of a format that holds one (FormatCapabilities::multi_volume).
+/// empty file, a volume other than 0 of a format that holds one (FormatCapabilities::multi_volume),
+/// a dataset or level the format has no notion of. A path `container:inner` whose `container`
+/// exists and `path` does not (`scan.h5:/entry/data`) opens `inner` of `container`
+/// (ReadOptions::dataset; giving both is an error unless they agree).
 std::unique_ptr<VolumeSource> open_volume(const std::filesystem::path& path, const ReadOptions& options = {});
 /// @brief A volume in memory served as a source (boxes are copied out), so code written for
 /// streamed files takes it too; `volume` must outlive the source. `name` is shown in errors.
+/// @brief `path` split into an existing container and the array inside it ("scan.h5:/a/b" ->
+/// {"scan.h5", "/a/b"}); {path, ""} when `path` exists or has no such split.
+std::pair<std::filesystem::path, std::string> split_container_path(const std::filesystem::path& path);
 std::unique_ptr<VolumeSource> memory_source(const Volume& volume, std::filesystem::path name = "<memory>");
 Volume read_volume(const std::filesystem::path& path, const ReadOptions& options = {});
 
