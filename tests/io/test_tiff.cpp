@@ -368,8 +368,8 @@ TEST(IoTiffErrors, ChannelsNeedAChoiceAndUnsupportedSampleTypes) {
   fourth.volume = 3;
   EXPECT_EQ(test::parameter_of([&] { io::open_volume(dir / "rgb.tif", fourth); }), "ReadOptions::volume");
 
-  write_pages(dir / "u64.tif", {page_of(4, 4, 64, SAMPLEFORMAT_UINT, 1)});
-  expect_error([&] { io::open_volume(dir / "u64.tif"); }, {"u64.tif", "BitsPerSample"});
+  write_pages(dir / "u24.tif", {page_of(4, 4, 24, SAMPLEFORMAT_UINT, 1)});
+  expect_error([&] { io::open_volume(dir / "u24.tif"); }, {"u24.tif", "BitsPerSample"});
 }
 
 // Sets the value of `tag` (a SHORT stored in its directory entry) in the first page of a
