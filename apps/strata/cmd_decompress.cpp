@@ -38,6 +38,7 @@ void run_decompress(const DecompressArgs& args, const GlobalOptions&) {
   if (k > volume.rank())
     throw Error("--rank: " + std::to_string(k) + " exceeds the stored rank " + std::to_string(volume.rank()));
   Volume decoded = to_output_type(volume.decode_box(args.level, box, k), volume, args);
+  decoded.set_geometry(volume.level_geometry(args.level, box));
   io::write_volume(args.output, decoded);
 }
 

@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <functional>
 #include <map>
+#include <vector>
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
@@ -13,6 +14,7 @@
 #include "strata/core/error.hpp"
 #include "strata/mixture/encoded_labels.hpp"
 #include "strata/store/container.hpp"
+#include "strata/store/geometry_json.hpp"
 #include "strata/store/metadata_json.hpp"
 #include "strata/store/volume_set.hpp"
 #include "strata/ta/codec_registry.hpp"
@@ -28,6 +30,22 @@ struct InfoArgs {
   RawInputArgs raw;
 };
 
+// "origin:  x y z unit (space)" and, when the axes are not the world's, the direction cosines:
+// where the volume lies, as its file says (store/geometry_json.hpp's form).
+void print_geometry(const nlohmann::json& g) {
+  const auto& o = g["origin"];
+  const std::string unit = g.value("unit", std::string());
+  const std::string space = g.value("space", std::string("unspecified"));
+  std::printf("origin:      %g %g %g%s%s (world space %s)\n", o[0].get<double>(), o[1].get<double>(),
+              o[2].get<double>(), unit.empty() ? "" : " ", unit.c_str(), space.c_str());
+  const auto& d = g["direction"];
+  const std::vector<double> identity{1, 0, 0, 0, 1, 0, 0, 0, 1};
+  if (d.get<std::vector<double>>() != identity)
+    std::printf("direction:   i (%g %g %g), j (%g %g %g), k (%g %g %g)\n", d[0].get<double>(), d[3].get<double>(),
+                d[6].get<double>(), d[1].get<double>(), d[4].get<double>(), d[7].get<double>(), d[2].get<double>(),
+                d[5].get<double>(), d[8].get<double>());
+}
+
 nlohmann::json volume_report(const io::VolumeSource& source, const VolumeStatistics& st) {
   const VolumeInfo& info = source.info();
   nlohmann::json j;
@@ -36,6 +54,7 @@ nlohmann::json volume_report(const io::VolumeSource& source, const VolumeStatist
   j["dims"] = {info.dims.x, info.dims.y, info.dims.z};
   j["dtype"] = std::string(dtype_name(info.dtype));
   j["spacing"] = {info.spacing.x, info.spacing.y, info.spacing.z};
+  if (!info.geometry.is_default()) j["geometry"] = store::geometry_to_json(info.geometry);
   j["voxels"] = st.voxel_count;
   j["bytes"] = info.byte_size();
   j["min"] = st.min;
@@ -96,6 +115,7 @@ void print_volume_report(const nlohmann::json& j) {
   std::printf("dtype:       %s\n", j["dtype"].get<std::string>().c_str());
   std::printf("spacing:     %g %g %g\n", j["spacing"][0].get<double>(), j["spacing"][1].get<double>(),
               j["spacing"][2].get<double>());
+  if (j.contains("geometry")) print_geometry(j["geometry"]);
   // JSON has no NaN: a volume without finite values has null statistics.
   const auto number = [](const nlohmann::json& v) { return v.is_number() ? v.get<double>() : std::nan(""); };
   const bool non_finite = j.contains("non_finite");
@@ -195,6 +215,7 @@ void print_container_report(const nlohmann::json& j) {
     std::printf("source:      %s %s, spacing %s, value range %s\n", s.value("dims", nlohmann::json()).dump().c_str(),
                 s.value("dtype", std::string("?")).c_str(), s.value("spacing", nlohmann::json()).dump().c_str(),
                 s.value("value_range", nlohmann::json()).dump().c_str());
+    if (s.contains("geometry")) print_geometry(s["geometry"]);
   }
   if (j.contains("brick"))
     std::printf("bricks:      width %d, overlap %d, rank %d, quant %s, zstd %d\n", j["brick"].get<int>(), j["overlap"].get<int>(),

@@ -125,6 +125,28 @@ py::tuple spacing_to_python(const Spacing& s) { return py::make_tuple(s.z, s.y, 
 
 py::tuple shape_of(const Extent& dims) { return py::make_tuple(dims.z, dims.y, dims.x); }
 
+py::array affine_to_python(const Geometry& geometry, const Spacing& spacing) {
+  const Matrix4 xyz = index_to_world(geometry, spacing);
+  py::array_t<double> a({4, 4});
+  auto m = a.mutable_unchecked<2>();
+  for (py::ssize_t r = 0; r < 4; ++r)
+    for (py::ssize_t c = 0; c < 4; ++c) {
+      // Axes 0..2 reversed ((x, y, z) -> (z, y, x)); the homogeneous row and column stay.
+      const std::size_t rr = r < 3 ? std::size_t(2 - r) : 3, cc = c < 3 ? std::size_t(2 - c) : 3;
+      m(r, c) = xyz[rr][cc];
+    }
+  return a;
+}
+
+py::dict geometry_to_python(const Geometry& geometry, const Spacing& spacing) {
+  py::dict d;
+  d["origin"] = py::make_tuple(geometry.origin[2], geometry.origin[1], geometry.origin[0]);
+  d["affine"] = affine_to_python(geometry, spacing);
+  d["unit"] = geometry.unit;
+  d["world_space"] = std::string(world_space_name(geometry.space));
+  return d;
+}
+
 Box box_from_python(py::handle obj, const Extent& dims) {
   const Box whole = Box::whole(dims);
   Box box = whole;

@@ -64,6 +64,14 @@ Spacing spacing_from_python(py::handle obj, const char* what, Spacing fallback =
 py::tuple spacing_to_python(const Spacing& s);
 /// @brief The (z, y, x) tuple of dims.
 py::tuple shape_of(const Extent& dims);
+/// @brief The 4x4 index-to-world affine of `geometry` and `spacing` in array order: it maps
+/// (z, y, x, 1) array indices to world coordinates listed (z, y, x) as well, the convention of
+/// napari's `affine=` and of `spacing` here. A nibabel-style (i, j, k) -> (x, y, z) affine is it
+/// with rows and columns 0..2 reversed.
+py::array affine_to_python(const Geometry& geometry, const Spacing& spacing);
+/// @brief A dict of a volume's placement: origin (z, y, x), affine (affine_to_python), unit
+/// ("" unknown) and world_space ("RAS", "LPS" or "unspecified").
+py::dict geometry_to_python(const Geometry& geometry, const Spacing& spacing);
 
 /// @brief A box of a volume of `dims` from Python: None (the whole volume), the CLI's text
 /// "x0,y0,z0:x1,y1,z1", or three items in (z, y, x) order, each a slice of step 1 (numpy rules:

@@ -48,7 +48,9 @@ struct LabelFile {
 py::object metadata_of(const store::ContainerReader& container);
 
 /// @brief What both file classes share: close() and the context-manager protocol, `closed`,
-/// numpy-style indexing of level 0 (`f[z0:z1, y0:y1, x0:x1]`) and `f.level(l)` for the others.
+/// numpy-style indexing of level 0 (`f[z0:z1, y0:y1, x0:x1]`) and `f.level(l)` for the others,
+/// and the array protocol numpy, dask and xarray look for (`ndim`, `size`, `len()`,
+/// `__array__`), with `shape` and `dtype` from each class.
 /// Indexing is strata._indexing's, which turns the key into a box, calls read() and applies
 /// steps and integer indices to the decoded box. `File` has `get()` and a shared_ptr member
 /// `member` that close() resets.
@@ -62,6 +64,23 @@ void add_file_protocol(py::class_<File>& cls, std::shared_ptr<const Decoder> Fil
            [](py::object self, py::object key) {
              return py::module_::import("strata._indexing").attr("getitem")(self, key, 0);
            })
+      .def_property_readonly("ndim", [](const File&) { return 3; })
+      .def_property_readonly("size",
+                             [](py::object self) {
+                               std::int64_t n = 1;
+                               for (py::handle d : self.attr("shape")) n *= d.cast<std::int64_t>();
+                               return n;
+                             })
+      .def("__len__", [](py::object self) { return self.attr("shape").attr("__getitem__")(0).cast<std::int64_t>(); })
+      .def(
+          "__array__",
+          [](py::object self, py::object dtype, py::object copy) {
+            (void)copy;  // the decoded array is always new
+            py::object a = self.attr("read")();
+            return dtype.is_none() ? a : a.attr("astype")(dtype);
+          },
+          py::arg("dtype") = py::none(), py::arg("copy") = py::none(),
+          "numpy.asarray(f): level 0 decoded whole, as f[...] and f.read() give it.")
       .def(
           "level",
           [](py::object self, int level) {

@@ -100,6 +100,15 @@ without decoding it.)");
       .def_property_readonly("shape", [](const LabelFile& f) { return shape_of(f.get()->level_dims(0)); })
       .def_property_readonly("dtype", [](const LabelFile& f) { return numpy_dtype(f.get()->label_map().dtype()); })
       .def_property_readonly("spacing", [](const LabelFile& f) { return spacing_to_python(f.get()->spacing()); })
+      .def_property_readonly(
+          "affine", [](const LabelFile& f) { return affine_to_python(f.get()->geometry(), f.get()->spacing()); },
+          "4x4 index-to-world transform of level 0 in array order: (z, y, x, 1) to world (z, y, x).")
+      .def_property_readonly(
+          "origin", [](const LabelFile& f) { return geometry_to_python(f.get()->geometry(), {})["origin"]; },
+          "World position (z, y, x) of the centre of voxel 0.")
+      .def_property_readonly("unit", [](const LabelFile& f) { return f.get()->geometry().unit; })
+      .def_property_readonly("world_space",
+                             [](const LabelFile& f) { return std::string(world_space_name(f.get()->geometry().space)); })
       .def_property_readonly("levels", [](const LabelFile& f) { return f.get()->level_count(); })
       .def_property_readonly("metadata", [](const LabelFile& f) { return json_to_python(f.get()->metadata()); })
       .def_property_readonly(

@@ -83,6 +83,16 @@ reconstruction rank. Only the bricks a box touches are decoded.)");
       .def_property_readonly("shape", [](const ScalarFile& f) { return shape_of(f.get()->source_info().dims); })
       .def_property_readonly("dtype", [](const ScalarFile& f) { return numpy_dtype(f.get()->source_info().dtype); })
       .def_property_readonly("spacing", [](const ScalarFile& f) { return spacing_to_python(f.get()->source_info().spacing); })
+      .def_property_readonly(
+          "affine", [](const ScalarFile& f) { return affine_to_python(f.get()->source_info().geometry, f.get()->source_info().spacing); },
+          "4x4 index-to-world transform of level 0 in array order: (z, y, x, 1) to world (z, y, x).")
+      .def_property_readonly(
+          "origin",
+          [](const ScalarFile& f) { return geometry_to_python(f.get()->source_info().geometry, {})["origin"]; },
+          "World position (z, y, x) of the centre of voxel 0.")
+      .def_property_readonly("unit", [](const ScalarFile& f) { return f.get()->source_info().geometry.unit; })
+      .def_property_readonly("world_space",
+                             [](const ScalarFile& f) { return std::string(world_space_name(f.get()->source_info().geometry.space)); })
       .def_property_readonly("levels", [](const ScalarFile& f) { return f.get()->geometry().level_count(); })
       .def_property_readonly("rank", [](const ScalarFile& f) { return f.get()->rank(); }, "The stored rank.")
       .def_property_readonly("brick", [](const ScalarFile& f) { return f.get()->geometry().layout().brick; })

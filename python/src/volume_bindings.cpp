@@ -1,6 +1,7 @@
 // strata.read, strata.write, strata.info and strata.generate: volume files (raw + sidecar, NRRD,
 // NIfTI, TIFF) and synthetic volumes as numpy arrays, through the io and gen modules.
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <optional>
 #include <string>
@@ -13,6 +14,26 @@ namespace strata::python {
 
 namespace {
 
+// A placement from strata.write's origin (z, y, x) and unit; axes along the world's.
+Geometry geometry_from_python(py::handle origin, const std::string& unit) {
+  Geometry g;
+  if (!origin.is_none()) {
+    if (!py::isinstance<py::sequence>(origin) || py::len(origin) != 3)
+      throw py::type_error("origin: expected (z, y, x), got " + std::string(py::repr(origin)));
+    const auto o = py::reinterpret_borrow<py::sequence>(origin);
+    for (int a = 0; a < 3; ++a) {
+      g.origin[std::size_t(2 - a)] = o[std::size_t(a)].cast<double>();
+      if (!std::isfinite(g.origin[std::size_t(2 - a)])) throw py::value_error("origin: expected finite numbers");
+    }
+  }
+  if (!unit.empty()) {
+    g.unit = canonical_length_unit(unit);
+    if (g.unit.empty())
+      throw py::value_error("unit: unknown length unit '" + unit + "' (expected m, cm, mm, um, nm or angstrom)");
+  }
+  return g;
+}
+
 py::dict info_dict(const VolumeInfo& info, const std::filesystem::path& path) {
   py::dict d;
   d["path"] = path.string();
@@ -21,6 +42,7 @@ py::dict info_dict(const VolumeInfo& info, const std::filesystem::path& path) {
   d["dtype"] = numpy_dtype(info.dtype);
   d["spacing"] = spacing_to_python(info.spacing);
   d["volumes"] = info.volumes;
+  for (const auto& [key, value] : geometry_to_python(info.geometry, info.spacing)) d[key] = value;
   return d;
 }
 
@@ -30,9 +52,11 @@ void register_volume_io(py::module_& m) {
   m.def(
       "read",
       [](py::handle path, py::handle shape, py::handle dtype, py::handle spacing, bool big_endian,
-         std::optional<std::int64_t> volume) {
+         std::optional<std::int64_t> volume, const std::string& dataset, std::optional<std::int64_t> level) {
         const std::filesystem::path p = path_from_python(path, "path");
-        const io::ReadOptions options = read_options(shape, dtype, spacing, big_endian, volume);
+        io::ReadOptions options = read_options(shape, dtype, spacing, big_endian, volume);
+        options.dataset = dataset;
+        options.level = level;
         Volume v;
         {
           py::gil_scoped_release release;
@@ -42,19 +66,24 @@ void register_volume_io(py::module_& m) {
       },
       py::arg("path"), py::kw_only(), py::arg("shape") = py::none(), py::arg("dtype") = py::none(),
       py::arg("spacing") = py::none(), py::arg("big_endian") = false, py::arg("volume") = py::none(),
-      R"(Reads a volume file (raw with a JSON sidecar, NRRD, NIfTI-1/2, TIFF) into a numpy array of
-shape (z, y, x) in the file's sample type.
+      py::arg("dataset") = "", py::arg("level") = py::none(),
+      R"(Reads a volume file (any format of strata.formats()) into a numpy array of shape (z, y, x) in
+the file's sample type.
 
 Raw files without a sidecar need shape=(z, y, x) and dtype (and optionally spacing, big_endian).
-volume=T picks one 3-D volume of a 4-D NIfTI/NRRD or multi-channel TIFF. The spacing is
-returned by strata.info(path).)");
+volume=T picks one 3-D volume of a file of several (4-D NIfTI/NRRD, multi-channel TIFF, t/c axes);
+dataset names the array of a container ("/group/data" of HDF5; also "file.h5:/group/data");
+level a resolution of a multiscale file (0 the finest). Spacing and placement are returned by
+strata.info(path).)");
 
   m.def(
       "info",
       [](py::handle path, py::handle shape, py::handle dtype, py::handle spacing, bool big_endian,
-         std::optional<std::int64_t> volume) {
+         std::optional<std::int64_t> volume, const std::string& dataset, std::optional<std::int64_t> level) {
         const std::filesystem::path p = path_from_python(path, "path");
         io::ReadOptions options = read_options(shape, dtype, spacing, big_endian, volume);
+        options.dataset = dataset;
+        options.level = level;
         if (!options.volume) options.volume = 0;  // the header of a file of several volumes, not a refusal
         std::unique_ptr<io::VolumeSource> source;
         {
@@ -68,19 +97,23 @@ returned by strata.info(path).)");
       },
       py::arg("path"), py::kw_only(), py::arg("shape") = py::none(), py::arg("dtype") = py::none(),
       py::arg("spacing") = py::none(), py::arg("big_endian") = false, py::arg("volume") = py::none(),
+      py::arg("dataset") = "", py::arg("level") = py::none(),
       "The header of a volume file without its samples: a dict with path, format, shape (z, y, x), dtype, "
-      "spacing (z, y, x) and volumes (3-D volumes in the file).");
+      "spacing (z, y, x), volumes (3-D volumes in the file), and where the volume lies: origin (z, y, x), "
+      "affine (4x4, array index (z, y, x) to world (z, y, x)), unit and world_space (RAS, LPS or unspecified).");
 
   m.def(
       "write",
-      [](py::handle path, py::handle array, py::handle spacing, bool compress) {
+      [](py::handle path, py::handle array, py::handle spacing, py::handle origin, const std::string& unit,
+         bool compress) {
         const std::filesystem::path p = path_from_python(path, "path");
         const py::array a = volume_array(array, "array");
         io::WriteOptions options;
         options.compress = compress;
         const Spacing s = spacing_from_python(spacing, "spacing");
         // The array is read with the GIL released: a second reference keeps it alive meanwhile.
-        const VolumeInfo info = array_info(a, s);
+        VolumeInfo info = array_info(a, s);
+        info.geometry = geometry_from_python(origin, unit);
         const std::byte* data = static_cast<const std::byte*>(a.data());
         py::gil_scoped_release release;
         auto writer = io::create_volume_writer(p, info, options);
@@ -95,10 +128,12 @@ returned by strata.info(path).)");
         }
         writer->finish();
       },
-      py::arg("path"), py::arg("array"), py::kw_only(), py::arg("spacing") = py::none(), py::arg("compress") = true,
-      R"(Writes a (z, y, x) numpy array as a volume file; the format comes from the extension (.raw/.bin
-with a .raw.json sidecar, .nrrd, .nhdr, .nii, .nii.gz, .tif/.tiff). spacing=(sz, sy, sx) defaults to
-1. compress=False stores NRRD uncompressed. The file appears only once complete.)");
+      py::arg("path"), py::arg("array"), py::kw_only(), py::arg("spacing") = py::none(), py::arg("origin") = py::none(),
+      py::arg("unit") = "", py::arg("compress") = true,
+      R"(Writes a (z, y, x) numpy array as a volume file; the format comes from the extension (any
+writable format of strata.formats()). spacing=(sz, sy, sx) defaults to 1, origin=(z, y, x) the world
+position of voxel 0's centre to 0; unit names their length unit ("mm", "um", "nm", "angstrom").
+compress=False stores uncompressed where the format compresses. The file appears only once complete.)");
 
   m.def(
       "generate",

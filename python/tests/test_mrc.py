@@ -65,3 +65,17 @@ def test_float16_reads_as_float32(tmp_path):
     b = strata.read(tmp_path / "half.mrc")
     assert b.dtype == np.float32
     np.testing.assert_array_equal(b, a.astype(np.float32))
+
+
+def test_origin_round_trips_with_mrcfile(tmp_path):
+    a = sample(np.float32)
+    with mrcfile.new(tmp_path / "o.mrc") as m:
+        m.set_data(a)
+        m.voxel_size = 1.5
+        m.header.origin = (12.5, -3.0, 40.0)  # x, y, z in Angstrom
+    info = strata.info(tmp_path / "o.mrc")
+    assert info["origin"] == pytest.approx((40.0, -3.0, 12.5))  # (z, y, x)
+    assert info["unit"] == "angstrom"
+    strata.write(tmp_path / "back.mrc", a, spacing=(1.5, 1.5, 1.5), origin=info["origin"], unit="angstrom")
+    with mrcfile.open(tmp_path / "back.mrc") as m:
+        assert (float(m.header.origin.x), float(m.header.origin.y), float(m.header.origin.z)) == (12.5, -3.0, 40.0)

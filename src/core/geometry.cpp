@@ -95,6 +95,16 @@ Geometry level_geometry(const Geometry& level0, const Spacing& level0_spacing, i
   return g;
 }
 
+Geometry box_geometry(const Geometry& geometry, const Spacing& spacing, const std::array<std::int64_t, 3>& first) {
+  if (first == std::array<std::int64_t, 3>{0, 0, 0}) return geometry;
+  Geometry g = geometry;
+  g.format_fields.clear();
+  const std::array<double, 3> s{spacing.x, spacing.y, spacing.z};
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) g.origin[r] += geometry.direction[r][c] * s[c] * double(first[c]);
+  return g;
+}
+
 bool affines_match(const Matrix4& a, const Matrix4& b, double tolerance) {
   double scale = 0.0, diff = 0.0;
   for (int r = 0; r < 4; ++r)
@@ -119,6 +129,15 @@ std::string canonical_length_unit(std::string_view unit) {
   for (const auto& [name, canonical] : kUnits)
     if (n == name) return std::string(canonical);
   return {};
+}
+
+double metres_per_unit(std::string_view unit) {
+  static const std::array<std::pair<std::string_view, double>, 6> kScale{
+      {{"m", 1.0}, {"cm", 1e-2}, {"mm", 1e-3}, {"um", 1e-6}, {"nm", 1e-9}, {"angstrom", 1e-10}}};
+  const std::string canonical = canonical_length_unit(unit);
+  for (const auto& [name, scale] : kScale)
+    if (name == canonical) return scale;
+  return 0.0;
 }
 
 }  // namespace strata

@@ -19,6 +19,8 @@
 // | 88     | i32      | ispg                  | written 1 (a volume)                            |
 // | 92     | i32      | nsymbt                | extended header bytes, skipped                  |
 // | 108    | i32      | nversion              | written 20140                                   |
+// | 16     | 3 x i32  | nxstart, ny.., nz..   | origin in voxels when the origin field is 0     |
+// | 196    | 3 x f32  | origin                | Å: the position of voxel 0 (geometry origin)    |
 // | 208    | char[4]  | map                   | "MAP ": the signature sniffed                   |
 // | 212    | u8[4]    | machst                | 0x44 0x44: little-endian, 0x11 0x11: big-endian |
 #include <algorithm>
@@ -47,6 +49,25 @@ constexpr std::size_t kMapOffset = 208, kStampOffset = 212;
 constexpr std::string_view kMapSignature = "MAP ";
 // The largest extended header a reader takes (FEI/EPU headers are a few MB).
 constexpr std::int32_t kMaxExtendedHeader = 1 << 30;
+
+constexpr double kAngstrom = 1e-10;  // metres
+
+// The origin field (Å) places voxel 0; files that leave it 0 and set nxstart.. (older CCP4
+// maps) are placed by those, in voxels. The axes are the map's: no rotation, no anatomy.
+template <class I32, class F32>
+Geometry geometry_of(const I32& i32, const F32& f32, const double (&spacing)[3]) {
+  Geometry g;
+  g.unit = "angstrom";
+  bool origin_set = false;
+  for (std::size_t a = 0; a < 3; ++a) {
+    const float o = f32(196 + 4 * a);
+    g.origin[a] = std::isfinite(o) ? double(o) : 0.0;
+    origin_set = origin_set || g.origin[a] != 0.0;
+  }
+  if (!origin_set)
+    for (std::size_t a = 0; a < 3; ++a) g.origin[a] = double(i32(16 + 4 * a)) * spacing[a];
+  return g;
+}
 
 struct ModeType {
   std::int32_t mode;
@@ -157,6 +178,7 @@ MrcLayout parse_header(const std::filesystem::path& path, std::span<const std::b
     if (m > 0 && std::isfinite(length) && length > 0) spacing[a] = double(length) / m;
   }
   layout.info.spacing = {spacing[0], spacing[1], spacing[2]};
+  layout.info.geometry = geometry_of(i32, f32, spacing);
   const std::int32_t extended = i32(92);
   if (extended < 0 || extended > kMaxExtendedHeader)
     throw FormatError(file, "nsymbt", fmt::format("extended header of {} bytes (expected 0..{})", extended, kMaxExtendedHeader));
@@ -239,13 +261,17 @@ class MrcWriter final : public VolumeWriter {
   std::array<std::byte, kHeaderBytes> make_header() const {
     std::array<std::byte, kHeaderBytes> h{};
     const std::int64_t n[3] = {info_.dims.x, info_.dims.y, info_.dims.z};
-    const double s[3] = {info_.spacing.x, info_.spacing.y, info_.spacing.z};
+    // MRC lengths are Å: a known unit is converted, an unknown one written as it is.
+    const double metres = metres_per_unit(info_.geometry.unit);
+    const double scale = metres > 0 ? metres / kAngstrom : 1.0;
+    const double s[3] = {info_.spacing.x * scale, info_.spacing.y * scale, info_.spacing.z * scale};
     for (std::size_t a = 0; a < 3; ++a) {
       store_field(h, 4 * a, std::int32_t(n[a]));
       store_field(h, 28 + 4 * a, std::int32_t(n[a]));           // mx, my, mz: one cell = the volume
       store_field(h, 40 + 4 * a, float(double(n[a]) * s[a]));  // xlen, ylen, zlen
       store_field(h, 52 + 4 * a, 90.0f);                       // cell angles
       store_field(h, 64 + 4 * a, std::int32_t(a + 1));         // mapc, mapr, maps
+      store_field(h, 196 + 4 * a, float(info_.geometry.origin[a] * scale));
     }
     store_field(h, 12, mode_);
     store_field(h, 88, std::int32_t(1));  // ispg: a volume

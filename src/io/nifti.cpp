@@ -16,6 +16,7 @@
 
 #include "io/builtin_formats.hpp"
 #include "io/io_detail.hpp"
+#include "io/nifti_orientation.hpp"
 #include "strata/core/bytes.hpp"
 #include "strata/core/checked.hpp"
 
@@ -43,18 +44,30 @@ static_assert(std::endian::native == std::endian::little, "the NIfTI writer assu
 // | vox_offset | 108, f32             | 168, i64             |
 // | scl_slope  | 112, f32             | 176, f64             |
 // | scl_inter  | 116, f32             | 184, f64             |
+// | xyzt_units | 123, u8              | 500, i32             |
+// | qform_code | 252, i16             | 344, i32             |
+// | sform_code | 254, i16             | 348, i32             |
+// | quatern_b  | 256, f32 (c, d after) | 352, f64 (c, d after) |
+// | qoffset_x  | 268, f32 (y, z after) | 376, f64 (y, z after) |
+// | srow_x     | 280, 4 x f32 (srow_y, srow_z after) | 400, 4 x f64 (srow_y, srow_z after) |
+struct OrientationLayout {
+  std::size_t xyzt_units, qform_code, sform_code, quatern_b, qoffset_x, srow_x;
+};
 struct HeaderLayout {
   int version;
   std::uint64_t header_bytes;
   std::size_t magic, datatype, bitpix, dim, pixdim, vox_offset, scl_slope, scl_inter;
   std::string_view magic_single, magic_pair;  // "n+<v>" one file; "ni<v>" a .hdr/.img pair
   bool wide;                                  // 64-bit dim, vox_offset, pixdim and scaling
+  OrientationLayout orientation;              // wide: i32 codes and units, f64 reals
   // The header plus the 4-byte extension flag: where single-file data starts when there are
   // no extensions, and what we write.
   std::uint64_t data_offset() const { return header_bytes + 4; }
 };
-constexpr HeaderLayout kNifti1{1, 348, 344, 70, 72, 40, 76, 108, 112, 116, {"n+1\0", 4}, {"ni1\0", 4}, false};
-constexpr HeaderLayout kNifti2{2, 540, 4, 12, 14, 16, 104, 168, 176, 184, {"n+2\0\r\n\032\n", 8}, {"ni2\0\r\n\032\n", 8}, true};
+constexpr HeaderLayout kNifti1{
+    1, 348, 344, 70, 72, 40, 76, 108, 112, 116, {"n+1\0", 4}, {"ni1\0", 4}, false, {123, 252, 254, 256, 268, 280}};
+constexpr HeaderLayout kNifti2{2,    540, 4, 12, 14, 16, 104, 168, 176, 184, {"n+2\0\r\n\032\n", 8}, {"ni2\0\r\n\032\n", 8},
+                               true, {500, 344, 348, 352, 376, 400}};
 constexpr std::uint64_t kLargestHeader = kNifti2.header_bytes;
 
 // NIfTI-1 datatype codes (nifti1.h DT_*) of the sample types we read.
@@ -221,6 +234,26 @@ std::optional<Scaling> read_scaling(const HeaderBytes& h) {
   return Scaling{slope, inter};
 }
 
+// qform, sform, their codes and the units, in either layout.
+NiftiTransforms read_transforms(const HeaderBytes& h) {
+  const OrientationLayout& o = h.layout.orientation;
+  const std::size_t real = h.layout.wide ? 8 : 4;
+  const auto code = [&](std::size_t offset) {
+    return h.layout.wide ? h.get<std::int32_t>(offset) : std::int32_t(h.get<std::int16_t>(offset));
+  };
+  NiftiTransforms t;
+  t.qform_code = code(o.qform_code);
+  t.sform_code = code(o.sform_code);
+  t.xyzt_units = h.layout.wide ? h.get<std::int32_t>(o.xyzt_units) : std::int32_t(h.get<std::uint8_t>(o.xyzt_units));
+  for (std::size_t i = 0; i < 3; ++i) {
+    t.quatern[i] = h.real(o.quatern_b + real * i);
+    t.qoffset[i] = h.real(o.qoffset_x + real * i);
+    for (std::size_t c = 0; c < 4; ++c) t.srow[i][c] = h.real(o.srow_x + real * (4 * i + c));
+  }
+  t.qfac = h.real(h.layout.pixdim);  // pixdim[0]
+  return t;
+}
+
 NiftiHeader parse_header(const std::byte* data, std::uint64_t size, const std::string& file) {
   NiftiHeader header;
   std::tie(header.layout, header.big_endian) = detect_layout(data, size, file);
@@ -230,6 +263,7 @@ NiftiHeader parse_header(const std::byte* data, std::uint64_t size, const std::s
   std::tie(header.stored.dims, header.volumes) = read_dims(h, file);
   header.stored.dtype = read_dtype(h, file);
   header.stored.spacing = read_spacing(h, file);
+  header.stored.geometry = nifti_geometry(read_transforms(h), header.stored.spacing, file);
   header.vox_offset = read_vox_offset(h, file);
   header.scaling = read_scaling(h);
   const auto total = checked_mul(checked_volume_bytes(header.stored, file, "dim"), std::uint64_t(header.volumes));
@@ -323,6 +357,26 @@ const HeaderLayout& layout_for(const VolumeInfo& info) {
   return fits(info.dims.x) && fits(info.dims.y) && fits(info.dims.z) ? kNifti1 : kNifti2;
 }
 
+// The orientation fields of `t` through the header writers of make_header.
+template <class Put, class PutReal>
+void put_transforms(const HeaderLayout& layout, const NiftiTransforms& t, const Put& put, const PutReal& put_real) {
+  const OrientationLayout& o = layout.orientation;
+  const std::size_t real = layout.wide ? 8 : 4;
+  const auto put_code = [&](std::size_t offset, std::int32_t v) {
+    if (layout.wide) put(offset, v);
+    else put(offset, std::int16_t(v));
+  };
+  put_code(o.qform_code, t.qform_code);
+  put_code(o.sform_code, t.sform_code);
+  if (layout.wide) put(o.xyzt_units, std::int32_t(t.xyzt_units));
+  else put(o.xyzt_units, std::uint8_t(t.xyzt_units));
+  for (std::size_t i = 0; i < 3; ++i) {
+    put_real(o.quatern_b + real * i, t.quatern[i]);
+    put_real(o.qoffset_x + real * i, t.qoffset[i]);
+    for (std::size_t c = 0; c < 4; ++c) put_real(o.srow_x + real * (4 * i + c), t.srow[i][c]);
+  }
+}
+
 // The header and the empty extension flag for one 3D volume of `info`, little endian.
 std::vector<std::byte> make_header(const VolumeInfo& info) {
   const HeaderLayout& layout = layout_for(info);
@@ -343,14 +397,15 @@ std::vector<std::byte> make_header(const VolumeInfo& info) {
   for (std::size_t i = 0; i < dim.size(); ++i) put_dim(i, dim[i]);
   put(layout.datatype, datatype_code(info.dtype));
   put(layout.bitpix, std::int16_t(8 * dtype_size(info.dtype)));
-  // pixdim[0] is qfac (orientation handedness); 1 is the neutral value, unused axes get 1.
-  const std::array<double, 8> pixdim{1.0, info.spacing.x, info.spacing.y, info.spacing.z, 1.0, 1.0, 1.0, 1.0};
+  const NiftiTransforms t = nifti_transforms_for(info.geometry, info.spacing);
+  // pixdim[0] is qfac (orientation handedness); unused axes get 1.
+  const std::array<double, 8> pixdim{t.qfac, info.spacing.x, info.spacing.y, info.spacing.z, 1.0, 1.0, 1.0, 1.0};
   for (std::size_t i = 0; i < pixdim.size(); ++i) put_real(layout.pixdim + (layout.wide ? 8 : 4) * i, pixdim[i]);
   if (layout.wide) put(layout.vox_offset, std::int64_t(layout.data_offset()));
   else put(layout.vox_offset, float(layout.data_offset()));
   put_real(layout.scl_slope, 0.0);  // 0: samples are the values (no scaling)
   put_real(layout.scl_inter, 0.0);
-  // qform_code and sform_code stay 0: no orientation is claimed.
+  put_transforms(layout, t, put, put_real);
   return bytes;
 }
 

@@ -33,6 +33,11 @@ struct NrrdHeader {
   std::vector<std::int64_t> sizes;
   std::vector<double> spacings;          // NaN where the header says nan
   std::vector<double> direction_norms;   // from `space directions`; NaN for `none`
+  std::vector<std::optional<Vector3>> directions;  // the same vectors; nullopt for `none`
+  std::optional<WorldSpace> space;       // from `space` (or `space dimension`)
+  bool space_is_las = false;             // left-anterior-superior: RAS with x reversed
+  std::optional<Vector3> space_origin;
+  std::string space_unit;                // the first of `space units`, canonical; "" unknown
   std::vector<std::string> kinds;        // lower case, one per axis when given
   std::optional<Encoding> encoding;
   std::optional<bool> big_endian;
@@ -123,34 +128,73 @@ struct HeaderParser {
     fail("endian", fmt::format("expected little or big, found \"{}\"", value));
   }
 
-  // "(1,0,0) (0,1,0) none" -> the length of each vector (the voxel spacing along that axis).
-  std::vector<double> parse_direction_norms(const std::string& value) const {
-    std::vector<double> norms;
+  // "(1,0,0) (0,1,0) none" -> each vector (nullopt for none) and its length (the voxel spacing
+  // along that axis; NaN for none).
+  void parse_directions(const std::string& value) {
+    header.direction_norms.clear();
+    header.directions.clear();
     std::size_t i = 0;
     while (true) {
       i = value.find_first_not_of(" \t", i);
-      if (i == std::string::npos) return norms;
+      if (i == std::string::npos) return;
       if (value.compare(i, 4, "none") == 0) {
-        norms.push_back(std::nan(""));
+        header.direction_norms.push_back(std::nan(""));
+        header.directions.push_back(std::nullopt);
         i += 4;
         continue;
       }
-      std::size_t close = value.find(')', i);
+      const std::size_t close = value.find(')', i);
       if (value[i] != '(' || close == std::string::npos)
         fail("space directions", fmt::format("expected vectors like (1,0,0) or none, found \"{}\"", value));
-      std::string inside = value.substr(i + 1, close - i - 1);
-      std::replace(inside.begin(), inside.end(), ',', ' ');
-      double sum_sq = 0;
-      for (const auto& w : words(inside)) {
-        const double c = parse_double(w, "space directions");
-        if (std::isnan(c))
-          fail("space directions", fmt::format("vector {} has a nan component; write none for an axis without "
-                                               "a direction", value.substr(i, close - i + 1)));
-        sum_sq += c * c;
-      }
-      norms.push_back(std::sqrt(sum_sq));
+      const std::vector<double> v = parse_vector(value.substr(i, close - i + 1), "space directions");
+      if (v.size() != 3)
+        fail("space directions", fmt::format("vector {} has {} components; expected 3 (a 3-D space)",
+                                             value.substr(i, close - i + 1), v.size()));
+      header.direction_norms.push_back(std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]));
+      header.directions.push_back(Vector3{v[0], v[1], v[2]});
       i = close + 1;
     }
+  }
+
+  // "(1.5,-2,3)" -> its components; nan is refused (NRRD writes `none` for an unknown vector).
+  std::vector<double> parse_vector(const std::string& text, const std::string& field) const {
+    if (text.size() < 2 || text.front() != '(' || text.back() != ')')
+      fail(field, fmt::format("expected a vector like (1,0,0), found \"{}\"", text));
+    std::string inside = text.substr(1, text.size() - 2);
+    std::replace(inside.begin(), inside.end(), ',', ' ');
+    std::vector<double> v;
+    for (const auto& w : words(inside)) {
+      const double c = parse_double(w, field);
+      if (!std::isfinite(c))
+        fail(field, fmt::format("vector {} has a non-finite component; write none for an axis without a direction",
+                                text));
+      v.push_back(c);
+    }
+    return v;
+  }
+
+  // NRRD's anatomical spaces. RAS and LPS are what Strata keeps; LAS (Analyze) is RAS with x
+  // reversed, and the scanner or right-handed frames have no anatomy.
+  void parse_space(const std::string& value) {
+    const std::string s = ascii_lower(trim(value));
+    header.space_is_las = s == "left-anterior-superior" || s == "las";
+    if (s == "right-anterior-superior" || s == "ras" || header.space_is_las) header.space = WorldSpace::ras;
+    else if (s == "left-posterior-superior" || s == "lps") header.space = WorldSpace::lps;
+    else if (s == "scanner-xyz" || s == "3d-right-handed" || s == "3d-left-handed") header.space = WorldSpace::unspecified;
+    else fail("space", fmt::format("\"{}\" is not a 3-D space (expected e.g. left-posterior-superior)", value));
+  }
+
+  // `space units: "mm" "mm" "mm"`: one unit for all three axes, as Strata keeps one.
+  void parse_space_units(const std::string& value) {
+    std::vector<std::string> units;
+    for (std::size_t i = value.find('"'); i != std::string::npos; i = value.find('"', i)) {
+      const std::size_t close = value.find('"', i + 1);
+      if (close == std::string::npos) fail("space units", fmt::format("unterminated quote in \"{}\"", value));
+      units.push_back(value.substr(i + 1, close - i - 1));
+      i = close + 1;
+    }
+    if (!units.empty() && std::all_of(units.begin(), units.end(), [&](const std::string& u) { return u == units[0]; }))
+      header.space_unit = canonical_length_unit(units[0]);
   }
 
   std::vector<double> parse_doubles(const std::string& value, const std::string& field) const {
@@ -178,7 +222,16 @@ struct HeaderParser {
       header.sizes.clear();
       for (const auto& w : words(value)) header.sizes.push_back(parse_int(w, field));
     } else if (field == "spacings") header.spacings = parse_doubles(value, field);
-    else if (field == "space directions") header.direction_norms = parse_direction_norms(value);
+    else if (field == "space directions") parse_directions(value);
+    else if (field == "space") parse_space(value);
+    else if (field == "space dimension") {
+      if (parse_int(value, field) != 3) fail(field, fmt::format("{} is not supported (a 3-D space is expected)", value));
+      header.space = WorldSpace::unspecified;
+    } else if (field == "space origin") {
+      const std::vector<double> o = parse_vector(trim(value), field);
+      if (o.size() != 3) fail(field, fmt::format("\"{}\" has {} components; expected 3", value, o.size()));
+      header.space_origin = Vector3{o[0], o[1], o[2]};
+    } else if (field == "space units") parse_space_units(value);
     else if (field == "kinds") {
       header.kinds.clear();
       for (const auto& w : words(value)) header.kinds.push_back(ascii_lower(w));
@@ -188,7 +241,7 @@ struct HeaderParser {
     else if (field == "byte skip" || field == "byteskip") header.byte_skip = parse_int(value, "byte skip");
     else if (field == "line skip" || field == "lineskip") header.line_skip = parse_int(value, "line skip");
     else if (field == "data file" || field == "datafile") header.data_file = check_single_data_file(value);
-    // Every other field (content, units, space origin, ...) does not affect the samples.
+    // Every other field (content, units, measurement frame, ...) does not affect the samples.
   }
 
   void parse_line(const std::string& line, std::size_t line_number) {
@@ -251,6 +304,7 @@ void drop_leading_unit_axis(NrrdHeader& h) {
   h.sizes.erase(h.sizes.begin());
   if (h.spacings.size() == 4) h.spacings.erase(h.spacings.begin());
   if (h.direction_norms.size() == 4) h.direction_norms.erase(h.direction_norms.begin());
+  if (h.directions.size() == 4) h.directions.erase(h.directions.begin());
   h.dimension = 3;
 }
 
@@ -284,6 +338,7 @@ void split_volume_axis(NrrdHeader& h, NrrdLayout& layout, const std::string& fil
   drop(h.sizes);
   drop(h.spacings);
   drop(h.direction_norms);
+  drop(h.directions);
   h.dimension = 3;
 }
 
@@ -307,6 +362,26 @@ Spacing spacing_of(const NrrdHeader& h, const std::string& file) {
     return v;
   };
   return {pick(0), pick(1), pick(2)};
+}
+
+// Where the volume lies: `space directions` (unit vectors; their lengths are the spacing),
+// `space origin` and `space units`, in the `space` they name. Without three direction vectors
+// the axes are the space's own.
+Geometry geometry_of(const NrrdHeader& h) {
+  Geometry g;
+  g.space = h.space.value_or(WorldSpace::unspecified);
+  g.unit = h.space_unit;
+  if (h.space_origin) g.origin = *h.space_origin;
+  const bool all_directions = h.directions.size() == 3 &&
+                              std::all_of(h.directions.begin(), h.directions.end(), [](const auto& d) { return d.has_value(); });
+  if (all_directions)
+    for (int c = 0; c < 3; ++c)
+      for (int r = 0; r < 3; ++r) g.direction[r][c] = (*h.directions[c])[r] / h.direction_norms[c];
+  if (h.space_is_las) {
+    g.origin[0] = -g.origin[0];
+    for (double& v : g.direction[0]) v = -v;
+  }
+  return g;
 }
 
 void check_required(const NrrdHeader& h, const std::string& file) {
@@ -346,6 +421,7 @@ NrrdLayout make_layout(NrrdHeader h, const std::filesystem::path& path) {
   const std::int64_t volumes = layout.info.volumes;
   layout.info = VolumeInfo{{h.sizes[0], h.sizes[1], h.sizes[2]}, *h.dtype, spacing_of(h, file)};
   layout.info.volumes = volumes;
+  layout.info.geometry = geometry_of(h);
   if (!checked_mul(checked_volume_bytes(layout.info, file, "sizes"), std::uint64_t(volumes)))
     throw FormatError(file, "sizes", "the volumes overflow a 64-bit byte count (corrupt or hostile header)");
   layout.encoding = *h.encoding;
@@ -483,13 +559,34 @@ const char* nrrd_type_name(DType t) {
   throw Error("nrrd: invalid dtype");
 }
 
+// The spacing alone (`spacings`) for a volume without placement; else `space`, `space
+// directions` (unit direction times spacing), `space origin` and `space units`. "{}" prints the
+// shortest text that parses back to the same double.
+std::string placement_fields(const VolumeInfo& info) {
+  const Geometry& g = info.geometry;
+  if (g.origin == Vector3{0, 0, 0} && g.direction == kIdentity3 && g.space == WorldSpace::unspecified && g.unit.empty())
+    return fmt::format("spacings: {} {} {}\n", info.spacing.x, info.spacing.y, info.spacing.z);
+  std::string h;
+  switch (g.space) {
+    case WorldSpace::ras: h += "space: right-anterior-superior\n"; break;
+    case WorldSpace::lps: h += "space: left-posterior-superior\n"; break;
+    case WorldSpace::unspecified: h += "space dimension: 3\n"; break;
+  }
+  const std::array<double, 3> s{info.spacing.x, info.spacing.y, info.spacing.z};
+  h += "space directions:";
+  for (int c = 0; c < 3; ++c)
+    h += fmt::format(" ({},{},{})", g.direction[0][c] * s[c], g.direction[1][c] * s[c], g.direction[2][c] * s[c]);
+  h += fmt::format("\nspace origin: ({},{},{})\n", g.origin[0], g.origin[1], g.origin[2]);
+  if (!g.unit.empty()) h += fmt::format("space units: \"{0}\" \"{0}\" \"{0}\"\n", g.unit);
+  return h;
+}
+
 std::string header_text(const VolumeInfo& info, bool compress, const std::string& data_file) {
   std::string h = "NRRD0004\n# Complete NRRD file format specification at:\n"
                   "# http://teem.sourceforge.net/nrrd/format.html\n";
   h += fmt::format("type: {}\ndimension: 3\n", nrrd_type_name(info.dtype));
   h += fmt::format("sizes: {} {} {}\n", info.dims.x, info.dims.y, info.dims.z);
-  // "{}" prints the shortest text that parses back to the same double.
-  h += fmt::format("spacings: {} {} {}\n", info.spacing.x, info.spacing.y, info.spacing.z);
+  h += placement_fields(info);
   h += fmt::format("endian: {}\n", std::endian::native == std::endian::big ? "big" : "little");
   h += fmt::format("encoding: {}\n", compress ? "gzip" : "raw");
   if (!data_file.empty()) return h + fmt::format("data file: {}\n", data_file);

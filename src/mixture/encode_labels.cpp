@@ -23,6 +23,7 @@
 #include "strata/io/volume_io.hpp"
 #include "strata/mixture/histogram_mipmap.hpp"
 #include "strata/store/container.hpp"
+#include "strata/store/geometry_json.hpp"
 #include "strata/store/zstd_frame.hpp"
 
 namespace strata::mixture {
@@ -256,12 +257,13 @@ EncodeReport write_labels_file(StreamedLabels s, const VolumeInfo& info, const V
                        {"input_pairs", rep.input_pairs},
                        {"factor_seconds", rep.factor_seconds}};
   if (rep.max_l1) stats["max_l1_error"] = *rep.max_l1;
+  nlohmann::json source{{"dims", detail::extent_json(info.dims)},
+                        {"dtype", std::string(dtype_name(info.dtype))},
+                        {"spacing", {sp.x, sp.y, sp.z}}};
+  if (!info.geometry.is_default()) source["geometry"] = store::geometry_to_json(info.geometry);
   nlohmann::json meta{{"codec", kMixtureCodecName},
                       {"mixture_graph_version", detail::kFormatVersion},
-                      {"source",
-                       {{"dims", detail::extent_json(info.dims)},
-                        {"dtype", std::string(dtype_name(info.dtype))},
-                        {"spacing", {sp.x, sp.y, sp.z}}}},
+                      {"source", source},
                       {"levels", levels},
                       {"ids", std::string(ids_mode_name(options.ids))},
                       {"ids_compression", options.ids_zstd > 0 ? "zstd" : "none"},

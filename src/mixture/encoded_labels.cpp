@@ -15,6 +15,7 @@
 #include "strata/mixture/palette.hpp"
 #include "strata/store/container.hpp"
 #include "strata/store/metadata_json.hpp"
+#include "strata/store/geometry_json.hpp"
 #include "strata/store/zstd_frame.hpp"
 
 namespace strata::mixture {
@@ -63,13 +64,14 @@ EncodedLabels::EncodedLabels(std::unique_ptr<store::ContainerReader> reader)
   try {
     dtype = parse_dtype(dtype_text, "metadata.source.dtype");
   } catch (const Error&) {
-    (src_field / "dtype").fail("unknown sample type \"" + dtype_text + "\" (expected u8, i8, u16, i16, u32 or i32)");
+    (src_field / "dtype").fail("unknown sample type \"" + dtype_text + "\" (expected u8, i8, u16, i16, u32, i32, u64 or i64)");
   }
   if (!dtype_is_integer(dtype)) (src_field / "dtype").fail("a label volume has an integer sample type, got " + dtype_text);
   if (src.contains("spacing")) {
     const auto s = store::json_positive_numbers(src["spacing"], 3, src_field / "spacing");
     spacing_ = {s[0], s[1], s[2]};
   }
+  geometry_ = store::geometry_from_json(src, src_field);
   const std::string ids = store::json_string(json_member(m, "ids", meta), meta / "ids");
   try {
     ids_mode_ = parse_ids_mode(ids);
@@ -282,6 +284,7 @@ LevelDecoder::LevelDecoder(const EncodedLabels& labels, int level, std::optional
                 std::to_string(labels.level_count() - 1));
   info_.dims = labels.level_dims(level);
   info_.spacing = labels.level_spacing(level);
+  info_.geometry = level_geometry(labels.geometry(), labels.spacing(), level);
   info_.dtype = labels.label_map().dtype();
   if (label) {
     fraction_ = labels.label_fractions(*label);

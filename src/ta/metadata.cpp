@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "strata/store/geometry_json.hpp"
+
 namespace strata::ta {
 
 namespace {
@@ -53,6 +55,7 @@ nlohmann::json make_metadata(const VolumeInfo& source, const OctreeGeometry& geo
                       {"hooi_iterations", params.codec.hooi_iterations},
                       {"zstd_level", params.codec.zstd_level},
                       {"levels", levels}};
+  if (!source.geometry.is_default()) m["source"]["geometry"] = store::geometry_to_json(source.geometry);
   if (!targets.empty()) {
     // Error-target bricks carry their own steps; no fixed quantization scheme applies.
     m["quant"] = kCodedQuantName;

@@ -10,6 +10,7 @@
 #include "strata/core/text.hpp"
 #include "strata/core/threads.hpp"
 #include "strata/store/brick_histogram.hpp"
+#include "strata/store/geometry_json.hpp"
 #include "strata/store/metadata_json.hpp"
 #include "strata/ta/codec_registry.hpp"
 #include "strata/ta/target_codec.hpp"
@@ -60,10 +61,11 @@ TaVolume::TaVolume(std::unique_ptr<store::ContainerReader> container) : containe
   try {
     source_.dtype = parse_dtype(dtype, "metadata.source.dtype");
   } catch (const Error&) {
-    (src / "dtype").fail("unknown sample type \"" + dtype + "\" (expected u8, i8, u16, i16, u32, i32, f32 or f64)");
+    (src / "dtype").fail("unknown sample type \"" + dtype + "\" (expected u8, i8, u16, i16, u32, i32, u64, i64, f32 or f64)");
   }
   const auto spacing = store::json_positive_numbers(json_member(source, "spacing", src), 3, src / "spacing");
   source_.spacing = {spacing[0], spacing[1], spacing[2]};
+  source_.geometry = store::geometry_from_json(source, src);
   const auto range = store::json_numbers(json_member(source, "value_range", src), 2, src / "value_range");
   if (range[0] > range[1]) (src / "value_range").fail("expected [min, max] with min <= max, got [" + std::to_string(range[0]) + ", " + std::to_string(range[1]) + "]");
   value_lo_ = range[0];
@@ -261,6 +263,13 @@ void TaVolume::check_level(int level) const {
   if (level < 0 || level >= geometry_->level_count())
     throw ParameterError("level", std::to_string(level) + " is not in 0.." + std::to_string(geometry_->level_count() - 1) +
                                       " for " + container_->name());
+}
+
+Geometry TaVolume::level_geometry(int level, const Box& box) const {
+  const double scale = std::ldexp(1.0, level);
+  const Spacing level_spacing{source_.spacing.x * scale, source_.spacing.y * scale, source_.spacing.z * scale};
+  return box_geometry(strata::level_geometry(source_.geometry, source_.spacing, level), level_spacing,
+                      {box.lo.x, box.lo.y, box.lo.z});
 }
 
 Volume TaVolume::decode_box(int level, const Box& box, int k) const {

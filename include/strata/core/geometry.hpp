@@ -8,6 +8,7 @@
 /// in the volume's world space. The spacing stays in VolumeInfo (it predates this type and every
 /// kernel uses it); Geometry adds the rest of the index-to-world affine.
 #include <array>
+#include <cstdint>
 #include <map>
 #include <string>
 #include <string_view>
@@ -69,6 +70,10 @@ Geometry in_world_space(const Geometry& geometry, WorldSpace space);
 /// moved to the centre of the first such block. Format fields are dropped unless level is 0.
 Geometry level_geometry(const Geometry& level0, const Spacing& level0_spacing, int level);
 
+/// @brief The geometry of the box starting at voxel `first` of a volume of `geometry` and
+/// `spacing`: origin moved to that voxel's centre. Format fields are dropped unless `first` is 0.
+Geometry box_geometry(const Geometry& geometry, const Spacing& spacing, const std::array<std::int64_t, 3>& first);
+
 /// @brief Whether two affines agree to `tolerance` relative to the largest entry of either
 /// (format writers use it to decide whether kept header fields still describe the volume).
 bool affines_match(const Matrix4& a, const Matrix4& b, double tolerance = 1e-6);
@@ -76,5 +81,9 @@ bool affines_match(const Matrix4& a, const Matrix4& b, double tolerance = 1e-6);
 /// @brief Whether a length unit name is one we know ("mm", "um", "nm", "angstrom", "m", "cm",
 /// "micron", "micrometer", ...); canonical spelling of it, or "" when unknown.
 std::string canonical_length_unit(std::string_view unit);
+
+/// @brief Metres per `unit` (a canonical_length_unit name): 1e-3 for "mm", 1e-10 for
+/// "angstrom"; 0 for an unknown or empty unit.
+double metres_per_unit(std::string_view unit);
 
 }  // namespace strata

@@ -6,6 +6,7 @@
 #include <cstring>
 #include <optional>
 #include <span>
+#include <utility>
 #include <vector>
 
 #include "strata/core/dtype.hpp"
@@ -66,6 +67,7 @@ class Volume {
   DType dtype() const { return info_.dtype; }
   const Spacing& spacing() const { return info_.spacing; }
   void set_spacing(const Spacing& s) { info_.spacing = s; }
+  void set_geometry(Geometry g) { info_.geometry = std::move(g); }
   const VolumeInfo& info() const { return info_; }
   std::int64_t voxel_count() const { return info_.dims.voxel_count(); }
   std::size_t byte_size() const { return bytes_.size(); }

@@ -134,6 +134,8 @@ class EncodedLabels final : public NodeGrid {
   IdsMode ids_mode() const { return ids_mode_; }
   bool ids_compressed() const { return ids_zstd_; }
   Spacing spacing() const { return spacing_; }
+  /// @brief Where level 0 lies in space (origin, direction, unit), as the source file said.
+  const Geometry& geometry() const { return geometry_; }
   const nlohmann::json& metadata() const;
 
   /// @brief Whether the file holds a normals graph (EncodeOptions::normals).
@@ -170,6 +172,7 @@ class EncodedLabels final : public NodeGrid {
   IdsMode ids_mode_ = IdsMode::blocks;
   bool ids_zstd_ = false;
   Spacing spacing_;
+  Geometry geometry_;
   std::vector<Extent> level_dims_;
   std::vector<FixedRateIds> fixed_;
   std::vector<BlockPaletteIds> blocks_;

@@ -23,6 +23,9 @@ class TaVolume {
 
   const store::ContainerReader& container() const { return *container_; }
   const VolumeInfo& source_info() const { return source_; }
+  /// @brief Where `box` of level `level` lies in space: the source geometry moved to the centre
+  /// of the box's first voxel (core/geometry.hpp level_geometry, box_geometry).
+  Geometry level_geometry(int level, const Box& box) const;
   const OctreeGeometry& geometry() const { return *geometry_; }
   int rank() const { return rank_; }
   const std::string& quant_name() const { return quant_; }
