@@ -12,6 +12,8 @@ namespace strata::io::detail {
 
 namespace {
 
+// The extension written as a legacy file; every other name is written as XML.
+constexpr std::string_view kLegacyExtension = ".vtk";
 constexpr std::string_view kLegacySignature = "# vtk DataFile";
 constexpr std::string_view kXmlRoot = "<VTKFile";
 // The XML root element comes after at most an XML declaration and a comment or two.
@@ -39,7 +41,7 @@ std::unique_ptr<VolumeSource> open_vtk(const std::filesystem::path& path, const 
 
 std::unique_ptr<VolumeWriter> create_vtk_writer(const std::filesystem::path& path, const VolumeInfo& info,
                                                 const WriteOptions& options) {
-  if (ascii_lower(path.extension().string()) == ".vtk") return vtk::create_legacy_writer(path, info);
+  if (ascii_lower(path.extension().string()) == kLegacyExtension) return vtk::create_legacy_writer(path, info);
   return vtk::create_vti_writer(path, info, options.compress);
 }
 
@@ -50,7 +52,7 @@ VolumeFormat vtk_format() {
       .name = "vtk",
       .title = "VTK image data",
       .description = "VTK's image data: XML ImageData (.vti) and legacy STRUCTURED_POINTS (.vtk), as ParaView writes them",
-      .extensions = {".vti", ".vtk"},
+      .extensions = {".vti", std::string(kLegacyExtension)},
       .magic_bytes = kSniffBytes,
       .sniff = is_vtk,
       .open = open_vtk,
