@@ -8,7 +8,7 @@
 // placeholder patched at finish() once every block's compressed size is known, then the blocks.
 #include <zlib.h>
 
-#include <cstdio>
+#include <span>
 
 #include <fmt/format.h>
 
@@ -106,11 +106,7 @@ class VtiWriter final : public VolumeWriter {
   void patch_block_table() {
     std::vector<std::uint64_t> table{blocks_, kBlockBytes, total_ % kBlockBytes};
     table.insert(table.end(), sizes_.begin(), sizes_.end());
-    std::FILE* f = out_.handle();
-    const std::size_t bytes = table.size() * sizeof(std::uint64_t);
-    if (std::fflush(f) != 0 || std::fseek(f, long(table_offset_), SEEK_SET) != 0 ||
-        std::fwrite(table.data(), 1, bytes, f) != bytes || std::fseek(f, 0, SEEK_END) != 0)
-      throw Error(fmt::format("{}: cannot write the compressed blocks' sizes", out_.path().string()));
+    patch_output(out_, table_offset_, std::as_bytes(std::span(table)), "the compressed blocks' sizes");
   }
 
   AtomicOutputFile out_;
