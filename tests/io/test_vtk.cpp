@@ -121,6 +121,32 @@ TEST(IoVtk, InlineBase64UInt32Header) {
   EXPECT_EQ(open_volume(dir / "b.vti")->info().geometry.origin, (Vector3{1, 2, 3}));
 }
 
+TEST(IoVtk, DecodedArraysLiveInAnUnnamedTemporaryFile) {
+  TempDir dir, temp;
+  std::vector<std::byte> payload;
+  put(payload, std::uint32_t(24));
+  const auto data = samples_bytes(ramp());
+  payload.insert(payload.end(), data.begin(), data.end());
+  write_text(dir / "b.vti", vti("", kImage, "<DataArray type=\"Int16\" Name=\"s\" format=\"binary\">" + base64(payload) +
+                                                "</DataArray>\n"));
+  ReadOptions options;
+  options.temp_dir = temp.path();
+  auto source = open_volume(dir / "b.vti", options);
+  EXPECT_TRUE(test::io::maps_a_file_in(temp.path()));
+  EXPECT_EQ(test::io::file_count(temp.path()), 0u);
+  expect_ramp(source->read_box(Box{{0, 0, 0}, {3, 2, 2}}));
+}
+
+TEST(IoVtk, NegativeSpacingFlipsTheAxis) {
+  TempDir dir;
+  write_text(dir / "n.vti", vti("", "WholeExtent=\"0 1 0 0 0 0\" Origin=\"10 0 0\" Spacing=\"-2 1 1\"",
+                                "<DataArray type=\"UInt8\" Name=\"s\" format=\"ascii\">1 2</DataArray>\n"));
+  const VolumeInfo info = open_volume(dir / "n.vti")->info();
+  EXPECT_EQ(info.spacing, (Spacing{2, 1, 1}));
+  EXPECT_DOUBLE_EQ(info.geometry.direction[0][0], -1);
+  EXPECT_DOUBLE_EQ(info.geometry.origin[0], 10);
+}
+
 TEST(IoVtk, RawAppendedBigEndianUInt64Header) {
   TempDir dir;
   const std::vector<double> values{1.5, -2.25, 1e300, 0, 4, 5, 6, 7, 8, 9, 10, -11};
