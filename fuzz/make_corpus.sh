@@ -45,6 +45,12 @@ cp "$w/sphere.nrrd" $c/nrrd/sphere_f32.nrrd
 cp tests/data/fibsem_medulla_sp_crop20.nrrd $c/nrrd/  # nan_f32.nrrd is kept: written by hand
 cp "$w/prisms.nii" "$w/prisms.nii.gz" "$w/cells.nii" "$w/wide_nifti2.nii.gz" $c/nifti/
 cp "$w/prisms.tif" "$w/cells.tif" "$w/sphere.tif" $c/tiff/
+# VTK: zlib and raw appended .vti and legacy BINARY .vtk; the ascii, base64 and legacy ASCII seeds
+# are written by hand and kept.
+mkdir -p $c/vtk
+$strata convert "$w/prisms.nrrd" $c/vtk/prisms_zlib.vti
+$strata convert "$w/prisms.nrrd" $c/vtk/prisms_raw.vti --uncompressed
+$strata convert "$w/prisms.nrrd" $c/vtk/prisms_legacy.vtk
 for f in prisms sphere; do (cat "$w/$f.raw.json"; printf '\n--\n'; cat "$w/$f.raw") >$c/raw_sidecar/$f; done
 cp "$w"/{scalar,scalar_nozstd,coded,coded_max,labels,labels_fixed,labels_normals,volume_set,global}.strata $c/container/
 build/fuzz/fuzz/fuzz_extract_seeds $c "$w"/{scalar,scalar_nozstd,coded,coded_max,masked,masked_rank,labels,labels_fixed}.strata

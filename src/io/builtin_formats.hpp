@@ -15,5 +15,7 @@ VolumeFormat nifti_format();
 VolumeFormat tiff_format();
 // MRC / MRCS / REC / CCP4 map (mrc.cpp): cryo-EM and cryo-ET volumes.
 VolumeFormat mrc_format();
+// VTK image data: XML .vti and legacy .vtk STRUCTURED_POINTS (vtk.cpp, vtk/).
+VolumeFormat vtk_format();
 
 }  // namespace strata::io::detail

@@ -105,6 +105,13 @@ void write_file_atomically(const std::filesystem::path& path, std::string_view t
   out.commit();
 }
 
+void patch_output(AtomicOutputFile& out, std::uint64_t offset, std::span<const std::byte> bytes, std::string_view what) {
+  std::FILE* f = out.handle();
+  if (std::fflush(f) != 0 || std::fseek(f, long(offset), SEEK_SET) != 0 ||
+      std::fwrite(bytes.data(), 1, bytes.size(), f) != bytes.size() || std::fseek(f, 0, SEEK_END) != 0)
+    throw Error(fmt::format("{}: cannot write {}", out.path().string(), what));
+}
+
 std::string ascii_lower(std::string text) {
   std::transform(text.begin(), text.end(), text.begin(), [](unsigned char c) { return char(std::tolower(c)); });
   return text;

@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -52,6 +53,10 @@ class OutputStream {
   AtomicOutputFile file_;
   std::unique_ptr<GzipWriter> gzip_;  // declared after file_: destroyed first, it refers to file_
 };
+
+// Overwrites `bytes` at `offset` of a file being written (what is known only at the end: MRC's
+// statistics, a VTK block table) and returns to its end; throws Error naming the file and `what`.
+void patch_output(AtomicOutputFile& out, std::uint64_t offset, std::span<const std::byte> bytes, std::string_view what);
 
 // Decoding stops after this many bytes unless the caller gives a bound.
 inline constexpr std::uint64_t kNoDecodeLimit = ~std::uint64_t(0);

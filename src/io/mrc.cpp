@@ -252,8 +252,8 @@ class MrcWriter final : public VolumeWriter {
     store_field(stats, 8, float(mean));
     std::array<std::byte, 4> rms_field{};
     store_field(rms_field, 0, float(rms));
-    patch(76, stats);
-    patch(216, rms_field);
+    patch_output(out_, 76, stats, "the MRC header's statistics");
+    patch_output(out_, 216, rms_field, "the MRC header's statistics");
     out_.commit();
   }
 
@@ -284,12 +284,6 @@ class MrcWriter final : public VolumeWriter {
     return h;
   }
 
-  void patch(long offset, std::span<const std::byte> bytes) {
-    std::FILE* f = out_.handle();
-    if (std::fflush(f) != 0 || std::fseek(f, offset, SEEK_SET) != 0 || std::fwrite(bytes.data(), 1, bytes.size(), f) != bytes.size() ||
-        std::fseek(f, 0, SEEK_END) != 0)
-      throw Error(fmt::format("{}: cannot write the MRC header's statistics", out_.path().string()));
-  }
 
   AtomicOutputFile out_;
   VolumeInfo info_;
