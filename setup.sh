@@ -13,7 +13,7 @@ PACKAGES=(
   libeigen3-dev                               # linear algebra
   zlib1g-dev libzstd-dev                      # gzip (NRRD, .nii.gz), zstd
   libtiff-dev                                 # TIFF stacks
-  libspng-dev libturbojpeg0-dev               # PNG output, JPEG frames of the viewer
+  libspng-dev libturbojpeg0-dev               # PNG output, JPEG frames of the viewer and precomputed chunks
   libcpp-httplib-dev                          # HTTP server (strata serve)
   libcli11-dev nlohmann-json3-dev libfmt-dev  # CLI, JSON, formatting
   libgtest-dev libbenchmark-dev               # tests and benchmarks

@@ -15,5 +15,7 @@ VolumeFormat nifti_format();
 VolumeFormat tiff_format();
 // MRC / MRCS / REC / CCP4 map (mrc.cpp): cryo-EM and cryo-ET volumes.
 VolumeFormat mrc_format();
+// Neuroglancer precomputed folders (precomputed.cpp, precomputed/): chunked multiscale volumes.
+VolumeFormat precomputed_format();
 
 }  // namespace strata::io::detail
