@@ -12,6 +12,7 @@
 #include "io/precomputed/chunk_codec.hpp"
 #include "io/precomputed/info.hpp"
 #include "strata/core/error.hpp"
+#include "strata/io/file_names.hpp"
 #include "strata/io/precomputed.hpp"
 
 namespace strata::io {
@@ -122,7 +123,7 @@ PrecomputedPyramidWriter::PrecomputedPyramidWriter(fs::path folder, std::vector<
     : impl_(std::make_unique<Impl>()) {
   Impl& m = *impl_;
   m.folder = std::move(folder);
-  m.temporary = fs::path(m.folder.string() + ".tmp");
+  m.temporary = fs::path(m.folder.string() + std::string(kTemporarySuffix));
   if (levels.empty()) throw Error(fmt::format("{}: a precomputed volume needs at least one scale", m.folder.string()));
   const DType dtype = levels[0].dtype;
   if (!data_type_name(dtype))
