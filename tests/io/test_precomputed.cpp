@@ -87,6 +87,24 @@ TEST(IoPrecomputed, RawImagesOfEveryStoredTypeReadBackWithSpacingAndOrigin) {
   }
 }
 
+TEST(IoPrecomputed, SpacingInOtherUnitsIsWrittenInNanometres) {
+  TempDir dir;
+  const fs::path path = dir / "um.precomputed";
+  Volume v = random_volume({5, 4, 3}, DType::u8, 2, Spacing{0.5, 0.25, 2});
+  VolumeInfo info = v.info();
+  info.geometry.unit = "um";
+  info.geometry.origin = {1.5, -0.5, 4};
+  Volume placed(info);
+  std::memcpy(placed.bytes(), v.bytes(), v.byte_size());
+  write_volume(path, placed);
+  const auto scale = info_of(path)["scales"][0];
+  EXPECT_EQ(scale["resolution"], nlohmann::json({500.0, 250.0, 2000.0}));
+  EXPECT_EQ(scale["voxel_offset"], nlohmann::json({3, -2, 2}));
+  const auto source = open_volume(path);
+  EXPECT_EQ(source->info().spacing, (Spacing{500, 250, 2000}));
+  EXPECT_EQ(source->info().geometry.origin, (Vector3{1500, -500, 4000}));
+}
+
 TEST(IoPrecomputed, LabelsOf32And64BitsRoundTripThroughCompressedSegmentation) {
   TempDir dir;
   for (auto [dtype, base] : {std::pair{DType::u32, std::uint64_t(3'000'000'000)}, std::pair{DType::u64, std::uint64_t(1) << 41}}) {

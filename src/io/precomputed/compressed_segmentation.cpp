@@ -29,6 +29,22 @@ constexpr std::string_view kField = "compressed_segmentation";
 
 std::int64_t blocks_along(std::int64_t size, std::int64_t block) { return (size + block - 1) / block; }
 
+std::uint64_t block_count(const Extent& chunk, const Extent& block) {
+  return std::uint64_t(blocks_along(chunk.x, block.x)) * std::uint64_t(blocks_along(chunk.y, block.y)) *
+         std::uint64_t(blocks_along(chunk.z, block.z));
+}
+
+// Calls visit(header word, voxels of the block inside the chunk) for every block, x fastest: the
+// order of the block headers.
+template <class Visit>
+void for_each_block(const Extent& chunk, const Extent& block, Visit&& visit) {
+  std::uint64_t header = 0;
+  for (std::int64_t z = 0; z < chunk.z; z += block.z)
+    for (std::int64_t y = 0; y < chunk.y; y += block.y)
+      for (std::int64_t x = 0; x < chunk.x; x += block.x, header += 2)
+        visit(header, Box{{x, y, z}, {std::min(x + block.x, chunk.x), std::min(y + block.y, chunk.y), std::min(z + block.z, chunk.z)}});
+}
+
 // The channel data as 32-bit words, with checked access.
 class Words {
  public:
@@ -85,18 +101,12 @@ void decode_block(const Words& words, std::uint64_t header, const Extent& block,
 
 template <class T>
 void decode_channel(const Words& words, const Extent& chunk, const Extent& block, T* out) {
-  const Extent grid{blocks_along(chunk.x, block.x), blocks_along(chunk.y, block.y), blocks_along(chunk.z, block.z)};
-  const std::uint64_t blocks = std::uint64_t(grid.x) * std::uint64_t(grid.y) * std::uint64_t(grid.z);
+  const std::uint64_t blocks = block_count(chunk, block);
   if (2 * blocks > words.size())
     words.fail(fmt::format("{} block headers do not fit in {} words", blocks, words.size()));
-  std::uint64_t header = 0;
-  for (std::int64_t gz = 0; gz < grid.z; ++gz)
-    for (std::int64_t gy = 0; gy < grid.y; ++gy)
-      for (std::int64_t gx = 0; gx < grid.x; ++gx, header += 2) {
-        const Extent lo{gx * block.x, gy * block.y, gz * block.z};
-        const Box voxels{lo, {std::min(lo.x + block.x, chunk.x), std::min(lo.y + block.y, chunk.y), std::min(lo.z + block.z, chunk.z)}};
-        decode_block(words, header, block, voxels, chunk, out);
-      }
+  for_each_block(chunk, block, [&](std::uint64_t header, const Box& voxels) {
+    decode_block(words, header, block, voxels, chunk, out);
+  });
 }
 
 // Appends the encoding of one block: its packed indices, then its table.
@@ -138,16 +148,10 @@ void encode_block(const T* samples, const Extent& chunk, const Extent& block, co
 
 template <class T>
 std::vector<std::uint32_t> encode_channel(const T* samples, const Extent& chunk, const Extent& block) {
-  const Extent grid{blocks_along(chunk.x, block.x), blocks_along(chunk.y, block.y), blocks_along(chunk.z, block.z)};
-  std::vector<std::uint32_t> words(std::size_t(2 * grid.x * grid.y * grid.z), 0);
-  std::uint64_t header = 0;
-  for (std::int64_t gz = 0; gz < grid.z; ++gz)
-    for (std::int64_t gy = 0; gy < grid.y; ++gy)
-      for (std::int64_t gx = 0; gx < grid.x; ++gx, header += 2) {
-        const Extent lo{gx * block.x, gy * block.y, gz * block.z};
-        const Box voxels{lo, {std::min(lo.x + block.x, chunk.x), std::min(lo.y + block.y, chunk.y), std::min(lo.z + block.z, chunk.z)}};
-        encode_block(samples, chunk, block, voxels, words, header);
-      }
+  std::vector<std::uint32_t> words(std::size_t(2 * block_count(chunk, block)), 0);
+  for_each_block(chunk, block, [&](std::uint64_t header, const Box& voxels) {
+    encode_block(samples, chunk, block, voxels, words, header);
+  });
   return words;
 }
 
