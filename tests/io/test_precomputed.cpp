@@ -10,6 +10,7 @@
 #include <map>
 #include <random>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -131,6 +132,29 @@ TEST(IoPrecomputed, CompressedSegmentationDecodesWhatItEncodesForOddBlocks) {
     decode_compressed_segmentation(encoded, v.dims(), block, 1, 0, DType::u64, back.bytes(), "chunk");
     EXPECT_TRUE(back == v) << block.to_string();
   }
+}
+
+// A box decodes only the chunks it touches: a damaged chunk elsewhere goes unnoticed until read.
+// Boxes read from several threads at once come out as from one.
+TEST(IoPrecomputed, BoxesReadOnlyTheirChunksFromAnyThread) {
+  TempDir dir;
+  const fs::path path = dir / "boxes.precomputed";
+  const Volume v = random_volume({130, 70, 70}, DType::u16, 11, Spacing{1, 1, 1});
+  write_volume(path, v);
+  write_text(path / "1_1_1/128-130_64-70_64-70", "damaged");
+  const auto source = open_volume(path);
+  const Box first{{0, 0, 0}, {128, 64, 64}};
+  EXPECT_TRUE(source->read_box(first) == v.crop(first));
+  expect_error([&] { source->read_all(); }, {"128-130_64-70_64-70", "chunk", "7 bytes"});
+  std::vector<std::thread> threads;
+  std::vector<bool> same(8, false);
+  for (int t = 0; t < 8; ++t)
+    threads.emplace_back([&, t] {
+      const Box box{{t * 10, t * 3, 5 * t}, {t * 10 + 60, t * 3 + 40, 5 * t + 20}};
+      same[std::size_t(t)] = source->read_box(box) == v.crop(box);
+    });
+  for (auto& t : threads) t.join();
+  for (int t = 0; t < 8; ++t) EXPECT_TRUE(same[std::size_t(t)]) << t;
 }
 
 TEST(IoPrecomputed, EveryScaleOfAPyramidReadsBackByLevel) {
@@ -320,6 +344,9 @@ TEST(IoPrecomputed, DamagedStoresAreRefusedNamingTheFileAndField) {
   const fs::path big = small_store(dir, "big", R"("encoding": "raw")");
   write_text(big / "info", R"({"type": "image", "data_type": "uint8", "scales": [{"key": "s", "size": [4, 4, 4],
       "resolution": [1, 1, 1], "chunk_sizes": [[100000, 100000, 100000]], "encoding": "raw"}]})");
+  expect_error([&] { open_volume(big); }, {"info", "scales[0].chunk_sizes"});
+  write_text(big / "info", R"({"type": "image", "data_type": "uint8", "scales": [{"key": "s", "size": [4, 4, 4],
+      "resolution": [1, 1, 1], "chunk_sizes": [[4398046511104, 4398046511104, 4398046511104]], "encoding": "raw"}]})");
   expect_error([&] { open_volume(big); }, {"info", "scales[0].chunk_sizes"});
   // A key leaving the folder; missing and wrong members.
   write_text(big / "info", R"({"type": "image", "data_type": "uint8", "scales": [{"key": "../../etc", "size": [4, 4, 4],

@@ -56,7 +56,8 @@ Bytes decode_jpeg(const Bytes& encoded, const Extent& extent, const VolumeDescri
 }  // namespace
 
 std::uint64_t max_encoded_chunk_bytes(const Extent& extent, const VolumeDescription& d) {
-  return (3 * voxels_of(extent) * dtype_size(d.dtype) + 4096) * std::uint64_t(d.channels);
+  // compressed_segmentation of 1-voxel uint32 blocks takes 12 bytes a voxel: a header and a table entry.
+  return (4 * voxels_of(extent) * dtype_size(d.dtype) + 4096) * std::uint64_t(d.channels);
 }
 
 Bytes decode_chunk(const Bytes& encoded, const Extent& extent, const Scale& scale, const VolumeDescription& d,

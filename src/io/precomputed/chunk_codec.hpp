@@ -10,7 +10,7 @@
 namespace strata::io::detail::precomputed {
 
 // The largest encoded (gzip removed) chunk of `extent` voxels accepted: what the worst
-// compressed_segmentation (32-bit indices and a table entry per voxel) can take, plus headers.
+// compressed_segmentation (1-voxel blocks: a header and a table entry per voxel) can take.
 std::uint64_t max_encoded_chunk_bytes(const Extent& extent, const VolumeDescription& description);
 
 // Channel `channel` of the chunk of `extent` voxels (its part inside the volume), x fastest;

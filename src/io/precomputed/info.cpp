@@ -164,8 +164,11 @@ void check_key(const Fields& f, const std::string& key) {
     if (part == "..") f.fail("key", fmt::format("\"{}\" leaves the volume's folder", key));
 }
 
-std::uint64_t chunk_bytes(const Extent& chunk, DType dtype) {
-  return std::uint64_t(chunk.x) * std::uint64_t(chunk.y) * std::uint64_t(chunk.z) * dtype_size(dtype);
+// The bytes of `count` channels of a chunk, or nothing past kMaxChunkBytes (or 64 bits).
+std::optional<std::uint64_t> chunk_bytes(const Extent& chunk, DType dtype, std::int64_t count) {
+  const std::optional<std::int64_t> voxels = chunk.checked_voxel_count();
+  if (!voxels || std::uint64_t(*voxels) > kMaxChunkBytes / dtype_size(dtype) / std::uint64_t(count)) return std::nullopt;
+  return std::uint64_t(*voxels) * dtype_size(dtype) * std::uint64_t(count);
 }
 
 ShardingSpec parse_sharding(const Fields& scale, const json& value) {
@@ -219,13 +222,14 @@ Scale parse_scale(const std::string& file, const json& value, std::size_t index,
   const json& chunks = f.required("chunk_sizes");
   if (!chunks.is_array() || chunks.empty()) f.fail("chunk_sizes", "must be a non-empty array of [x, y, z] sizes");
   s.chunk = f.triple("chunk_sizes", chunks[0], 1, kMaxCoordinate);
-  if (chunk_bytes(s.chunk, d.dtype) > kMaxChunkBytes)
-    f.fail("chunk_sizes", fmt::format("chunks of {} {} exceed {} bytes", s.chunk.to_string(), dtype_name(d.dtype), kMaxChunkBytes));
+  if (!chunk_bytes(s.chunk, d.dtype, d.channels))
+    f.fail("chunk_sizes", fmt::format("chunks of {} x {} channels of {} exceed {} bytes", s.chunk.to_string(), d.channels,
+                                      dtype_name(d.dtype), kMaxChunkBytes));
   s.encoding = parse_encoding(f, d);
   if (s.encoding == ChunkEncoding::compressed_segmentation) {
     if (const json* block = f.find("compressed_segmentation_block_size"))
       s.block = f.triple("compressed_segmentation_block_size", *block, 1, 1 << 16);
-    if (chunk_bytes(s.block, d.dtype) > kMaxChunkBytes) f.fail("compressed_segmentation_block_size", "blocks too large");
+    if (!chunk_bytes(s.block, d.dtype, 1)) f.fail("compressed_segmentation_block_size", "blocks larger than a chunk may be");
   }
   if (const json* sharding = f.find("sharding"); sharding && !sharding->is_null())
     s.sharding = parse_sharding(f, *sharding);

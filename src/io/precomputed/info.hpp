@@ -51,8 +51,9 @@ inline constexpr std::uint64_t kMaxInfoBytes = 1 << 20;
 // The deepest JSON nesting read (an info file nests 3 deep); deeper input is refused before
 // parsing, so a hostile file cannot exhaust the parser's stack.
 inline constexpr int kMaxJsonDepth = 32;
-// The largest decoded chunk (one channel): chunk_sizes beyond it are refused as damaged.
-inline constexpr std::uint64_t kMaxChunkBytes = std::uint64_t(1) << 30;
+// The largest decoded chunk (all its channels): chunk_sizes beyond it are refused as damaged.
+// Real chunks are 64^3 (2 MiB of uint64) to 512^3 (128 MiB of uint8).
+inline constexpr std::uint64_t kMaxChunkBytes = std::uint64_t(256) << 20;
 
 // Reads and checks `<folder>/info`; throws FormatError naming the file and the field.
 VolumeDescription read_info(const std::filesystem::path& folder);
