@@ -20,6 +20,7 @@ PACKAGES=(
   mricron-data                                # sample MRI and brain atlases
   python3-nibabel                             # reference NIfTI reader and its test files (tests/io)
   python3-mrcfile                             # reference MRC reader and writer (python/tests/test_mrc.py)
+  python3-pil                                 # reference JPEG encoder of python/tests/test_precomputed.py
   chromium                                    # browser tests of the viewer (tests/web)
   libopenmpi-dev openmpi-bin                  # strata-mpi, distributed compression (ctest -L mpi)
   # The Python module `import strata` (python/, docs/python.md), built by the same CMake build for
