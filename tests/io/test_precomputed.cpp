@@ -161,7 +161,7 @@ TEST(IoPrecomputed, EveryScaleOfAPyramidReadsBackByLevel) {
   TempDir dir;
   const fs::path path = dir / "pyramid.precomputed";
   const Volume fine = with_geometry(random_volume({80, 70, 66}, DType::u16, 1, Spacing{8, 8, 8}), {0, 0, 0});
-  const Volume coarse = with_geometry(random_volume({40, 35, 33}, DType::u16, 2, Spacing{16, 16, 16}), {4, 4, 4});
+  const Volume coarse = with_geometry(random_volume({40, 35, 33}, DType::u16, 2, Spacing{16, 16, 16}), {16, 16, 16});
   {
     PrecomputedPyramidWriter writer(path, {fine.info(), coarse.info()});
     // Scales interleaved, slabs of uneven thickness.
@@ -179,6 +179,18 @@ TEST(IoPrecomputed, EveryScaleOfAPyramidReadsBackByLevel) {
   expect_same(source->read_all(), coarse);
   level1.level = 2;
   expect_error([&] { open_volume(path, level1); }, {"level 2", "2 scales"});
+
+  // The same pyramid from sources, replacing the folder.
+  const auto fine_source = memory_source(fine), coarse_source = memory_source(coarse);
+  VolumeSource* const sources[] = {fine_source.get(), coarse_source.get()};
+  const Volume flipped = random_volume({40, 35, 33}, DType::u16, 3, Spacing{16, 16, 16});
+  const auto flipped_source = memory_source(flipped);
+  VolumeSource* const other[] = {fine_source.get(), flipped_source.get()};
+  write_precomputed(path, other);
+  write_precomputed(path, sources);
+  level1.level = 1;
+  expect_same(open_volume(path, level1)->read_all(), coarse);
+  EXPECT_EQ(open_volume(path, level1)->info().geometry.origin, (Vector3{16, 16, 16}));
 }
 
 TEST(IoPrecomputed, AnUnfinishedWriterLeavesNothing) {
