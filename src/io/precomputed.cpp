@@ -4,9 +4,10 @@
 // (precomputed/chunk_codec.cpp). A box read decodes only the chunks it touches; decoded chunks
 // are kept in a bounded least-recently-used cache, so slab-by-slab reading decodes each once.
 //
-// Geometry: resolution (nm per voxel) is the spacing with unit "nm"; the origin is
-// voxel_offset * resolution (the centre of the first voxel of the scale's voxel space, as
-// Neuroglancer places it); the axes are x, y, z without direction cosines. Channels
+// Geometry: resolution (nm per voxel) is the spacing with unit "nm"; the origin (Strata's: the
+// centre of voxel 0) is voxel_offset * resolution. Neuroglancer draws voxel i over [i, i + 1), so
+// its centre there lies half a voxel further; that half voxel is left out both ways, so a round
+// trip keeps voxel_offset exactly. The axes are x, y, z without direction cosines. Channels
 // (num_channels) are the file's volumes.
 #include <array>
 #include <cstring>
