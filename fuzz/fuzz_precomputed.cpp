@@ -27,9 +27,8 @@ void fuzz_compressed_segmentation(std::span<const std::byte> in) {
   const strata::DType dtype = b(7) & 1 ? strata::DType::u64 : strata::DType::u32;
   std::vector<std::byte> out(std::size_t(chunk.x * chunk.y * chunk.z) * strata::dtype_size(dtype));
   for (std::int64_t c = 0; c < channels; ++c)
-    strata::fuzz::run_guarded([&] {
-      decode_compressed_segmentation(in.subspan(8), chunk, block, channels, c, dtype, out.data(), "chunk");
-    });
+    strata::fuzz::run_guarded(
+        [&] { decode_compressed_segmentation(in.subspan(8), chunk, block, channels, c, dtype, out.data(), "chunk"); });
 }
 
 void fuzz_shard(std::span<const std::byte> in) {
@@ -42,10 +41,10 @@ void fuzz_shard(std::span<const std::byte> in) {
     strata::fuzz::run_guarded([&] {
       const ByteRange range = minishard_index_range(file.subspan(16 * m, 16), spec, file.size(), "shard");
       const std::byte* at = file.data() + range.begin;
-      const std::vector<std::byte> index = spec.gzip_minishard_index
-                                               ? strata::io::detail::gunzip_to_memory(at, range.end - range.begin, "shard",
-                                                                                      "minishard index", 1 << 20)
-                                               : std::vector<std::byte>(at, file.data() + range.end);
+      const std::vector<std::byte> index =
+          spec.gzip_minishard_index
+              ? strata::io::detail::gunzip_to_memory(at, range.end - range.begin, "shard", "minishard index", 1 << 20)
+              : std::vector<std::byte>(at, file.data() + range.end);
       for (std::uint64_t id = 0; id < 8; ++id) find_chunk(index, id, spec, file.size(), "shard");
     });
 }

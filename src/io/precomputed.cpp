@@ -9,6 +9,8 @@
 // its centre there lies half a voxel further; that half voxel is left out both ways, so a round
 // trip keeps voxel_offset exactly. The axes are x, y, z without direction cosines. Channels
 // (num_channels) are the file's volumes.
+#include "strata/io/precomputed.hpp"
+
 #include <array>
 #include <cstring>
 #include <mutex>
@@ -21,7 +23,6 @@
 #include "io/precomputed/chunk_store.hpp"
 #include "io/precomputed/info.hpp"
 #include "strata/core/error.hpp"
-#include "strata/io/precomputed.hpp"
 
 namespace strata::io::detail {
 
@@ -73,7 +74,9 @@ class PrecomputedSource final : public VolumeSource {
   Box chunk_box(const Extent& position) const {
     const Extent& c = scale_.chunk;
     const Extent lo{position.x * c.x, position.y * c.y, position.z * c.z};
-    return {lo, {std::min(lo.x + c.x, info_.dims.x), std::min(lo.y + c.y, info_.dims.y), std::min(lo.z + c.z, info_.dims.z)}};
+    return {lo,
+            {std::min(lo.x + c.x, info_.dims.x), std::min(lo.y + c.y, info_.dims.y),
+             std::min(lo.z + c.z, info_.dims.z)}};
   }
 
   // The decoded samples of chunk `position`, or nullptr for a missing chunk (zeros).
@@ -103,7 +106,8 @@ class PrecomputedSource final : public VolumeSource {
     const std::size_t row = std::size_t(part.hi.x - part.lo.x) * sample;
     for (std::int64_t z = part.lo.z; z < part.hi.z; ++z)
       for (std::int64_t y = part.lo.y; y < part.hi.y; ++y) {
-        const std::size_t from = std::size_t(((z - cbox.lo.z) * cd.y + (y - cbox.lo.y)) * cd.x + (part.lo.x - cbox.lo.x));
+        const std::size_t from =
+            std::size_t(((z - cbox.lo.z) * cd.y + (y - cbox.lo.y)) * cd.x + (part.lo.x - cbox.lo.x));
         const std::size_t to = std::size_t(((z - box.lo.z) * od.y + (y - box.lo.y)) * od.x + (part.lo.x - box.lo.x));
         std::memcpy(out.bytes() + to * sample, samples->data() + from * sample, row);
       }
@@ -124,13 +128,15 @@ std::unique_ptr<VolumeSource> open_precomputed(const fs::path& path, const ReadO
   const std::int64_t level = options.level.value_or(0);
   const auto levels = std::int64_t(description.scales.size());
   if (level < 0 || level >= levels)
-    throw ParameterError("ReadOptions::level", fmt::format("{}: level {} does not exist; the volume has {} scales (0..{})",
-                                                           path.string(), level, levels, levels - 1));
+    throw ParameterError("ReadOptions::level",
+                         fmt::format("{}: level {} does not exist; the volume has {} scales (0..{})", path.string(),
+                                     level, levels, levels - 1));
   const Scale& scale = description.scales[std::size_t(level)];
   const std::string info_file = (path / "info").string();
   const std::string scale_field = fmt::format("scales[{}].size", level);
   checked_volume_bytes(volume_info(description, scale), info_file, scale_field);
-  const std::int64_t channel = choose_volume(description.channels, scale.size, options, info_file, "num_channels", "channels");
+  const std::int64_t channel =
+      choose_volume(description.channels, scale.size, options, info_file, "num_channels", "channels");
   return std::make_unique<PrecomputedSource>(path, std::move(description), std::size_t(level), channel);
 }
 
@@ -145,7 +151,8 @@ class SingleScaleWriter final : public VolumeWriter {
   PrecomputedPyramidWriter pyramid_;
 };
 
-std::unique_ptr<VolumeWriter> create_precomputed_writer(const fs::path& path, const VolumeInfo& info, const WriteOptions&) {
+std::unique_ptr<VolumeWriter> create_precomputed_writer(const fs::path& path, const VolumeInfo& info,
+                                                        const WriteOptions&) {
   return std::make_unique<SingleScaleWriter>(path, info);
 }
 
@@ -155,8 +162,9 @@ VolumeFormat precomputed_format() {
   return {
       .name = "precomputed",
       .title = "Neuroglancer precomputed",
-      .description = "Neuroglancer's chunked multiscale volumes (connectomics, EM): a folder with an `info` JSON file "
-                     "and a folder of chunks per scale",
+      .description =
+          "Neuroglancer's chunked multiscale volumes (connectomics, EM): a folder with an `info` JSON file "
+          "and a folder of chunks per scale",
       .extensions = {".precomputed"},
       .directory = "a Neuroglancer precomputed folder (with an `info` file)",
       .sniff_directory = looks_like_precomputed,
@@ -165,12 +173,14 @@ VolumeFormat precomputed_format() {
       .capabilities = {.streaming = true, .multi_volume = true, .spatial_metadata = true, .multiscale = true},
       .read_dtypes = {DType::u8, DType::i8, DType::u16, DType::i16, DType::u32, DType::i32, DType::u64, DType::f32},
       .write_dtypes = {DType::u8, DType::i8, DType::u16, DType::i16, DType::u32, DType::i32, DType::u64, DType::f32},
-      .read_notes = "local folders; any scale (`--level`), channels as volumes; raw, jpeg and compressed_segmentation "
-                    "chunks, plain or gzip; unsharded and sharded (identity or murmurhash3_x86_128, raw or gzip); "
-                    "missing chunks read as 0; resolution (nm) and voxel_offset as spacing and origin",
-      .write_notes = "one scale, unsharded 64^3 chunks: u32/u64 as segmentation with compressed_segmentation, other "
-                     "types as raw images; resolution in nm, origin as voxel_offset; more scales through "
-                     "strata/io/precomputed.hpp",
+      .read_notes =
+          "local folders; any scale (`--level`), channels as volumes; raw, jpeg and compressed_segmentation "
+          "chunks, plain or gzip; unsharded and sharded (identity or murmurhash3_x86_128, raw or gzip); "
+          "missing chunks read as 0; resolution (nm) and voxel_offset as spacing and origin",
+      .write_notes =
+          "one scale, unsharded 64^3 chunks: u32/u64 as segmentation with compressed_segmentation, other "
+          "types as raw images; resolution in nm, origin as voxel_offset; more scales through "
+          "strata/io/precomputed.hpp",
   };
 }
 

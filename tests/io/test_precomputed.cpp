@@ -108,7 +108,8 @@ TEST(IoPrecomputed, SpacingInOtherUnitsIsWrittenInNanometres) {
 
 TEST(IoPrecomputed, LabelsOf32And64BitsRoundTripThroughCompressedSegmentation) {
   TempDir dir;
-  for (auto [dtype, base] : {std::pair{DType::u32, std::uint64_t(3'000'000'000)}, std::pair{DType::u64, std::uint64_t(1) << 41}}) {
+  for (auto [dtype, base] :
+       {std::pair{DType::u32, std::uint64_t(3'000'000'000)}, std::pair{DType::u64, std::uint64_t(1) << 41}}) {
     const fs::path path = dir / (std::string(dtype_name(dtype)) + ".precomputed");
     const Volume v = label_volume({70, 65, 66}, dtype, base, 3);
     write_volume(path, v);
@@ -220,7 +221,8 @@ TEST(IoPrecomputed, HandBuiltUnshardedStoreReadsAsItsLayoutSays) {
     for (int c = 0; c < 2; ++c)
       for (std::int64_t z = box.lo.z; z < box.hi.z; ++z)
         for (std::int64_t y = box.lo.y; y < box.hi.y; ++y)
-          for (std::int64_t x = box.lo.x; x < box.hi.x; ++x) samples.push_back(std::uint16_t(1000 * c + 100 * z + 10 * y + x));
+          for (std::int64_t x = box.lo.x; x < box.hi.x; ++x)
+            samples.push_back(std::uint16_t(1000 * c + 100 * z + 10 * y + x));
     return samples;
   };
   const auto c0 = chunk({{0, 0, 0}, {4, 4, 2}}), c1 = chunk({{4, 0, 0}, {6, 4, 2}}), c2 = chunk({{0, 0, 2}, {4, 4, 3}});
@@ -253,16 +255,24 @@ TEST(IoPrecomputed, HandBuiltShardedStoreReadsEveryChunkThroughItsMinishard) {
   TempDir dir;
   const fs::path root = dir / "sharded.precomputed";
   fs::create_directories(root / "8_8_8");
-  write_text(root / "info", R"({"@type": "neuroglancer_multiscale_volume", "type": "segmentation", "data_type": "uint64",
+  write_text(root / "info",
+             R"({"@type": "neuroglancer_multiscale_volume", "type": "segmentation", "data_type": "uint64",
       "num_channels": 1, "scales": [{"key": "8_8_8", "size": [8, 4, 4], "resolution": [8, 8, 8],
       "chunk_sizes": [[4, 4, 2]], "encoding": "compressed_segmentation", "compressed_segmentation_block_size": [2, 2, 2],
       "sharding": {"@type": "neuroglancer_uint64_sharded_v1", "preshift_bits": 0, "hash": "identity",
                    "minishard_bits": 1, "shard_bits": 1, "minishard_index_encoding": "raw", "data_encoding": "gzip"}}]})");
   const Volume v = label_volume({8, 4, 4}, DType::u64, std::uint64_t(1) << 45, 9);
-  const ShardingSpec spec{.preshift_bits = 0, .murmurhash = false, .minishard_bits = 1, .shard_bits = 1,
-                          .gzip_minishard_index = false, .gzip_data = true};
+  const ShardingSpec spec{.preshift_bits = 0,
+                          .murmurhash = false,
+                          .minishard_bits = 1,
+                          .shard_bits = 1,
+                          .gzip_minishard_index = false,
+                          .gzip_data = true};
   // Grid 2 x 1 x 2: ids 0..3 (x bit, then z bit); id 3 is left out.
-  struct Entry { std::uint64_t id; std::vector<std::byte> data; };
+  struct Entry {
+    std::uint64_t id;
+    std::vector<std::byte> data;
+  };
   std::map<std::string, std::map<std::uint64_t, std::vector<Entry>>> shards;
   for (std::uint64_t id = 0; id < 3; ++id) {
     const Extent position{std::int64_t(id & 1), 0, std::int64_t(id >> 1)};
@@ -335,7 +345,8 @@ fs::path small_store(const TempDir& dir, const std::string& name, const std::str
   const fs::path root = dir / (name + ".precomputed");
   fs::create_directories(root / "s");
   write_text(root / "info", "{" + top + R"(, "scales": [{"key": "s", "size": [4, 4, 2], "resolution": [1, 1, 1],
-      "chunk_sizes": [[4, 4, 2]], )" + scale_members + "}]}");
+      "chunk_sizes": [[4, 4, 2]], )" +
+                                scale_members + "}]}");
   return root;
 }
 
@@ -368,16 +379,19 @@ TEST(IoPrecomputed, DamagedStoresAreRefusedNamingTheFileAndField) {
   expect_error([&] { open_volume(big); }, {"info", "data_type", "missing"});
   write_text(big / "info", R"({"type": "image", "data_type": "float64", "scales": []})");
   expect_error([&] { open_volume(big); }, {"info", "data_type", "float64"});
-  expect_error([&] { open_volume(small_store(dir, "jpeg32", R"("encoding": "jpeg")")); }, {"scales[0].encoding", "uint8"});
+  expect_error([&] { open_volume(small_store(dir, "jpeg32", R"("encoding": "jpeg")")); },
+               {"scales[0].encoding", "uint8"});
   // Huge and deeply nested JSON.
   write_text(big / "info", "{\"type\": \"image\", \"pad\": \"" + std::string(2 << 20, 'x') + "\"}");
   expect_error([&] { open_volume(big); }, {"info", "bytes"});
   write_text(big / "info", "{\"scales\": " + std::string(100000, '[') + std::string(100000, ']') + "}");
   expect_error([&] { open_volume(big); }, {"info", "nested"});
   // compressed_segmentation offsets out of range.
-  const fs::path cseg = small_store(dir, "cseg", R"("encoding": "compressed_segmentation", "compressed_segmentation_block_size": [4, 4, 2])");
+  const fs::path cseg =
+      small_store(dir, "cseg",
+                  R"("encoding": "compressed_segmentation", "compressed_segmentation_block_size": [4, 4, 2])");
   std::vector<std::byte> chunk(4 * 4);
-  store_field(chunk, 0, std::uint32_t(1));            // channel 0 at word 1
+  store_field(chunk, 0, std::uint32_t(1));                 // channel 0 at word 1
   store_field(chunk, 4, std::uint32_t(900) | (1u << 24));  // table at word 900: past the end
   store_field(chunk, 8, std::uint32_t(3));
   write_bytes(cseg / "s/0-4_0-4_0-2", chunk);
@@ -386,7 +400,8 @@ TEST(IoPrecomputed, DamagedStoresAreRefusedNamingTheFileAndField) {
   write_bytes(cseg / "s/0-4_0-4_0-2", chunk);
   expect_error([&] { read_volume(cseg); }, {"compressed_segmentation", "3 encoded bits"});
   // A shard index pointing past the file.
-  const fs::path sharded = small_store(dir, "shard", R"("encoding": "raw", "sharding": {"@type": "neuroglancer_uint64_sharded_v1",
+  const fs::path sharded =
+      small_store(dir, "shard", R"("encoding": "raw", "sharding": {"@type": "neuroglancer_uint64_sharded_v1",
       "hash": "identity", "minishard_bits": 0, "shard_bits": 0})");
   std::vector<std::byte> shard(16 + 8);
   store_field(shard, 0, std::uint64_t(0));
@@ -396,14 +411,18 @@ TEST(IoPrecomputed, DamagedStoresAreRefusedNamingTheFileAndField) {
   // A minishard index whose chunk lies past the file.
   std::vector<std::byte> listed(16 + 24);
   store_field(listed, 8, std::uint64_t(24));
-  store_field(listed, 16, std::uint64_t(0));      // chunk id 0
-  store_field(listed, 24, std::uint64_t(1000));   // offset
-  store_field(listed, 32, std::uint64_t(128));    // size
+  store_field(listed, 16, std::uint64_t(0));     // chunk id 0
+  store_field(listed, 24, std::uint64_t(1000));  // offset
+  store_field(listed, 32, std::uint64_t(128));   // size
   write_bytes(sharded / "s/0.shard", listed);
   expect_error([&] { read_volume(sharded); }, {".shard", "minishard index", "outside the file"});
   // An unknown hash.
-  expect_error([&] { open_volume(small_store(dir, "hash", R"("encoding": "raw", "sharding": {"hash": "md5",
-      "minishard_bits": 0, "shard_bits": 0})")); }, {"scales[0].sharding.hash", "md5"});
+  expect_error(
+      [&] {
+        open_volume(small_store(dir, "hash", R"("encoding": "raw", "sharding": {"hash": "md5",
+      "minishard_bits": 0, "shard_bits": 0})"));
+      },
+      {"scales[0].sharding.hash", "md5"});
 }
 
 TEST(IoPrecomputed, FoldersAreDetectedByTheirInfoFile) {

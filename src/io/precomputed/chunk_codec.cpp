@@ -3,11 +3,12 @@
 // channels) and compressed_segmentation (compressed_segmentation.hpp).
 #include "io/precomputed/chunk_codec.hpp"
 
+#include <turbojpeg.h>
+
 #include <cstring>
 #include <memory>
 
 #include <fmt/format.h>
-#include <turbojpeg.h>
 
 #include "io/precomputed/compressed_segmentation.hpp"
 #include "strata/core/error.hpp"

@@ -16,7 +16,8 @@ std::uint64_t max_encoded_chunk_bytes(const Extent& extent, const VolumeDescript
 // Channel `channel` of the chunk of `extent` voxels (its part inside the volume), x fastest;
 // FormatError(file, ...) when the bytes do not hold such a chunk.
 std::vector<std::byte> decode_chunk(const std::vector<std::byte>& encoded, const Extent& extent, const Scale& scale,
-                                    const VolumeDescription& description, std::int64_t channel, const std::string& file);
+                                    const VolumeDescription& description, std::int64_t channel,
+                                    const std::string& file);
 
 // The one-channel encoding (raw or compressed_segmentation) of `extent` voxels of `dtype`.
 std::vector<std::byte> encode_chunk(const std::byte* samples, const Extent& extent, const Scale& scale, DType dtype);

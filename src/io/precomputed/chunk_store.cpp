@@ -50,8 +50,10 @@ std::string ChunkStore::file_of(const Extent& position) const {
     return (folder_ / shard_slot(*scale_.sharding, id).file_name).string();
   }
   const Extent& o = scale_.voxel_offset;
-  const Extent lo{o.x + position.x * scale_.chunk.x, o.y + position.y * scale_.chunk.y, o.z + position.z * scale_.chunk.z};
-  const Extent hi{std::min(lo.x + scale_.chunk.x, o.x + scale_.size.x), std::min(lo.y + scale_.chunk.y, o.y + scale_.size.y),
+  const Extent lo{o.x + position.x * scale_.chunk.x, o.y + position.y * scale_.chunk.y,
+                  o.z + position.z * scale_.chunk.z};
+  const Extent hi{std::min(lo.x + scale_.chunk.x, o.x + scale_.size.x),
+                  std::min(lo.y + scale_.chunk.y, o.y + scale_.size.y),
                   std::min(lo.z + scale_.chunk.z, o.z + scale_.size.z)};
   return (folder_ / fmt::format("{}-{}_{}-{}_{}-{}", lo.x, hi.x, lo.y, hi.y, lo.z, hi.z)).string();
 }
@@ -64,7 +66,8 @@ Bytes ChunkStore::decoded(const std::byte* data, std::uint64_t size, bool gzip, 
                           const std::string& field) const {
   if (!gzip) {
     if (size > max_encoded_bytes_)
-      throw FormatError(file, field, fmt::format("{} bytes, more than a chunk can hold ({})", size, max_encoded_bytes_));
+      throw FormatError(file, field,
+                        fmt::format("{} bytes, more than a chunk can hold ({})", size, max_encoded_bytes_));
     return Bytes(data, data + size);
   }
   Bytes out = gunzip_to_memory(data, size, file, field, max_encoded_bytes_ + 1);
@@ -90,8 +93,7 @@ std::shared_ptr<const MappedFile> ChunkStore::shard(const std::string& name) con
   std::error_code ec;
   if (!fs::exists(path, ec)) return nullptr;
   std::shared_ptr<const MappedFile> file;
-  if (fs::file_size(path, ec) == 0 && !ec)
-    throw FormatError(path.string(), "shard index", "the shard file is empty");
+  if (fs::file_size(path, ec) == 0 && !ec) throw FormatError(path.string(), "shard index", "the shard file is empty");
   file = std::make_shared<const MappedFile>(path);
   std::lock_guard lock(mutex_);
   shards_.insert(name, file, 1);
@@ -109,12 +111,13 @@ std::shared_ptr<const Bytes> ChunkStore::minishard_index(const std::string& shar
   const ShardingSpec& spec = *scale_.sharding;
   if (file.size() < shard_index_bytes(spec))
     throw FormatError(path, "shard index",
-                      fmt::format("{} bytes, shorter than its index of {} bytes", file.size(), shard_index_bytes(spec)));
+                      fmt::format("{} bytes, shorter than its index of {} bytes", file.size(),
+                                  shard_index_bytes(spec)));
   const ByteRange range = minishard_index_range({file.data() + 16 * minishard, 16}, spec, file.size(), path);
-  auto index = std::make_shared<const Bytes>(
-      spec.gzip_minishard_index
-          ? gunzip_to_memory(file.data() + range.begin, range.end - range.begin, path, "minishard index", kMaxChunkBytes)
-          : Bytes(file.data() + range.begin, file.data() + range.end));
+  auto index = std::make_shared<const Bytes>(spec.gzip_minishard_index
+                                                 ? gunzip_to_memory(file.data() + range.begin, range.end - range.begin,
+                                                                    path, "minishard index", kMaxChunkBytes)
+                                                 : Bytes(file.data() + range.begin, file.data() + range.end));
   std::lock_guard lock(mutex_);
   minishards_.insert(key, index, 1);
   return index;

@@ -42,7 +42,9 @@ void for_each_block(const Extent& chunk, const Extent& block, Visit&& visit) {
   for (std::int64_t z = 0; z < chunk.z; z += block.z)
     for (std::int64_t y = 0; y < chunk.y; y += block.y)
       for (std::int64_t x = 0; x < chunk.x; x += block.x, header += 2)
-        visit(header, Box{{x, y, z}, {std::min(x + block.x, chunk.x), std::min(y + block.y, chunk.y), std::min(z + block.z, chunk.z)}});
+        visit(header,
+              Box{{x, y, z},
+                  {std::min(x + block.x, chunk.x), std::min(y + block.y, chunk.y), std::min(z + block.z, chunk.z)}});
 }
 
 // The channel data as 32-bit words, with checked access.
@@ -86,7 +88,8 @@ void decode_block(const Words& words, std::uint64_t header, const Extent& block,
       for (std::int64_t x = voxels.lo.x; x < voxels.hi.x; ++x) {
         std::uint64_t index = 0;
         if (bits != 0) {
-          const std::uint64_t in_block = std::uint64_t((x - voxels.lo.x) + block.x * ((y - voxels.lo.y) + block.y * (z - voxels.lo.z)));
+          const std::uint64_t in_block =
+              std::uint64_t((x - voxels.lo.x) + block.x * ((y - voxels.lo.y) + block.y * (z - voxels.lo.z)));
           const std::uint64_t bit = bits * in_block;
           index = (words[values + bit / 32] >> (bit % 32)) & mask;
         }
@@ -164,14 +167,12 @@ void decode_compressed_segmentation(std::span<const std::byte> data, const Exten
   if (std::uint64_t(channels) > all.size())
     all.fail(fmt::format("{} bytes cannot hold the offsets of {} channels", data.size(), channels));
   const Words words = all.from(all[std::uint64_t(channel)]);
-  if (dtype == DType::u32)
-    decode_channel(words, chunk, block, reinterpret_cast<std::uint32_t*>(out));
-  else
-    decode_channel(words, chunk, block, reinterpret_cast<std::uint64_t*>(out));
+  if (dtype == DType::u32) decode_channel(words, chunk, block, reinterpret_cast<std::uint32_t*>(out));
+  else decode_channel(words, chunk, block, reinterpret_cast<std::uint64_t*>(out));
 }
 
-std::vector<std::byte> encode_compressed_segmentation(const std::byte* samples, const Extent& chunk, const Extent& block,
-                                                      DType dtype) {
+std::vector<std::byte> encode_compressed_segmentation(const std::byte* samples, const Extent& chunk,
+                                                      const Extent& block, DType dtype) {
   const std::vector<std::uint32_t> words =
       dtype == DType::u32 ? encode_channel(reinterpret_cast<const std::uint32_t*>(samples), chunk, block)
                           : encode_channel(reinterpret_cast<const std::uint64_t*>(samples), chunk, block);

@@ -22,7 +22,7 @@ void decode_compressed_segmentation(std::span<const std::byte> data, const Exten
                                     const std::string& file);
 
 // The one-channel encoding of `chunk` voxels of `dtype` (u32 or u64, x fastest) at `samples`.
-std::vector<std::byte> encode_compressed_segmentation(const std::byte* samples, const Extent& chunk, const Extent& block,
-                                                      DType dtype);
+std::vector<std::byte> encode_compressed_segmentation(const std::byte* samples, const Extent& chunk,
+                                                      const Extent& block, DType dtype);
 
 }  // namespace strata::io::detail::precomputed

@@ -43,8 +43,8 @@ struct DataType {
   const char* name;
   DType dtype;
 };
-constexpr DataType kDataTypes[] = {{"uint8", DType::u8},   {"int8", DType::i8},     {"uint16", DType::u16},
-                                   {"int16", DType::i16},  {"uint32", DType::u32},  {"int32", DType::i32},
+constexpr DataType kDataTypes[] = {{"uint8", DType::u8},   {"int8", DType::i8},    {"uint16", DType::u16},
+                                   {"int16", DType::i16},  {"uint32", DType::u32}, {"int32", DType::i32},
                                    {"uint64", DType::u64}, {"float32", DType::f32}};
 
 // The deepest nesting of arrays and objects in `text`, skipping strings.
@@ -74,7 +74,8 @@ json parse_bounded_json(const fs::path& path) {
   const std::uintmax_t bytes = fs::file_size(path, ec);
   if (ec) throw Error(fmt::format("{}: cannot read: {}", file, ec.message()));
   if (bytes > kMaxInfoBytes)
-    throw FormatError(file, "info", fmt::format("{} bytes, more than the {} an info file may have", bytes, kMaxInfoBytes));
+    throw FormatError(file, "info",
+                      fmt::format("{} bytes, more than the {} an info file may have", bytes, kMaxInfoBytes));
   std::ifstream in(path, std::ios::binary);
   const std::string text{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
   if (json_depth(text) > kMaxJsonDepth)
@@ -137,7 +138,8 @@ class Fields {
     for (std::size_t i = 0; i < 3; ++i) {
       if (!value[i].is_number()) fail(member, "must be an array of 3 numbers");
       out[i] = value[i].get<double>();
-      if (!std::isfinite(out[i]) || out[i] <= 0) fail(member, fmt::format("{} is not a positive size", value[i].dump()));
+      if (!std::isfinite(out[i]) || out[i] <= 0)
+        fail(member, fmt::format("{} is not a positive size", value[i].dump()));
     }
     return out;
   }
@@ -146,8 +148,9 @@ class Fields {
   std::int64_t bounded(std::string_view member, const json& value, std::int64_t lo, std::int64_t hi) const {
     if (!value.is_number_integer()) fail(member, fmt::format("{} is not an integer", value.dump()));
     const bool negative = value.is_number_unsigned() ? false : value.get<std::int64_t>() < 0;
-    const std::int64_t v = negative ? value.get<std::int64_t>()
-                                    : std::int64_t(std::min<std::uint64_t>(value.get<std::uint64_t>(), std::uint64_t(hi) + 1));
+    const std::int64_t v =
+        negative ? value.get<std::int64_t>()
+                 : std::int64_t(std::min<std::uint64_t>(value.get<std::uint64_t>(), std::uint64_t(hi) + 1));
     if (v < lo || v > hi) fail(member, fmt::format("{} is outside {}..{}", value.dump(), lo, hi));
     return v;
   }
@@ -167,7 +170,8 @@ void check_key(const Fields& f, const std::string& key) {
 // The bytes of `count` channels of a chunk, or nothing past kMaxChunkBytes (or 64 bits).
 std::optional<std::uint64_t> chunk_bytes(const Extent& chunk, DType dtype, std::int64_t count) {
   const std::optional<std::int64_t> voxels = chunk.checked_voxel_count();
-  if (!voxels || std::uint64_t(*voxels) > kMaxChunkBytes / dtype_size(dtype) / std::uint64_t(count)) return std::nullopt;
+  if (!voxels || std::uint64_t(*voxels) > kMaxChunkBytes / dtype_size(dtype) / std::uint64_t(count))
+    return std::nullopt;
   return std::uint64_t(*voxels) * dtype_size(dtype) * std::uint64_t(count);
 }
 
@@ -223,13 +227,14 @@ Scale parse_scale(const std::string& file, const json& value, std::size_t index,
   if (!chunks.is_array() || chunks.empty()) f.fail("chunk_sizes", "must be a non-empty array of [x, y, z] sizes");
   s.chunk = f.triple("chunk_sizes", chunks[0], 1, kMaxCoordinate);
   if (!chunk_bytes(s.chunk, d.dtype, d.channels))
-    f.fail("chunk_sizes", fmt::format("chunks of {} x {} channels of {} exceed {} bytes", s.chunk.to_string(), d.channels,
-                                      dtype_name(d.dtype), kMaxChunkBytes));
+    f.fail("chunk_sizes", fmt::format("chunks of {} x {} channels of {} exceed {} bytes", s.chunk.to_string(),
+                                      d.channels, dtype_name(d.dtype), kMaxChunkBytes));
   s.encoding = parse_encoding(f, d);
   if (s.encoding == ChunkEncoding::compressed_segmentation) {
     if (const json* block = f.find("compressed_segmentation_block_size"))
       s.block = f.triple("compressed_segmentation_block_size", *block, 1, 1 << 16);
-    if (!chunk_bytes(s.block, d.dtype, 1)) f.fail("compressed_segmentation_block_size", "blocks larger than a chunk may be");
+    if (!chunk_bytes(s.block, d.dtype, 1))
+      f.fail("compressed_segmentation_block_size", "blocks larger than a chunk may be");
   }
   if (const json* sharding = f.find("sharding"); sharding && !sharding->is_null())
     s.sharding = parse_sharding(f, *sharding);
@@ -254,12 +259,14 @@ VolumeDescription read_info(const fs::path& folder) {
     f.fail("@type", fmt::format("expected \"{}\"", kVolumeType));
   VolumeDescription d;
   const std::string type = f.string("type");
-  if (type != "image" && type != "segmentation") f.fail("type", fmt::format("\"{}\" (expected image or segmentation)", type));
+  if (type != "image" && type != "segmentation")
+    f.fail("type", fmt::format("\"{}\" (expected image or segmentation)", type));
   d.segmentation = type == "segmentation";
   const std::string data_type = f.string("data_type");
   const auto known = std::find_if(std::begin(kDataTypes), std::end(kDataTypes),
                                   [&](const DataType& t) { return data_type == t.name; });
-  if (known == std::end(kDataTypes)) f.fail("data_type", fmt::format("\"{}\" is not a sample type Strata reads", data_type));
+  if (known == std::end(kDataTypes))
+    f.fail("data_type", fmt::format("\"{}\" is not a sample type Strata reads", data_type));
   d.dtype = known->dtype;
   d.channels = f.integer_or("num_channels", 1, 1, kMaxChannels);
   const json& scales = f.required("scales");

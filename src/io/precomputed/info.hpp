@@ -29,10 +29,10 @@ struct ShardingSpec {
 
 // One element of "scales": a resolution level.
 struct Scale {
-  std::string key;       // the folder of its chunks, relative to the volume's folder
-  Extent size;           // voxels
-  Extent voxel_offset;   // index of the first voxel in the scale's voxel space
-  Extent chunk;          // chunk_sizes[0]
+  std::string key;                            // the folder of its chunks, relative to the volume's folder
+  Extent size;                                // voxels
+  Extent voxel_offset;                        // index of the first voxel in the scale's voxel space
+  Extent chunk;                               // chunk_sizes[0]
   std::array<double, 3> resolution{1, 1, 1};  // nm per voxel
   ChunkEncoding encoding = ChunkEncoding::raw;
   Extent block{8, 8, 8};  // compressed_segmentation_block_size

@@ -122,7 +122,9 @@ std::optional<ByteRange> find_chunk(std::span<const std::byte> minishard_index, 
   if (minishard_index.size() % 24 != 0)
     throw FormatError(file, "minishard index", fmt::format("{} bytes is not a multiple of 24", minishard_index.size()));
   const std::size_t n = minishard_index.size() / 24;
-  const auto value = [&](std::size_t row, std::size_t i) { return load_field<std::uint64_t>(minishard_index, 8 * (row * n + i)); };
+  const auto value = [&](std::size_t row, std::size_t i) {
+    return load_field<std::uint64_t>(minishard_index, 8 * (row * n + i));
+  };
   // Sums wrap modulo 2^64 like the writer's deltas; the final range is checked against the file.
   std::uint64_t id = 0, end = shard_index_bytes(spec);
   for (std::size_t i = 0; i < n; ++i) {

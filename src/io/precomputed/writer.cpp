@@ -62,7 +62,8 @@ void write_file(const fs::path& path, const std::vector<std::byte>& bytes) {
 // One scale: slabs in, chunk files out, a chunk row at a time.
 class ScaleWriter final : public VolumeWriter {
  public:
-  ScaleWriter(fs::path folder, Scale scale, DType dtype) : folder_(std::move(folder)), scale_(std::move(scale)), dtype_(dtype) {
+  ScaleWriter(fs::path folder, Scale scale, DType dtype)
+      : folder_(std::move(folder)), scale_(std::move(scale)), dtype_(dtype) {
     fs::create_directories(folder_);
   }
 
@@ -70,7 +71,8 @@ class ScaleWriter final : public VolumeWriter {
     const Extent& d = scale_.size;
     if (slab.dims().x != d.x || slab.dims().y != d.y || slab.dtype() != dtype_ || written_ + slab.dims().z > d.z)
       throw Error(fmt::format("{}: a slab of {} {} does not continue a {} {} scale at slice {}", folder_.string(),
-                              slab.dims().to_string(), dtype_name(slab.dtype()), d.to_string(), dtype_name(dtype_), written_));
+                              slab.dims().to_string(), dtype_name(slab.dtype()), d.to_string(), dtype_name(dtype_),
+                              written_));
     const std::size_t slice = std::size_t(d.x * d.y) * dtype_size(dtype_);
     for (std::int64_t z = 0; z < slab.dims().z; ++z) {
       if (row_.dims().z == 0) row_ = Volume({d.x, d.y, std::min(scale_.chunk.z, d.z - written_)}, dtype_);
@@ -82,7 +84,8 @@ class ScaleWriter final : public VolumeWriter {
 
   void finish() override {
     if (written_ != scale_.size.z)
-      throw Error(fmt::format("{}: scale {} got {} of its {} slices", folder_.string(), scale_.key, written_, scale_.size.z));
+      throw Error(
+          fmt::format("{}: scale {} got {} of its {} slices", folder_.string(), scale_.key, written_, scale_.size.z));
   }
 
  private:
@@ -105,9 +108,9 @@ class ScaleWriter final : public VolumeWriter {
   fs::path folder_;
   Scale scale_;
   DType dtype_;
-  Volume row_;                 // the chunk row being filled
-  std::int64_t filled_ = 0;    // its slices received
-  std::int64_t written_ = 0;   // slices received in all
+  Volume row_;                // the chunk row being filled
+  std::int64_t filled_ = 0;   // its slices received
+  std::int64_t written_ = 0;  // slices received in all
 };
 
 }  // namespace
@@ -127,18 +130,24 @@ PrecomputedPyramidWriter::PrecomputedPyramidWriter(fs::path folder, std::vector<
   if (levels.empty()) throw Error(fmt::format("{}: a precomputed volume needs at least one scale", m.folder.string()));
   const DType dtype = levels[0].dtype;
   if (!data_type_name(dtype))
-    throw Error(fmt::format("{}: Neuroglancer precomputed stores u8, i8, u16, i16, u32, i32, u64 or f32 samples, not {}",
-                            m.folder.string(), dtype_name(dtype)));
+    throw Error(
+        fmt::format("{}: Neuroglancer precomputed stores u8, i8, u16, i16, u32, i32, u64 or f32 samples, not {}",
+                    m.folder.string(), dtype_name(dtype)));
   std::error_code ec;
   if (fs::exists(m.folder, ec) && !fs::exists(m.folder / "info", ec))
     throw Error(fmt::format("{}: exists and is not a precomputed volume; not replaced", m.folder.string()));
   fs::remove_all(m.temporary, ec);
-  m.description = {.dtype = dtype, .segmentation = dtype == DType::u32 || dtype == DType::u64, .channels = 1, .scales = {}};
+  m.description = {.dtype = dtype,
+                   .segmentation = dtype == DType::u32 || dtype == DType::u64,
+                   .channels = 1,
+                   .scales = {}};
   for (std::size_t i = 0; i < levels.size(); ++i) {
     if (levels[i].dtype != dtype)
-      throw Error(fmt::format("{}: scale {} is {}, scale 0 {}", m.folder.string(), i, dtype_name(levels[i].dtype), dtype_name(dtype)));
+      throw Error(fmt::format("{}: scale {} is {}, scale 0 {}", m.folder.string(), i, dtype_name(levels[i].dtype),
+                              dtype_name(dtype)));
     m.description.scales.push_back(scale_of(levels[i], i));
-    m.scales.push_back(std::make_unique<ScaleWriter>(m.temporary / m.description.scales.back().key, m.description.scales.back(), dtype));
+    m.scales.push_back(std::make_unique<ScaleWriter>(m.temporary / m.description.scales.back().key,
+                                                     m.description.scales.back(), dtype));
   }
 }
 
@@ -151,7 +160,8 @@ PrecomputedPyramidWriter::~PrecomputedPyramidWriter() {
 
 VolumeWriter& PrecomputedPyramidWriter::level(std::size_t level) {
   if (level >= impl_->scales.size())
-    throw Error(fmt::format("{}: no scale {} (the volume has {})", impl_->folder.string(), level, impl_->scales.size()));
+    throw Error(
+        fmt::format("{}: no scale {} (the volume has {})", impl_->folder.string(), level, impl_->scales.size()));
   return *impl_->scales[level];
 }
 
@@ -162,7 +172,8 @@ void PrecomputedPyramidWriter::finish() {
   std::error_code ec;
   fs::remove_all(m.folder, ec);
   fs::rename(m.temporary, m.folder, ec);
-  if (ec) throw Error(fmt::format("{}: cannot rename {} to it: {}", m.folder.string(), m.temporary.string(), ec.message()));
+  if (ec)
+    throw Error(fmt::format("{}: cannot rename {} to it: {}", m.folder.string(), m.temporary.string(), ec.message()));
   m.finished = true;
 }
 
