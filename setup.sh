@@ -13,7 +13,7 @@ PACKAGES=(
   libeigen3-dev                               # linear algebra
   zlib1g-dev libzstd-dev                      # gzip (NRRD, .nii.gz), zstd
   libtiff-dev                                 # TIFF stacks
-  libspng-dev libturbojpeg0-dev               # PNG output, JPEG frames of the viewer
+  libspng-dev libturbojpeg0-dev               # PNG output, JPEG frames of the viewer and precomputed chunks
   libcpp-httplib-dev                          # HTTP server (strata serve)
   libcli11-dev nlohmann-json3-dev libfmt-dev  # CLI, JSON, formatting
   libgtest-dev libbenchmark-dev               # tests and benchmarks
@@ -21,6 +21,7 @@ PACKAGES=(
   python3-nibabel                             # reference NIfTI reader and its test files (tests/io)
   python3-mrcfile                             # reference MRC reader and writer (python/tests/test_mrc.py)
   python3-meshio                              # reads Strata's legacy .vtk output (python/tests/test_vtk.py)
+  python3-pil                                 # reference JPEG encoder of python/tests/test_precomputed.py
   chromium                                    # browser tests of the viewer (tests/web)
   libopenmpi-dev openmpi-bin                  # strata-mpi, distributed compression (ctest -L mpi)
   # The Python module `import strata` (python/, docs/python.md), built by the same CMake build for

@@ -2,7 +2,8 @@
 # Makes the seed corpora of fuzz/corpus again (and fuzz/data, the server target's datasets) from
 # tiny volumes: strata generate/convert/compress/labels encode (build/release/strata) and
 # fuzz_extract_seeds (build/fuzz) for the payload and section targets. The transfer-function,
-# colour-map and server seeds are written by hand and kept.
+# colour-map, server and precomputed seeds are written by hand and kept (precomputed: the first
+# byte picks the part fuzzed, see fuzz/fuzz_precomputed.cpp).
 #   fuzz/make_corpus.sh
 set -euo pipefail
 cd "$(dirname "$0")/.."

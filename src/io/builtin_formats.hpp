@@ -17,5 +17,7 @@ VolumeFormat tiff_format();
 VolumeFormat mrc_format();
 // VTK image data: XML .vti and legacy .vtk STRUCTURED_POINTS (vtk.cpp, vtk/).
 VolumeFormat vtk_format();
+// Neuroglancer precomputed folders (precomputed.cpp, precomputed/): chunked multiscale volumes.
+VolumeFormat precomputed_format();
 
 }  // namespace strata::io::detail

@@ -60,6 +60,7 @@ Entries builtin_formats() {
   add(entries, detail::tiff_format());
   add(entries, detail::mrc_format());
   add(entries, detail::vtk_format());
+  add(entries, detail::precomputed_format());
   return entries;
 }
 
