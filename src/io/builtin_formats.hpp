@@ -15,5 +15,7 @@ VolumeFormat nifti_format();
 VolumeFormat tiff_format();
 // MRC / MRCS / REC / CCP4 map (mrc.cpp): cryo-EM and cryo-ET volumes.
 VolumeFormat mrc_format();
+// DICOM (dicom.cpp, dicom/): a folder of one series' slices or a single (multi-frame) file, read only.
+VolumeFormat dicom_format();
 
 }  // namespace strata::io::detail
