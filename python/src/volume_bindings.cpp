@@ -21,6 +21,15 @@ py::dict info_dict(const VolumeInfo& info, const std::filesystem::path& path) {
   d["dtype"] = numpy_dtype(info.dtype);
   d["spacing"] = spacing_to_python(info.spacing);
   d["volumes"] = info.volumes;
+  // Placement in world space: vectors in world (x, y, z) order, not the array's (z, y, x);
+  // direction[r][c] is world component r of index axis c (x, y, z).
+  const Geometry& g = info.geometry;
+  d["origin"] = py::make_tuple(g.origin[0], g.origin[1], g.origin[2]);
+  py::list rows;
+  for (const Vector3& row : g.direction) rows.append(py::make_tuple(row[0], row[1], row[2]));
+  d["direction"] = py::tuple(rows);
+  d["space"] = std::string(world_space_name(g.space));
+  d["unit"] = g.unit;
   return d;
 }
 
