@@ -102,7 +102,7 @@ def test_several_series_are_listed_and_one_is_chosen(tmp_path):
     with pytest.raises(strata.Error) as refused:
         strata.read(tmp_path / "mixed")
     assert first in str(refused.value) and second in str(refused.value)
-    assert '"scout" (3 files)' in str(refused.value) and '"thin" (2 files)' in str(refused.value)
+    assert '"scout" (3 slices)' in str(refused.value) and '"thin" (2 slices)' in str(refused.value)
     np.testing.assert_array_equal(strata.read(f"{tmp_path / 'mixed'}:{second}"), expected(2))
 
 

@@ -243,13 +243,30 @@ TEST(IoDicom, SeveralSeriesAreListedAndOneIsChosenByItsUid) {
   for (int k = 0; k < 3; ++k) ct_slice(k, 2.5, "1.2.3.1").write(dir / fmt::format("a{}.dcm", k));
   for (int k = 0; k < 2; ++k) ct_slice(k, 4.0, "1.2.3.2").write(dir / fmt::format("b{}.dcm", k));
   expect_error([&] { open_volume(dir.path()); },
-               {"2 series", "1.2.3.1 \"axial 1.2.3.1\" (3 files)", "1.2.3.2 \"axial 1.2.3.2\" (2 files)"});
+               {"2 series", "1.2.3.1 \"axial 1.2.3.1\" (3 slices)", "1.2.3.2 \"axial 1.2.3.2\" (2 slices)"});
   ReadOptions options;
   options.dataset = "1.2.3.2";
   EXPECT_EQ(open_volume(dir.path(), options)->info().dims.z, 2);
   EXPECT_NEAR(open_volume(dir.path().string() + ":1.2.3.1")->info().spacing.z, 2.5, 1e-6);
   options.dataset = "9.9";
   expect_error([&] { open_volume(dir.path(), options); }, {"no series 9.9"});
+}
+
+TEST(IoDicom, BoxesReadOnlyTheSlicesTheyTouch) {
+  TempDir dir;
+  for (int k = 0; k < 4; ++k) ct_slice(k).write(dir / fmt::format("s{}.dcm", k));
+  auto source = open_volume(dir.path());
+  // Slice 3 changes after opening: boxes above it still read, a box over it is refused.
+  ct_slice(3).us(0x0028, 0x0010, 2).pixels(std::vector<std::int16_t>(8)).write(dir / "s3.dcm");
+  EXPECT_EQ(source->read_box({{0, 0, 0}, {kColumns, kRows, 3}}).dims().z, 3);
+  expect_error([&] { source->read_box({{0, 0, 2}, {1, 1, 4}}); }, {"s3.dcm", "differ from when the series was opened"});
+}
+
+TEST(IoDicom, FrameCountBeyondThePixelDataIsRefusedBeforeAllocating) {
+  TempDir dir;
+  ct_slice(0).text(0x0028, 0x0008, "IS", "2000000000").write(dir / "frames.dcm");
+  expect_error([&] { open_volume(dir / "frames.dcm"); },
+               {"frames.dcm", "NumberOfFrames (0028,0008)", "room for 1 frame(s) of 24 bytes"});
 }
 
 TEST(IoDicom, JunkWithTheSignatureIsAFormatError) {

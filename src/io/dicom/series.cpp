@@ -291,8 +291,11 @@ std::vector<Header> folder_series_headers(const fs::path& dir, const std::string
   if (by_series.empty())
     throw FormatError(dir.string(), "DICOM files", "the folder has no DICOM images (files with \"DICM\" at byte 128)");
   std::vector<std::string> listing;
-  for (const auto& [series_uid, headers] : by_series)
-    listing.push_back(fmt::format("{} \"{}\" ({} files)", series_uid, headers.front().series_description, headers.size()));
+  for (const auto& [series_uid, headers] : by_series) {
+    std::size_t slices = 0;
+    for (const Header& h : headers) slices += h.frames.size();
+    listing.push_back(fmt::format("{} \"{}\" ({} slices)", series_uid, headers.front().series_description, slices));
+  }
   if (!uid.empty()) {
     const auto found = by_series.find(uid);
     if (found == by_series.end())
