@@ -17,6 +17,7 @@
 
 #include <fmt/format.h>
 
+#include "io/dicom_data.hpp"
 #include "io/io_test_util.hpp"
 #include "strata/io/formats.hpp"
 #include "strata/io/volume_io.hpp"
@@ -29,75 +30,7 @@ namespace fs = std::filesystem;
 using test::TempDir;
 using test::io::expect_error;
 
-// A data set of explicit-VR little-endian elements, written as a Part 10 file.
-class DicomData {
- public:
-  DicomData& text(std::uint16_t group, std::uint16_t element, const char* vr, std::string value) {
-    if (value.size() % 2) value += std::string(vr) == "UI" ? '\0' : ' ';
-    return set(group, element, vr, value);
-  }
-  DicomData& us(std::uint16_t group, std::uint16_t element, std::uint16_t value) {
-    return set(group, element, "US", std::string{char(value & 0xFF), char(value >> 8)});
-  }
-  DicomData& pixels(const std::vector<std::int16_t>& samples) {
-    std::string bytes(samples.size() * 2, '\0');
-    std::memcpy(bytes.data(), samples.data(), bytes.size());
-    return set(0x7FE0, 0x0010, "OW", bytes);
-  }
-  DicomData& sequence(std::uint16_t group, std::uint16_t element, const std::vector<DicomData>& items) {
-    std::string bytes;
-    for (const DicomData& item : items) {
-      const std::string nested = item.encoded();
-      bytes += tag(0xFFFE, 0xE000) + u32(std::uint32_t(nested.size())) + nested;
-    }
-    return set(group, element, "SQ", bytes);
-  }
-  DicomData& erase(std::uint16_t group, std::uint16_t element) {
-    elements_.erase(key(group, element));
-    return *this;
-  }
-
-  std::string encoded() const {
-    std::string out;
-    for (const auto& [k, e] : elements_) {
-      out += tag(std::uint16_t(k >> 16), std::uint16_t(k & 0xFFFF)) + e.vr;
-      const bool long_length = e.vr == "OB" || e.vr == "OW" || e.vr == "SQ" || e.vr == "UN" || e.vr == "UT";
-      if (long_length)
-        out += std::string(2, '\0') + u32(std::uint32_t(e.value.size()));
-      else
-        out += std::string{char(e.value.size() & 0xFF), char(e.value.size() >> 8)};
-      out += e.value;
-    }
-    return out;
-  }
-
-  void write(const fs::path& path, const std::string& transfer_syntax = "1.2.840.10008.1.2.1") const {
-    DicomData meta;
-    meta.set(0x0002, 0x0001, "OB", std::string{'\0', '\1'})
-        .text(0x0002, 0x0002, "UI", "1.2.840.10008.5.1.4.1.1.2")
-        .text(0x0002, 0x0003, "UI", "1.2.3.4.5.6.7")
-        .text(0x0002, 0x0010, "UI", transfer_syntax);
-    const std::string meta_bytes = meta.encoded();
-    std::ofstream out(path, std::ios::binary);
-    out << std::string(128, '\0') << "DICM" << tag(0x0002, 0x0000) << "UL" << std::string{4, 0}
-        << u32(std::uint32_t(meta_bytes.size())) << meta_bytes << encoded();
-  }
-
- private:
-  struct Element {
-    std::string vr, value;
-  };
-  static std::uint32_t key(std::uint16_t group, std::uint16_t element) { return std::uint32_t(group) << 16 | element; }
-  static std::string u32(std::uint32_t v) { return {char(v), char(v >> 8), char(v >> 16), char(v >> 24)}; }
-  static std::string tag(std::uint16_t group, std::uint16_t element) {
-    return {char(group), char(group >> 8), char(element), char(element >> 8)};
-  }
-  DicomData& set(std::uint16_t group, std::uint16_t element, const char* vr, std::string value) {
-    elements_[key(group, element)] = {vr, std::move(value)};
-    return *this;
-  }
-  std::map<std::uint32_t, Element> elements_;
-};
+using test::io::DicomData;
 
 constexpr std::uint16_t kRows = 3, kColumns = 4;
 // An oblique plane: rows along (cos 30°, sin 30°, 0), columns along z.
@@ -317,6 +250,19 @@ TEST(IoDicom, FrameCountBeyondThePixelDataIsRefusedBeforeAllocating) {
   ct_slice(0).text(0x0028, 0x0008, "IS", "2000000000").write(dir / "frames.dcm");
   expect_error([&] { open_volume(dir / "frames.dcm"); },
                {"frames.dcm", "NumberOfFrames (0028,0008)", "room for 1 frame(s) of 24 bytes"});
+}
+
+TEST(IoDicom, TruncatedFilesAreRefusedBeforeGdcmParsesThem) {
+  TempDir dir;
+  ct_slice(0).write(dir / "whole.dcm");
+  const auto size = fs::file_size(dir / "whole.dcm");
+  for (std::uintmax_t cut : {size - 30, std::uintmax_t(250), std::uintmax_t(140)}) {
+    fs::copy_file(dir / "whole.dcm", dir / "cut.dcm", fs::copy_options::overwrite_existing);
+    fs::resize_file(dir / "cut.dcm", cut);
+    expect_error([&] { open_volume(dir / "cut.dcm"); }, {"cut.dcm"});
+  }
+  DicomData().write(dir / "meta_only.dcm");
+  expect_error([&] { open_volume(dir / "meta_only.dcm"); }, {"meta_only.dcm", "no data set"});
 }
 
 TEST(IoDicom, JunkWithTheSignatureIsAFormatError) {

@@ -26,6 +26,7 @@
 // | (5200,9230) | PerFrameFunctionalGroupsSequence | SQ | PlanePosition (0020,9113) of each frame   |
 // | (7FE0,0010) | PixelData                        | OB/OW | present; native: long enough           |
 #include "io/dicom/header.hpp"
+#include "io/dicom/structure.hpp"
 
 #include <gdcmDataSet.h>
 #include <gdcmReader.h>
@@ -276,6 +277,7 @@ void quiet_gdcm() {
 
 Header read_header(const fs::path& file) {
   quiet_gdcm();
+  check_element_structure(file);  // before GDCM, whose parser aborts on a truncated file
   Header h;
   h.file = file;
   gdcm::Reader reader;
