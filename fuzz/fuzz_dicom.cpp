@@ -42,7 +42,7 @@ DicomData fuzzed_file(FuzzedDataProvider& in) {
   if (in.ConsumeBool()) {
     const std::vector<std::uint8_t> bytes = in.ConsumeBytes<std::uint8_t>(in.ConsumeIntegralInRange(0, 1 << 16));
     std::vector<std::int16_t> samples((bytes.size() + 1) / 2);
-    std::memcpy(samples.data(), bytes.data(), bytes.size());
+    if (!bytes.empty()) std::memcpy(samples.data(), bytes.data(), bytes.size());
     d.pixels(samples);
   }
   return d;

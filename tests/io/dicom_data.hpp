@@ -24,7 +24,7 @@ class DicomData {
   }
   DicomData& pixels(const std::vector<std::int16_t>& samples) {
     std::string bytes(samples.size() * 2, '\0');
-    std::memcpy(bytes.data(), samples.data(), bytes.size());
+    if (!samples.empty()) std::memcpy(bytes.data(), samples.data(), bytes.size());
     return set(0x7FE0, 0x0010, "OW", bytes);
   }
   DicomData& sequence(std::uint16_t group, std::uint16_t element, const std::vector<DicomData>& items) {
