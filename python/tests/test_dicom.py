@@ -118,3 +118,17 @@ def test_missing_position_is_named(tmp_path):
                 drop="ImagePositionPatient")
     with pytest.raises(strata.Error, match=r"late\.dcm: ImagePositionPatient \(0020,0032\): missing"):
         strata.read(tmp_path / "bad")
+
+
+def test_reads_the_frames_of_an_implicit_vr_multi_frame_file(tmp_path):
+    path = tmp_path / "frames.dcm"
+    write_slice(path, 0, generate_uid(), intercept=0.0)
+    ds = pydicom.dcmread(path)
+    ds.file_meta.TransferSyntaxUID = pydicom.uid.ImplicitVRLittleEndian
+    frames = np.stack([stored_slice(k) for k in range(3)])
+    ds.NumberOfFrames = 3
+    ds.SpacingBetweenSlices = 2.0  # one ImagePositionPatient: frames lie this far apart along the normal
+    ds.PixelData = frames.tobytes()
+    ds.save_as(str(path), write_like_original=False)
+    np.testing.assert_array_equal(strata.read(path), frames)
+    assert strata.info(path)["spacing"] == pytest.approx((2.0, PIXEL_SPACING[0], PIXEL_SPACING[1]))
