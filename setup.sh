@@ -13,6 +13,8 @@ PACKAGES=(
   libeigen3-dev                               # linear algebra
   zlib1g-dev libzstd-dev                      # gzip (NRRD, .nii.gz), zstd
   libtiff-dev                                 # TIFF stacks
+  libgdcm-dev                                 # DICOM series (src/io/dicom)
+  python3-pydicom                             # reference DICOM writer (python/tests/test_dicom.py)
   libspng-dev libturbojpeg0-dev               # PNG output, JPEG frames of the viewer and precomputed chunks
   libcpp-httplib-dev                          # HTTP server (strata serve)
   libcli11-dev nlohmann-json3-dev libfmt-dev  # CLI, JSON, formatting

@@ -3,6 +3,9 @@ find_package(Threads REQUIRED)
 find_package(OpenMP REQUIRED)
 find_package(ZLIB REQUIRED)
 find_package(TIFF REQUIRED)
+# DICOM series (src/io/dicom): Debian's libgdcm-dev installs its CMake package under gdcm-3.0; only
+# the imported targets gdcmMSFF (images, readers) and its dependencies are used.
+find_package(GDCM REQUIRED NO_MODULE PATHS /usr/lib/${CMAKE_LIBRARY_ARCHITECTURE}/gdcm-3.0)
 find_package(Eigen3 3.4 REQUIRED NO_MODULE)
 find_package(nlohmann_json 3 REQUIRED)
 find_package(fmt REQUIRED)

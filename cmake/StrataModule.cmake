@@ -17,8 +17,8 @@ function(strata_add_module name deps)
   target_link_libraries(strata_${name} PUBLIC ${_dep_targets} strata_options OpenMP::OpenMP_CXX
                         Threads::Threads nlohmann_json::nlohmann_json fmt::fmt)
   if(name STREQUAL "io")
-    # turbojpeg: the jpeg chunks of Neuroglancer precomputed volumes
-    target_link_libraries(strata_${name} PRIVATE ZLIB::ZLIB TIFF::TIFF PkgConfig::TURBOJPEG)
+    # turbojpeg: the jpeg chunks of Neuroglancer precomputed volumes; GDCM: DICOM series
+    target_link_libraries(strata_${name} PRIVATE ZLIB::ZLIB TIFF::TIFF PkgConfig::TURBOJPEG gdcmMSFF)
   endif()
   if(name MATCHES "^(tensor|ta|quant)$")
     target_link_libraries(strata_${name} PUBLIC Eigen3::Eigen)

@@ -19,5 +19,7 @@ VolumeFormat mrc_format();
 VolumeFormat vtk_format();
 // Neuroglancer precomputed folders (precomputed.cpp, precomputed/): chunked multiscale volumes.
 VolumeFormat precomputed_format();
+// DICOM (dicom.cpp, dicom/): a folder of one series' slices or a single (multi-frame) file, read only.
+VolumeFormat dicom_format();
 
 }  // namespace strata::io::detail

@@ -61,6 +61,7 @@ Entries builtin_formats() {
   add(entries, detail::mrc_format());
   add(entries, detail::vtk_format());
   add(entries, detail::precomputed_format());
+  add(entries, detail::dicom_format());
   return entries;
 }
 
