@@ -13,6 +13,7 @@ PACKAGES=(
   libeigen3-dev                               # linear algebra
   zlib1g-dev libzstd-dev                      # gzip (NRRD, .nii.gz), zstd
   libtiff-dev                                 # TIFF stacks
+  libblosc-dev                                # blosc-compressed Zarr chunks (OME-Zarr)
   libspng-dev libturbojpeg0-dev               # PNG output, JPEG frames of the viewer
   libcpp-httplib-dev                          # HTTP server (strata serve)
   libcli11-dev nlohmann-json3-dev libfmt-dev  # CLI, JSON, formatting
@@ -20,6 +21,7 @@ PACKAGES=(
   mricron-data                                # sample MRI and brain atlases
   python3-nibabel                             # reference NIfTI reader and its test files (tests/io)
   python3-mrcfile                             # reference MRC reader and writer (python/tests/test_mrc.py)
+  python3-zarr python3-numcodecs              # reference Zarr reader and writer (python/tests/test_zarr.py)
   chromium                                    # browser tests of the viewer (tests/web)
   libopenmpi-dev openmpi-bin                  # strata-mpi, distributed compression (ctest -L mpi)
   # The Python module `import strata` (python/, docs/python.md), built by the same CMake build for

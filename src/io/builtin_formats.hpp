@@ -15,5 +15,7 @@ VolumeFormat nifti_format();
 VolumeFormat tiff_format();
 // MRC / MRCS / REC / CCP4 map (mrc.cpp): cryo-EM and cryo-ET volumes.
 VolumeFormat mrc_format();
+// Zarr v2 / v3 stores and OME-Zarr images (zarr.cpp, zarr/): folders of chunked arrays.
+VolumeFormat zarr_format();
 
 }  // namespace strata::io::detail
