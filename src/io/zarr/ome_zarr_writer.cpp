@@ -21,6 +21,7 @@
 #include "io/zarr/ome_zarr_writer.hpp"
 #include "io/zarr/zarr_array.hpp"
 #include "strata/core/error.hpp"
+#include "strata/io/file_names.hpp"
 #include "strata/io/ome_zarr.hpp"
 
 namespace strata::io {
@@ -143,7 +144,7 @@ class ArrayWriter {
 // destroyed uncommitted.
 class ImageFolder {
  public:
-  explicit ImageFolder(fs::path path) : path_(std::move(path)), tmp_(path_.string() + ".tmp") {
+  explicit ImageFolder(fs::path path) : path_(std::move(path)), tmp_(path_.string() + std::string(kTemporarySuffix)) {
     fs::remove_all(tmp_);
     fs::create_directories(tmp_);
     write_json(tmp_ / ".zgroup", {{"zarr_format", 2}});

@@ -348,7 +348,7 @@ std::vector<std::byte> undo(ZarrByteCodec codec, const std::vector<std::byte>& i
                             const std::string& file, const std::string& chunk) {
   switch (codec) {
     case ZarrByteCodec::gzip_or_zlib:
-      return gunzip_to_memory(in.data(), in.size(), file, chunk, limit + 1);
+      return gunzip_to_memory(in.data(), in.size(), file, chunk, limit + 1, /*accept_zlib=*/true);
     case ZarrByteCodec::zstd: {
       const unsigned long long declared = ZSTD_getFrameContentSize(in.data(), in.size());
       if (declared == ZSTD_CONTENTSIZE_ERROR) throw FormatError(file, chunk, "not a zstd frame");
