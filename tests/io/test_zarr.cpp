@@ -84,6 +84,20 @@ TEST(IoZarr, WrittenOmeZarrReadsBackWithGeometryForEveryType) {
     }
 }
 
+TEST(IoZarr, SlabsThroughOneChunkRowDecodeEachChunkOnce) {
+  TempDir dir;
+  const Volume v = test::io::random_volume({40, 30, 8}, DType::u16, 5);
+  const fs::path path = dir / "s.ome.zarr";
+  write_volume(path, v);
+  auto source = open_volume(path);
+  EXPECT_TRUE(source->read_slab(0, 1) == v.crop(Box{{0, 0, 0}, {40, 30, 1}}));
+  // The chunk row is cached: with its files gone the next slabs still read the samples, where a
+  // reader that went back to the files would find them missing and return the fill value 0.
+  fs::remove_all(path / "0" / "0");
+  EXPECT_TRUE(source->read_slab(1, 8) == v.crop(Box{{0, 0, 1}, {40, 30, 8}}));
+  EXPECT_EQ(open_volume(path)->read_slab(1, 2).samples<std::uint16_t>()[0], 0);
+}
+
 TEST(IoZarr, AttributesAreNgff04WithScaleAndTranslationInZyxOrder) {
   TempDir dir;
   VolumeInfo info{.dims = {3, 4, 5}, .dtype = DType::u16, .spacing = {0.5, 1.25, 2.0}};

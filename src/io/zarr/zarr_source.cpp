@@ -1,7 +1,10 @@
-// Box reads from a Zarr array through a bounded LRU cache of decoded chunks.
+// Box reads from a Zarr array through a bounded LRU cache of decoded chunks, the chunks of one
+// box decoded in parallel.
 #include "io/zarr/zarr_source.hpp"
 
 #include <algorithm>
+#include <array>
+#include <exception>
 #include <cstring>
 #include <fstream>
 #include <list>
@@ -88,9 +91,22 @@ class ZarrSource final : public VolumeSource {
       first[a] = lo[a] / c;
       last[a] = (hi[a] - 1) / c;
     }
+    std::vector<std::array<std::int64_t, 3>> chunks;
     for (std::int64_t cz = first[2]; cz <= last[2]; ++cz)
       for (std::int64_t cy = first[1]; cy <= last[1]; ++cy)
-        for (std::int64_t cx = first[0]; cx <= last[0]; ++cx) copy_chunk({cx, cy, cz}, box, out);
+        for (std::int64_t cx = first[0]; cx <= last[0]; ++cx) chunks.push_back({cx, cy, cz});
+    // Chunks decode in parallel (each fills its own part of `out`); the first error is rethrown.
+    std::exception_ptr error;
+#pragma omp parallel for schedule(dynamic) if (chunks.size() > 1)
+    for (std::size_t i = 0; i < chunks.size(); ++i) {
+      try {
+        copy_chunk(chunks[i], box, out);
+      } catch (...) {
+#pragma omp critical(zarr_read_error)
+        if (!error) error = std::current_exception();
+      }
+    }
+    if (error) std::rethrow_exception(error);
     return out;
   }
 
@@ -105,7 +121,7 @@ class ZarrSource final : public VolumeSource {
     return axis < 0 ? 1 : array_.chunks[std::size_t(axis)];
   }
 
-  ChunkIndex chunk_index(const std::int64_t (&spatial)[3]) const {
+  ChunkIndex chunk_index(const std::array<std::int64_t, 3>& spatial) const {
     ChunkIndex index(array_.shape.size());
     for (std::size_t i = 0; i < view_.leading_index.size(); ++i) index[i] = view_.leading_index[i] / array_.chunks[i];
     for (int a = 0; a < view_.spatial; ++a) index[std::size_t(array_axis(a))] = spatial[a];
@@ -134,7 +150,7 @@ class ZarrSource final : public VolumeSource {
     return chunk;
   }
 
-  void copy_chunk(const std::int64_t (&spatial)[3], const Box& box, Volume& out) {
+  void copy_chunk(const std::array<std::int64_t, 3>& spatial, const Box& box, Volume& out) {
     const ChunkIndex index = chunk_index(spatial);
     const Chunk chunk = load(index);
     const std::size_t sample = dtype_size(info_.dtype);
