@@ -19,8 +19,9 @@ namespace strata::io::detail {
 inline constexpr std::uintmax_t kMaxZarrMetadataBytes = 16u << 20;
 // JSON nested deeper than this is refused before parsing (real metadata nests 4 or 5 levels).
 inline constexpr int kMaxZarrJsonDepth = 64;
-// A decoded chunk larger than this is refused: no reader could cache one (zarr's default is 1 MiB).
-inline constexpr std::uint64_t kMaxZarrChunkBytes = std::uint64_t(1) << 31;
+// A decoded chunk larger than this is refused before anything is allocated for it (zarr's
+// default chunks hold about 1 MiB; the largest in use, a few hundred).
+inline constexpr std::uint64_t kMaxZarrChunkBytes = std::uint64_t(512) << 20;
 
 // The bytes-to-bytes steps of a chunk (v2 `compressor`, v3 bytes-to-bytes codecs).
 enum class ZarrByteCodec : std::uint8_t { gzip_or_zlib, zstd, blosc, crc32c };

@@ -65,7 +65,7 @@ class ZarrSource final : public VolumeSource {
         view_(std::move(view)),
         info_(std::move(info)),
         path_(std::move(path)),
-        cache_(std::size_t(std::max<std::uint64_t>(1, kZarrCacheBytes / array_.chunk_bytes()))) {
+        cache_(std::size_t(std::clamp<std::uint64_t>(kZarrCacheBytes / array_.chunk_bytes(), 1, kZarrCacheChunks))) {
     // Element strides of the logical axes inside a decoded chunk, whose axes are stored in
     // array_.stored_axis order (C order over them).
     const std::size_t rank = array_.shape.size();

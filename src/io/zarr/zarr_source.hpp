@@ -15,6 +15,8 @@ namespace strata::io::detail {
 // Decoded chunks a source keeps: enough for a chunk row of a 2048 x 2048 slice of 64^3 u16
 // chunks, small beside the memory limits volumes are compressed under.
 inline constexpr std::uint64_t kZarrCacheBytes = 256u << 20;
+// And at most this many, however small they are (each entry costs a few hundred bytes itself).
+inline constexpr std::uint64_t kZarrCacheChunks = 1u << 16;
 
 // Where in the array the source reads: the array's last `spatial` axes (2 or 3) are z, y, x (y,
 // x for 2), the leading ones are fixed at `leading_index` (one volume of a t/c series).
