@@ -15,6 +15,7 @@ PACKAGES=(
   libtiff-dev                                 # TIFF stacks
   libgdcm-dev                                 # DICOM series (src/io/dicom)
   python3-pydicom                             # reference DICOM writer (python/tests/test_dicom.py)
+  libblosc-dev                                # blosc-compressed Zarr chunks (OME-Zarr)
   libspng-dev libturbojpeg0-dev               # PNG output, JPEG frames of the viewer and precomputed chunks
   libcpp-httplib-dev                          # HTTP server (strata serve)
   libcli11-dev nlohmann-json3-dev libfmt-dev  # CLI, JSON, formatting
@@ -24,6 +25,8 @@ PACKAGES=(
   python3-mrcfile                             # reference MRC reader and writer (python/tests/test_mrc.py)
   python3-meshio                              # reads Strata's legacy .vtk output (python/tests/test_vtk.py)
   python3-pil                                 # reference JPEG encoder of python/tests/test_precomputed.py
+  python3-zarr python3-numcodecs              # reference Zarr reader and writer (python/tests/test_zarr.py)
+  python3-dask python3-xarray                 # opened .strata files as dask/xarray arrays (test_geometry.py)
   chromium                                    # browser tests of the viewer (tests/web)
   libopenmpi-dev openmpi-bin                  # strata-mpi, distributed compression (ctest -L mpi)
   # The Python module `import strata` (python/, docs/python.md), built by the same CMake build for

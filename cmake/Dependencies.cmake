@@ -12,6 +12,7 @@ find_package(fmt REQUIRED)
 find_package(CLI11 REQUIRED)
 find_package(PkgConfig REQUIRED)
 pkg_check_modules(ZSTD REQUIRED IMPORTED_TARGET libzstd)
+pkg_check_modules(BLOSC REQUIRED IMPORTED_TARGET blosc)  # Zarr chunks (io/zarr)
 pkg_check_modules(TURBOJPEG REQUIRED IMPORTED_TARGET libturbojpeg)  # JPEG frames of the viewer (render), precomputed jpeg chunks (io)
 # Debian builds cpp-httplib as a library with OpenSSL, zlib and brotli support: its pkg-config
 # flags (-DCPPHTTPLIB_*_SUPPORT) must reach every file that includes httplib.h, or the class

@@ -17,13 +17,14 @@ function(strata_add_module name deps)
   target_link_libraries(strata_${name} PUBLIC ${_dep_targets} strata_options OpenMP::OpenMP_CXX
                         Threads::Threads nlohmann_json::nlohmann_json fmt::fmt)
   if(name STREQUAL "io")
-    # turbojpeg: the jpeg chunks of Neuroglancer precomputed volumes; GDCM: DICOM series
-    target_link_libraries(strata_${name} PRIVATE ZLIB::ZLIB TIFF::TIFF PkgConfig::TURBOJPEG gdcmMSFF)
+    # turbojpeg: precomputed jpeg chunks; GDCM: DICOM series; zstd, blosc: Zarr chunks
+    target_link_libraries(strata_${name} PRIVATE ZLIB::ZLIB TIFF::TIFF PkgConfig::TURBOJPEG gdcmMSFF PkgConfig::ZSTD
+                                                 PkgConfig::BLOSC)
   endif()
   if(name MATCHES "^(tensor|ta|quant)$")
     target_link_libraries(strata_${name} PUBLIC Eigen3::Eigen)
   endif()
-  if(name STREQUAL "store")  # store/zstd_frame.cpp is the only user of zstd
+  if(name STREQUAL "store")  # store/zstd_frame.cpp: the container's zstd frames
     target_link_libraries(strata_${name} PRIVATE PkgConfig::ZSTD)
   endif()
   if(name STREQUAL "render")

@@ -21,5 +21,7 @@ VolumeFormat vtk_format();
 VolumeFormat precomputed_format();
 // DICOM (dicom.cpp, dicom/): a folder of one series' slices or a single (multi-frame) file, read only.
 VolumeFormat dicom_format();
+// Zarr v2 / v3 stores and OME-Zarr images (zarr.cpp, zarr/): folders of chunked arrays.
+VolumeFormat zarr_format();
 
 }  // namespace strata::io::detail

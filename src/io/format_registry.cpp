@@ -62,6 +62,7 @@ Entries builtin_formats() {
   add(entries, detail::vtk_format());
   add(entries, detail::precomputed_format());
   add(entries, detail::dicom_format());
+  add(entries, detail::zarr_format());
   return entries;
 }
 

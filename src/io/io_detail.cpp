@@ -127,11 +127,15 @@ using ChunkSink = std::function<void(const unsigned char*, std::size_t)>;
 // Inflates gzip members back to back (as `gzip` and `cat a.gz b.gz` produce), handing every
 // decoded chunk to `sink`, and returns the number of decoded bytes. Stops as soon as `limit`
 // bytes are decoded, without looking at the rest of the stream. Throws FormatError on corrupt
-// data and on a stream that stops before its end-of-member marker (a truncated file).
+// data and on a stream that stops before its end-of-member marker (a truncated file). With
+// `accept_zlib`, a zlib (RFC 1950) stream is taken as well.
 std::uint64_t inflate_gzip(const std::byte* data, std::uint64_t size, const std::string& file,
                            const std::string& field, ProgressSink& progress, std::uint64_t limit,
-                           const ChunkSink& sink) {
-  if (!looks_gzipped(data, size)) throw FormatError(file, field, "not a gzip stream (missing the 1f 8b signature)");
+                           const ChunkSink& sink, bool accept_zlib = false) {
+  if (!looks_gzipped(data, size) && !(accept_zlib && looks_zlib(data, size)))
+    throw FormatError(file, field,
+                      accept_zlib ? "neither a gzip nor a zlib stream (no 1f 8b signature, no zlib header)"
+                                  : "not a gzip stream (missing the 1f 8b signature)");
   z_stream stream{};
   // windowBits 15 + 32: accept gzip (and zlib) headers, detected automatically.
   if (inflateInit2(&stream, 15 + 32) != Z_OK) throw Error(file + ": cannot initialise gzip decompression");
@@ -186,18 +190,27 @@ std::uint64_t inflate_gzip(const std::byte* data, std::uint64_t size, const std:
 }  // namespace
 
 std::vector<std::byte> gunzip_to_memory(const std::byte* data, std::uint64_t size, const std::string& file_for_errors,
-                                        const std::string& field, std::uint64_t limit) {
+                                        const std::string& field, std::uint64_t limit, bool accept_zlib) {
   std::vector<std::byte> result;
-  inflate_gzip(data, size, file_for_errors, field, silent_progress(), limit,
-               [&](const unsigned char* p, std::size_t n) {
-                 auto* b = reinterpret_cast<const std::byte*>(p);
-                 result.insert(result.end(), b, b + n);
-               });
+  inflate_gzip(
+      data, size, file_for_errors, field, silent_progress(), limit,
+      [&](const unsigned char* p, std::size_t n) {
+        auto* b = reinterpret_cast<const std::byte*>(p);
+        result.insert(result.end(), b, b + n);
+      },
+      accept_zlib);
   return result;
 }
 
 bool looks_gzipped(const std::byte* data, std::uint64_t size) {
   return size >= 2 && data[0] == std::byte{0x1f} && data[1] == std::byte{0x8b};
+}
+
+bool looks_zlib(const std::byte* data, std::uint64_t size) {
+  // RFC 1950: compression method 8 (deflate), window <= 32 KiB, CMF * 256 + FLG a multiple of 31.
+  if (size < 2) return false;
+  const auto cmf = std::to_integer<unsigned>(data[0]), flg = std::to_integer<unsigned>(data[1]);
+  return (cmf & 0x0Fu) == 8 && (cmf >> 4) <= 7 && (cmf * 256 + flg) % 31 == 0;
 }
 
 std::shared_ptr<MappedFile> gunzip_to_temp_file(const std::byte* data, std::uint64_t size, const ReadOptions& options,

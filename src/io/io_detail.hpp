@@ -64,10 +64,13 @@ inline constexpr std::uint64_t kNoDecodeLimit = ~std::uint64_t(0);
 // Decodes gzip data (one or more members) into memory, at most `limit` bytes: a stream that
 // decodes to more is cut there without reading (or checking) the rest, so a caller that needs a
 // header reads only the header. Throws FormatError(file, field, ...) on a corrupt stream and on
-// one that ends before its end-of-member marker (a truncated file).
+// one that ends before its end-of-member marker (a truncated file). With `accept_zlib` a zlib
+// (RFC 1950) stream is decoded too (Zarr's "zlib" compressor).
 std::vector<std::byte> gunzip_to_memory(const std::byte* data, std::uint64_t size, const std::string& file_for_errors,
-                                        const std::string& field, std::uint64_t limit = kNoDecodeLimit);
+                                        const std::string& field, std::uint64_t limit = kNoDecodeLimit,
+                                        bool accept_zlib = false);
 bool looks_gzipped(const std::byte* data, std::uint64_t size);
+bool looks_zlib(const std::byte* data, std::uint64_t size);
 
 // What the header of a gzip-compressed volume says its decoded data holds.
 struct DeclaredSize {

@@ -65,7 +65,7 @@ TEST(CliFormats, JsonDescribesWhatEachFormatCanDo) {
   }
   const nlohmann::json& nifti = j["formats"][2];
   ASSERT_EQ(nifti["name"], "nifti");
-  EXPECT_EQ(nifti["write"]["label_dtypes"], (nlohmann::json{"u8", "u16", "i16", "u32", "i32"}));
+  EXPECT_EQ(nifti["write"]["label_dtypes"], (nlohmann::json{"u8", "u16", "i16", "u32", "i32", "u64", "i64"}));
   EXPECT_EQ(j["formats"][0]["directory"], nullptr);
   EXPECT_EQ(j["formats"][3]["directory"], "a directory of TIFF slices");
 }
