@@ -1,10 +1,15 @@
 // `strata decompress IN.strata -o OUT [--level L] [--rank K] [--box ...]`.
+#include <memory>
 #include <optional>
+#include <vector>
 
 #include "cli_checks.hpp"
 #include "commands.hpp"
 #include "report.hpp"
 #include "strata/core/error.hpp"
+#include "strata/io/formats.hpp"
+#include "strata/io/ome_zarr.hpp"
+#include "strata/io/precomputed.hpp"
 #include "strata/io/volume_io.hpp"
 #include "strata/store/volume_set.hpp"
 #include "strata/ta/ta_volume.hpp"
@@ -27,6 +32,55 @@ Volume to_output_type(Volume decoded, const ta::TaVolume& volume, const Decompre
   return decoded.converted(volume.source_info().dtype);
 }
 
+// One level of a .strata file as a volume source: boxes decoded at rank `rank`, in `dtype`
+// (rounded and clamped), placed where the level lies. The multiscale writers read it slab by slab.
+class LevelSource final : public io::VolumeSource {
+ public:
+  LevelSource(const ta::TaVolume& volume, int level, int rank, DType dtype, std::filesystem::path path)
+      : volume_(volume), level_(level), rank_(rank), path_(std::move(path)) {
+    const Extent dims = volume.geometry().level(level).dims;
+    const double scale = double(std::int64_t(1) << level);
+    const Spacing& s = volume.source_info().spacing;
+    info_.dims = dims;
+    info_.dtype = dtype;
+    info_.spacing = {s.x * scale, s.y * scale, s.z * scale};
+    info_.geometry = volume.level_geometry(level, Box::whole(dims));
+  }
+  const VolumeInfo& info() const override { return info_; }
+  const std::filesystem::path& path() const override { return path_; }
+  Volume read_box(const Box& box) override {
+    Volume decoded = volume_.decode_box(level_, box, rank_);
+    return decoded.dtype() == info_.dtype ? decoded : decoded.converted(info_.dtype);
+  }
+
+ private:
+  const ta::TaVolume& volume_;
+  int level_, rank_;
+  std::filesystem::path path_;
+  VolumeInfo info_;
+};
+
+// Multiscale outputs (OME-Zarr, Neuroglancer precomputed) take every level of the file, each in
+// the source's sample type (or float32 with --float), so viewers get the whole pyramid.
+bool writes_pyramid(const DecompressArgs& args) {
+  if (args.level != 0 || !args.box.empty()) return false;
+  return io::output_format(args.output).capabilities.multiscale;
+}
+
+void write_pyramid(const ta::TaVolume& volume, int rank, const DecompressArgs& args) {
+  const DType dtype = args.keep_float ? DType::f32 : volume.source_info().dtype;
+  std::vector<std::unique_ptr<LevelSource>> levels;
+  std::vector<io::VolumeSource*> sources;
+  for (int l = 0; l < volume.geometry().level_count(); ++l) {
+    levels.push_back(std::make_unique<LevelSource>(volume, l, rank, dtype, args.input));
+    sources.push_back(levels.back().get());
+  }
+  if (io::output_format(args.output).name == "precomputed")
+    io::write_precomputed(args.output, sources);
+  else
+    io::write_ome_zarr_pyramid(args.output, sources);
+}
+
 void run_decompress(const DecompressArgs& args, const GlobalOptions&) {
   check_volume_output(args.output, "--output", {args.input});
   ta::TaVolume volume(store::open_volume(args.input, args.volume));
@@ -37,6 +91,7 @@ void run_decompress(const DecompressArgs& args, const GlobalOptions&) {
   const int k = args.rank > 0 ? args.rank : volume.rank();
   if (k > volume.rank())
     throw Error("--rank: " + std::to_string(k) + " exceeds the stored rank " + std::to_string(volume.rank()));
+  if (writes_pyramid(args)) return write_pyramid(volume, k, args);
   Volume decoded = to_output_type(volume.decode_box(args.level, box, k), volume, args);
   decoded.set_geometry(volume.level_geometry(args.level, box));
   io::write_volume(args.output, decoded);
@@ -48,7 +103,10 @@ void register_decompress(CLI::App& app, const GlobalOptions& global) {
   auto args = std::make_shared<DecompressArgs>();
   CLI::App* cmd = app.add_subcommand("decompress", "Decode a .strata file (any level, rank and box) to a volume file");
   cmd->add_option("input", args->input, "Input .strata file")->required();
-  cmd->add_option("-o,--output", args->output, "Output volume (.nrrd, .nii, .nii.gz, .raw, .tif)")->required();
+  cmd->add_option("-o,--output", args->output,
+                  "Output volume (.nrrd, .nii, .nii.gz, .raw, .tif, ...); a multiscale format (.ome.zarr, "
+                  ".precomputed) receives every level unless --level or --box picks one")
+      ->required();
   cmd->add_option("--level", args->level, "Octree level (0 = full resolution)")->capture_default_str();
   cmd->add_option("--rank", args->rank, "Reconstruction rank K (default: the stored rank)");
   cmd->add_option("--box", args->box, "Sub-box x0,y0,z0:x1,y1,z1 in level coordinates (half-open)");

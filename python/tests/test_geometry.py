@@ -93,3 +93,25 @@ def test_opened_files_are_arrays_to_numpy_dask_and_xarray(tmp_path, cli):
     xr = pytest.importorskip("xarray")
     x = xr.DataArray(np.asarray(f), dims=("z", "y", "x"))
     assert x.shape == f.shape
+
+
+def test_decompress_writes_every_level_as_an_ome_zarr_pyramid(tmp_path, cli):
+    zarr = pytest.importorskip("zarr")
+    vol = strata.generate("prisms", (24, 40, 36), seed=5)
+    strata.write(tmp_path / "v.nrrd", vol, spacing=(2.0, 0.5, 0.5), origin=(10.0, -4.0, 3.0), unit="um")
+    cli("compress", tmp_path / "v.nrrd", "-o", tmp_path / "v.strata", "--brick", "16", "--rank", "8")
+    cli("decompress", tmp_path / "v.strata", "-o", tmp_path / "v.ome.zarr")
+    f = strata.open(tmp_path / "v.strata")
+    group = zarr.open_group(str(tmp_path / "v.ome.zarr"), mode="r")
+    datasets = group.attrs["multiscales"][0]["datasets"]
+    assert len(datasets) == f.levels
+    for level, d in enumerate(datasets):
+        a = group[d["path"]]
+        assert a.shape == f.level_shape(level) and a.dtype == f.dtype
+        scale = next(t["scale"] for t in d["coordinateTransformations"] if t["type"] == "scale")
+        assert scale == pytest.approx([s * 2**level for s in (2.0, 0.5, 0.5)])
+    np.testing.assert_array_equal(group["0"][:], f.read())
+    # Each level reads back through strata's own OME-Zarr reader with its placement.
+    info = strata.info(tmp_path / "v.ome.zarr", level=1)
+    assert info["spacing"] == pytest.approx((4.0, 1.0, 1.0))
+    assert info["origin"] == pytest.approx((10.0 + 1.0, -4.0 + 0.25, 3.0 + 0.25))

@@ -90,3 +90,20 @@ def test_palette_matches_labels_palette(tmp_path, cli, label_file, lab):
 def test_labels_from_a_strata_file_refuse_floats(lab):
     with pytest.raises(ValueError, match="as_float"):
         lab.read(as_float=True)
+
+
+def test_64_bit_ids_above_2_to_the_40_encode_decode_and_query_exactly(tmp_path, cli):
+    small = label_volume()[:16, :20, :24]
+    ids = small.astype(np.uint64) * np.uint64(1 << 40) + np.uint64(7)  # every id above 2^40
+    strata.write(tmp_path / "ids.nrrd", ids)
+    cli("labels", "encode", tmp_path / "ids.nrrd", "-o", tmp_path / "ids.strata")
+    f = strata.open(tmp_path / "ids.strata")
+    assert f.dtype == np.uint64
+    np.testing.assert_array_equal(f.read(), ids)
+    cli("labels", "decode", tmp_path / "ids.strata", "-o", tmp_path / "back.nrrd")
+    np.testing.assert_array_equal(strata.read(tmp_path / "back.nrrd"), ids)
+    box = np.s_[2:14, 3:17, 5:21]
+    values, counts = np.unique(ids[box], return_counts=True)
+    assert f.query(box, method="naive") == {int(v): (float(c), 0.0) for v, c in zip(values, counts)}
+    hybrid = f.query(box)
+    assert set(hybrid) <= {int(v) for v in np.unique(ids)} and min(hybrid) > 1 << 40
