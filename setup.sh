@@ -20,6 +20,8 @@ PACKAGES=(
   mricron-data                                # sample MRI and brain atlases
   python3-nibabel                             # reference NIfTI reader and its test files (tests/io)
   python3-mrcfile                             # reference MRC reader and writer (python/tests/test_mrc.py)
+  libhdf5-dev                                 # HDF5 files (src/io/hdf5.cpp), the C library
+  python3-h5py                                # reference HDF5 reader and writer (python/tests/test_hdf5.py)
   chromium                                    # browser tests of the viewer (tests/web)
   libopenmpi-dev openmpi-bin                  # strata-mpi, distributed compression (ctest -L mpi)
   # The Python module `import strata` (python/, docs/python.md), built by the same CMake build for

@@ -15,5 +15,7 @@ VolumeFormat nifti_format();
 VolumeFormat tiff_format();
 // MRC / MRCS / REC / CCP4 map (mrc.cpp): cryo-EM and cryo-ET volumes.
 VolumeFormat mrc_format();
+// HDF5 (hdf5.cpp, hdf5/): datasets of 3 to 5 dimensions through the HDF5 C library.
+VolumeFormat hdf5_format();
 
 }  // namespace strata::io::detail

@@ -59,6 +59,7 @@ Entries builtin_formats() {
   add(entries, detail::nifti_format());
   add(entries, detail::tiff_format());
   add(entries, detail::mrc_format());
+  add(entries, detail::hdf5_format());
   return entries;
 }
 
