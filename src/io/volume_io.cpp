@@ -133,11 +133,6 @@ Volume read_volume(const std::filesystem::path& path, const ReadOptions& options
   return open_volume(path, options)->read_all();
 }
 
-namespace {
-
-// `out.h5:/group/name` -> {"out.h5", "/group/name"}: the last colon whose left part has the
-// extension of a format with datasets. {path, ""} when the path has a format's extension itself
-// or no such split (the container need not exist yet, unlike split_container_path's).
 std::pair<std::filesystem::path, std::string> split_output_container(const std::filesystem::path& path) {
   if (format_by_extension(path)) return {path, {}};
   const std::string text = path.string();
@@ -148,8 +143,6 @@ std::pair<std::filesystem::path, std::string> split_output_container(const std::
   }
   return {path, {}};
 }
-
-}  // namespace
 
 std::unique_ptr<VolumeWriter> create_volume_writer(const std::filesystem::path& given_path, const VolumeInfo& info,
                                                    const WriteOptions& given_options) {

@@ -33,7 +33,10 @@ class H5Builder {
     H5Pclose(creation);
     EXPECT_GE(file_, 0);
   }
-  ~H5Builder() { H5Fclose(file_); }
+  ~H5Builder() {
+    for (hid_t d : datasets_) H5Dclose(d);
+    H5Fclose(file_);
+  }
 
   // Dataset `name` of `shape` (C order) stored as `file_type`, filled from `data` (`memory_type`).
   hid_t add(const char* name, hid_t file_type, const std::vector<hsize_t>& shape, hid_t memory_type, const void* data,
@@ -43,7 +46,9 @@ class H5Builder {
     const hid_t space = H5Screate_simple(int(shape.size()), shape.data(), nullptr);
     const hid_t dataset = H5Dcreate2(file_, name, file_type, space, links, creation, H5P_DEFAULT);
     EXPECT_GE(dataset, 0) << name;
-    if (data) EXPECT_GE(H5Dwrite(dataset, memory_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data), 0);
+    if (data) {
+      EXPECT_GE(H5Dwrite(dataset, memory_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data), 0);
+    }
     H5Sclose(space);
     H5Pclose(links);
     datasets_.push_back(dataset);
@@ -80,6 +85,18 @@ std::vector<T> iota_values(std::size_t n, T first = T(0)) {
   std::vector<T> v(n);
   std::iota(v.begin(), v.end(), first);
   return v;
+}
+
+ReadOptions dataset_named(std::string name) {
+  ReadOptions options;
+  options.dataset = std::move(name);
+  return options;
+}
+
+ReadOptions volume_number(std::int64_t volume) {
+  ReadOptions options;
+  options.volume = volume;
+  return options;
 }
 
 // Runs `f`, expects a FormatError whose text holds the file name, `field` and `hint`.
@@ -135,7 +152,9 @@ TEST(IoHdf5, WriterStoresChunkedDeflateAndFijiVoxelSize) {
   write_volume(dir / "packed.h5", v, {});
   {
     VolumeInfo info = placed_info(v.dims(), DType::u16);
-    auto writer = create_volume_writer(dir / "plain.h5", info, {.compress = false});
+    WriteOptions uncompressed;
+    uncompressed.compress = false;
+    auto writer = create_volume_writer(dir / "plain.h5", info, uncompressed);
     writer->write_slab(v);
     writer->finish();
   }
@@ -213,10 +232,10 @@ TEST(IoHdf5, ReadsContiguousBigEndianSamples) {
     b.add("/ints", H5T_STD_I32BE, {2, 3, 4}, H5T_NATIVE_INT32, ints.data());
     b.add("/reals", H5T_IEEE_F64BE, {2, 2, 2}, H5T_NATIVE_DOUBLE, reals.data());
   }
-  const Volume i = read_volume(path, {.dataset = "/ints"});
+  const Volume i = read_volume(path, dataset_named("/ints"));
   EXPECT_EQ(i.dtype(), DType::i32);
   EXPECT_TRUE(std::equal(ints.begin(), ints.end(), i.samples<std::int32_t>().begin()));
-  const Volume r = read_volume(path, {.dataset = "reals"});
+  const Volume r = read_volume(path, dataset_named("reals"));
   EXPECT_EQ(r.dtype(), DType::f64);
   EXPECT_TRUE(std::equal(reals.begin(), reals.end(), r.samples<double>().begin()));
 }
@@ -230,13 +249,13 @@ TEST(IoHdf5, LeadingAxesOfFourAndFiveDimensionsAreVolumes) {
     b.add("/tczyx", H5T_IEEE_F32LE, {2, 3, 2, 3, 4}, H5T_NATIVE_FLOAT, values.data());
   }
   expect_refused([&] { (void)open_volume(path); }, path, "shape", "--volume");
-  auto source = open_volume(path, {.volume = 4});  // t = 1, c = 1
+  auto source = open_volume(path, volume_number(4));  // t = 1, c = 1
   EXPECT_EQ(source->info().volumes, 6);
   EXPECT_EQ(source->info().dims, (Extent{4, 3, 2}));
   const Volume v = source->read_all();
   const std::size_t first = 4 * 24;
   EXPECT_TRUE(std::equal(v.samples<float>().begin(), v.samples<float>().end(), values.begin() + first));
-  EXPECT_THROW((void)open_volume(path, {.volume = 6}), ParameterError);
+  EXPECT_THROW((void)open_volume(path, volume_number(6)), ParameterError);
 }
 
 TEST(IoHdf5, SeveralDatasetsAreListedForTheUserToPick) {
@@ -251,9 +270,9 @@ TEST(IoHdf5, SeveralDatasetsAreListedForTheUserToPick) {
   }
   expect_refused([&] { (void)open_volume(path); }, path, "dataset", "/entry/raw (2, 2, 2) u8, /entry/recon (2, 2, 2) u8");
   EXPECT_EQ(open_volume(path.string() + ":/entry/recon")->info().dims, (Extent{2, 2, 2}));
-  expect_refused([&] { (void)open_volume(path, {.dataset = "/entry/missing"}); }, path, "dataset",
+  expect_refused([&] { (void)open_volume(path, dataset_named("/entry/missing")); }, path, "dataset",
                  "no dataset '/entry/missing'");
-  expect_refused([&] { (void)open_volume(path, {.dataset = "/entry"}); }, path, "dataset", "is a group");
+  expect_refused([&] { (void)open_volume(path, dataset_named("/entry")); }, path, "dataset", "is a group");
 }
 
 TEST(IoHdf5, SixtyFourBitIdsAboveTwoToTheFortyAreExact) {
@@ -330,12 +349,12 @@ TEST(IoHdf5, DatasetsThatAreNotVolumesAreRefused) {
     const hid_t negative = b.add("/negative_spacing", H5T_STD_U8LE, {1, 1, 1}, H5T_NATIVE_UINT8, nullptr);
     attribute(negative, "element_size_um", H5T_IEEE_F64LE, {1.0, -2.0, 1.0});
   }
-  expect_refused([&] { (void)open_volume(path, {.dataset = "/line"}); }, path, "rank", "1 dimensions");
-  expect_refused([&] { (void)open_volume(path, {.dataset = "/six"}); }, path, "rank", "6 dimensions");
-  expect_refused([&] { (void)open_volume(path, {.dataset = "/names"}); }, path, "type", "string");
-  expect_refused([&] { (void)open_volume(path, {.dataset = "/huge"}); }, path, "shape", "");
-  expect_refused([&] { (void)open_volume(path, {.dataset = "/bad_spacing"}); }, path, "attribute spacing", "2 values");
-  expect_refused([&] { (void)open_volume(path, {.dataset = "/negative_spacing"}); }, path, "attribute element_size_um",
+  expect_refused([&] { (void)open_volume(path, dataset_named("/line")); }, path, "rank", "1 dimensions");
+  expect_refused([&] { (void)open_volume(path, dataset_named("/six")); }, path, "rank", "6 dimensions");
+  expect_refused([&] { (void)open_volume(path, dataset_named("/names")); }, path, "type", "string");
+  expect_refused([&] { (void)open_volume(path, dataset_named("/huge")); }, path, "shape", "");
+  expect_refused([&] { (void)open_volume(path, dataset_named("/bad_spacing")); }, path, "attribute spacing", "2 values");
+  expect_refused([&] { (void)open_volume(path, dataset_named("/negative_spacing")); }, path, "attribute element_size_um",
                  "not positive");
   // Several volume-shaped datasets: the listing names each with its shape and type.
   expect_refused([&] { (void)open_volume(path); }, path, "dataset", "/names (2, 2, 2) string");

@@ -77,6 +77,11 @@ std::unique_ptr<VolumeSource> open_volume(const std::filesystem::path& path, con
 /// @brief `path` split into an existing container and the array inside it ("scan.h5:/a/b" ->
 /// {"scan.h5", "/a/b"}); {path, ""} when `path` exists or has no such split.
 std::pair<std::filesystem::path, std::string> split_container_path(const std::filesystem::path& path);
+/// @brief An output path split into its container and the array inside it ("out.h5:/a/b" ->
+/// {"out.h5", "/a/b"}): the last colon whose left part has the extension of a format with
+/// FormatCapabilities::datasets (the container need not exist yet). {path, ""} when `path` itself
+/// has a format's extension or there is no such split.
+std::pair<std::filesystem::path, std::string> split_output_container(const std::filesystem::path& path);
 std::unique_ptr<VolumeSource> memory_source(const Volume& volume, std::filesystem::path name = "<memory>");
 Volume read_volume(const std::filesystem::path& path, const ReadOptions& options = {});
 
