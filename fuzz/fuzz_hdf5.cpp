@@ -81,7 +81,7 @@ void add_dataset(hid_t file, const std::string& name, FuzzedDataProvider& in) {
     double bytes = double(H5Tget_size(type));
     for (hsize_t d : shape) bytes *= double(d);
     if (bytes <= kMaxWrittenBytes && H5Tget_class(type) != H5T_STRING) {
-      std::vector<std::uint8_t> samples(std::size_t(bytes));
+      std::vector<std::uint8_t> samples(static_cast<std::size_t>(bytes));
       for (auto& s : samples) s = in.ConsumeIntegral<std::uint8_t>();
       H5Dwrite(dataset, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, samples.data());
     }
