@@ -17,9 +17,9 @@ function(strata_add_module name deps)
   target_link_libraries(strata_${name} PUBLIC ${_dep_targets} strata_options OpenMP::OpenMP_CXX
                         Threads::Threads nlohmann_json::nlohmann_json fmt::fmt)
   if(name STREQUAL "io")
-    # turbojpeg: precomputed jpeg chunks; GDCM: DICOM series; zstd, blosc: Zarr chunks
+    # turbojpeg: precomputed jpeg chunks; GDCM: DICOM series; zstd, blosc: Zarr chunks; HDF5
     target_link_libraries(strata_${name} PRIVATE ZLIB::ZLIB TIFF::TIFF PkgConfig::TURBOJPEG gdcmMSFF PkgConfig::ZSTD
-                                                 PkgConfig::BLOSC)
+                                                 PkgConfig::BLOSC PkgConfig::HDF5)
   endif()
   if(name MATCHES "^(tensor|ta|quant)$")
     target_link_libraries(strata_${name} PUBLIC Eigen3::Eigen)

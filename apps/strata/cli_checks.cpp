@@ -102,8 +102,9 @@ const io::VolumeFormat& check_volume_output(const std::string& output, const std
                                            const std::vector<std::string>& inputs, const DType* dtype) {
   check_not_an_input(output, flag, inputs);
   const io::VolumeFormat* format = nullptr;
+  const fs::path file = io::split_output_container(output).first;  // out.h5:/group/name writes out.h5
   try {
-    format = &io::output_format(output);
+    format = &io::output_format(file);
   } catch (const Error& e) {
     throw UsageError(flag, e.what());
   }
@@ -112,7 +113,7 @@ const io::VolumeFormat& check_volume_output(const std::string& output, const std
     throw UsageError(flag, "'" + output + "': " + format->name + " cannot store " + std::string(dtype_name(*dtype)) +
                                " samples");
   std::error_code ec;
-  if (!(!format->directory.empty() && fs::is_directory(output, ec))) check_parent_writable(output, flag);
+  if (!(!format->directory.empty() && fs::is_directory(file, ec))) check_parent_writable(file, flag);
   return *format;
 }
 

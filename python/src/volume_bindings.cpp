@@ -37,7 +37,7 @@ Geometry geometry_from_python(py::handle origin, const std::string& unit) {
 py::dict info_dict(const VolumeInfo& info, const std::filesystem::path& path) {
   py::dict d;
   d["path"] = path.string();
-  d["format"] = io::detect_format(path).name;
+  d["format"] = io::detect_format(io::split_container_path(path).first).name;  // scan.h5:/entry/data
   d["shape"] = shape_of(info.dims);
   d["dtype"] = numpy_dtype(info.dtype);
   d["spacing"] = spacing_to_python(info.spacing);

@@ -23,5 +23,7 @@ VolumeFormat precomputed_format();
 VolumeFormat dicom_format();
 // Zarr v2 / v3 stores and OME-Zarr images (zarr.cpp, zarr/): folders of chunked arrays.
 VolumeFormat zarr_format();
+// HDF5 (hdf5.cpp, hdf5/): datasets of 3 to 5 dimensions through the HDF5 C library.
+VolumeFormat hdf5_format();
 
 }  // namespace strata::io::detail

@@ -63,6 +63,7 @@ Entries builtin_formats() {
   add(entries, detail::precomputed_format());
   add(entries, detail::dicom_format());
   add(entries, detail::zarr_format());
+  add(entries, detail::hdf5_format());
   return entries;
 }
 

@@ -133,9 +133,32 @@ Volume read_volume(const std::filesystem::path& path, const ReadOptions& options
   return open_volume(path, options)->read_all();
 }
 
-std::unique_ptr<VolumeWriter> create_volume_writer(const std::filesystem::path& path, const VolumeInfo& info,
-                                                   const WriteOptions& options) {
+std::pair<std::filesystem::path, std::string> split_output_container(const std::filesystem::path& path) {
+  if (format_by_extension(path)) return {path, {}};
+  const std::string text = path.string();
+  for (std::size_t colon = text.rfind(':'); colon != std::string::npos && colon > 0; colon = text.rfind(':', colon - 1)) {
+    const std::filesystem::path container = text.substr(0, colon);
+    const VolumeFormat* format = format_by_extension(container);
+    if (format && format->capabilities.datasets) return {container, text.substr(colon + 1)};
+  }
+  return {path, {}};
+}
+
+std::unique_ptr<VolumeWriter> create_volume_writer(const std::filesystem::path& given_path, const VolumeInfo& info,
+                                                   const WriteOptions& given_options) {
+  const auto [path, inner] = split_output_container(given_path);
+  WriteOptions options = given_options;
+  if (!inner.empty()) {
+    if (!options.dataset.empty() && options.dataset != inner)
+      throw ParameterError("WriteOptions::dataset",
+                           fmt::format("{}: the path names the array '{}' and the options name '{}'",
+                                       given_path.string(), inner, options.dataset));
+    options.dataset = inner;
+  }
   const VolumeFormat& format = output_format(path, options.format);
+  if (!format.capabilities.datasets && !options.dataset.empty())
+    throw ParameterError("WriteOptions::dataset", fmt::format("{}: a {} file holds no named arrays (asked for '{}')",
+                                                              path.string(), format.name, options.dataset));
   if (!format.create_writer)
     throw Error(fmt::format("{}: the {} format is read-only here (no writer)", path.string(), format.name));
   if (!format.writes(info.dtype))

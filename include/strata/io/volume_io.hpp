@@ -44,6 +44,10 @@ struct WriteOptions {
   // A registered format's name (formats.hpp: "nrrd", "tiff", ...) that overrides detection by
   // the extension, e.g. for a new folder of TIFF slices; empty: from the path (output_format).
   std::string format;
+  // The array to write inside a container file (an HDF5 dataset "/group/name"); also given in the
+  // path, `file.h5:/group/name` (create_volume_writer splits it off). Formats without
+  // FormatCapabilities::datasets refuse it; empty: the format's default.
+  std::string dataset;
 };
 
 // Random access to a volume on disk without loading it whole. Raw and raw-encoded NRRD are
@@ -73,6 +77,11 @@ std::unique_ptr<VolumeSource> open_volume(const std::filesystem::path& path, con
 /// @brief `path` split into an existing container and the array inside it ("scan.h5:/a/b" ->
 /// {"scan.h5", "/a/b"}); {path, ""} when `path` exists or has no such split.
 std::pair<std::filesystem::path, std::string> split_container_path(const std::filesystem::path& path);
+/// @brief An output path split into its container and the array inside it ("out.h5:/a/b" ->
+/// {"out.h5", "/a/b"}): the last colon whose left part has the extension of a format with
+/// FormatCapabilities::datasets (the container need not exist yet). {path, ""} when `path` itself
+/// has a format's extension or there is no such split.
+std::pair<std::filesystem::path, std::string> split_output_container(const std::filesystem::path& path);
 std::unique_ptr<VolumeSource> memory_source(const Volume& volume, std::filesystem::path name = "<memory>");
 Volume read_volume(const std::filesystem::path& path, const ReadOptions& options = {});
 
@@ -88,6 +97,8 @@ class VolumeWriter {
 
 /// @brief A writer of `info` in the format of output_format(path, options.format): throws Error
 /// naming the path when the format has no writer or cannot store info.dtype, or dims are not positive.
+/// A path `container:inner` whose `container` has the extension of a format with datasets
+/// (`out.h5:/group/name`) writes `inner` of `container` (WriteOptions::dataset).
 std::unique_ptr<VolumeWriter> create_volume_writer(const std::filesystem::path& path, const VolumeInfo& info,
                                                    const WriteOptions& options = {});
 void write_volume(const std::filesystem::path& path, const Volume& volume, const WriteOptions& options = {});
