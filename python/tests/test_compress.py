@@ -125,7 +125,7 @@ def test_labels_encode_refuses_float_samples(tmp_path):
     with pytest.raises(TypeError, match="integer samples"):
         strata.labels.encode(np.zeros((4, 4, 4), np.float32), tmp_path / "l.strata")
     with pytest.raises(TypeError, match="not supported"):
-        strata.labels.encode(np.zeros((4, 4, 4), np.int64), tmp_path / "l.strata")
+        strata.labels.encode(np.zeros((4, 4, 4), np.float16), tmp_path / "l.strata")
     assert not (tmp_path / "l.strata").exists()
 
 

@@ -94,7 +94,7 @@ def test_labels_from_a_strata_file_refuse_floats(lab):
 
 def test_64_bit_ids_above_2_to_the_40_encode_decode_and_query_exactly(tmp_path, cli):
     small = label_volume()[:16, :20, :24]
-    ids = small.astype(np.uint64) * np.uint64(1 << 40) + np.uint64(7)  # every id above 2^40
+    ids = (small.astype(np.uint64) + np.uint64(1)) * np.uint64(1 << 40) + np.uint64(7)  # every id above 2^40
     strata.write(tmp_path / "ids.nrrd", ids)
     cli("labels", "encode", tmp_path / "ids.nrrd", "-o", tmp_path / "ids.strata")
     f = strata.open(tmp_path / "ids.strata")

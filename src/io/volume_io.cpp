@@ -85,6 +85,21 @@ std::unique_ptr<VolumeSource> memory_source(const Volume& volume, std::filesyste
   return std::make_unique<MemorySource>(volume, std::move(name));
 }
 
+namespace {
+
+// The array a `container:inner` path names, reconciled with the one the options name: either may
+// be empty, and when both are given they must agree.
+std::string named_array(const std::string& from_path, const std::string& from_options, const char* field,
+                        const std::filesystem::path& given_path) {
+  if (from_path.empty()) return from_options;
+  if (!from_options.empty() && from_options != from_path)
+    throw ParameterError(field, fmt::format("{}: the path names the array '{}' and the options name '{}'",
+                                            given_path.string(), from_path, from_options));
+  return from_path;
+}
+
+}  // namespace
+
 std::pair<std::filesystem::path, std::string> split_container_path(const std::filesystem::path& path) {
   std::error_code ec;
   const std::string text = path.string();
@@ -100,15 +115,9 @@ std::pair<std::filesystem::path, std::string> split_container_path(const std::fi
 }
 
 std::unique_ptr<VolumeSource> open_volume(const std::filesystem::path& given_path, const ReadOptions& given_options) {
-  auto [path, inner] = split_container_path(given_path);
+  const auto [path, inner] = split_container_path(given_path);
   ReadOptions options = given_options;
-  if (!inner.empty()) {
-    if (!options.dataset.empty() && options.dataset != inner)
-      throw ParameterError("ReadOptions::dataset",
-                           fmt::format("{}: the path names the array '{}' and the options name '{}'",
-                                       given_path.string(), inner, options.dataset));
-    options.dataset = inner;
-  }
+  options.dataset = named_array(inner, options.dataset, "ReadOptions::dataset", given_path);
   const VolumeFormat& format = detect_format(path);
   // Every format needs some bytes; an empty file is reported as such, not as a bad header.
   std::error_code ec;
@@ -148,13 +157,7 @@ std::unique_ptr<VolumeWriter> create_volume_writer(const std::filesystem::path& 
                                                    const WriteOptions& given_options) {
   const auto [path, inner] = split_output_container(given_path);
   WriteOptions options = given_options;
-  if (!inner.empty()) {
-    if (!options.dataset.empty() && options.dataset != inner)
-      throw ParameterError("WriteOptions::dataset",
-                           fmt::format("{}: the path names the array '{}' and the options name '{}'",
-                                       given_path.string(), inner, options.dataset));
-    options.dataset = inner;
-  }
+  options.dataset = named_array(inner, options.dataset, "WriteOptions::dataset", given_path);
   const VolumeFormat& format = output_format(path, options.format);
   if (!format.capabilities.datasets && !options.dataset.empty())
     throw ParameterError("WriteOptions::dataset", fmt::format("{}: a {} file holds no named arrays (asked for '{}')",

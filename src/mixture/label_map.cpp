@@ -132,7 +132,10 @@ LabelMap::LabelMap(DType dtype, std::vector<std::int64_t> values) : dtype_(dtype
   visit_dtype(dtype_, [&](auto tag) {
     using T = decltype(tag);
     if constexpr (std::is_integral_v<T>) {
-      const std::int64_t lo = std::numeric_limits<T>::min(), hi = std::int64_t(std::numeric_limits<T>::max());
+      // Values are kept as int64: u64 ids up to 2^63 - 1 (no segmentation reaches beyond).
+      constexpr std::uint64_t kMax = std::uint64_t(std::numeric_limits<T>::max());
+      const std::int64_t lo = std::numeric_limits<T>::min(),
+                         hi = kMax > std::uint64_t(INT64_MAX) ? INT64_MAX : std::int64_t(kMax);
       for (const std::int64_t v : {values_.empty() ? 0 : values_.front(), values_.empty() ? 0 : values_.back()})
         if (v < lo || v > hi)
           throw Error("label map: value " + std::to_string(v) + " does not fit the sample type " + std::string(dtype_name(dtype_)) +

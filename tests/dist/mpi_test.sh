@@ -78,7 +78,7 @@ case "$case_name" in
     ;;
   float)  # f32 samples, small input slabs (--memory-limit), more ranks than some levels have rows
     generate marschner-lobb 64,60,90 --dtype f32
-    identical 3 --brick 16 --overlap 1 --memory-limit 64M
+    identical 3 --brick 16 --overlap 1 --memory-limit 80M
     ;;
   non-finite)  # NaN and infinite voxels (per-brick masks, all-NaN constant bricks) in a raw f32 volume
     python3 - <<'PY'
