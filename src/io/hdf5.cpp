@@ -113,6 +113,21 @@ std::vector<hsize_t> dataset_shape(hid_t dataset, const std::string& name, const
   return shape;
 }
 
+void check_before_scale_offset(hid_t plist, int scale_offset_index, const std::string& name, const std::string& file) {
+  for (int i = 0; i < scale_offset_index; ++i) {
+    unsigned flags = 0;
+    std::size_t values = 0;
+    std::array<char, 128> filter_name{};
+    const H5Z_filter_t id = H5Pget_filter2(plist, unsigned(i), &flags, &values, nullptr, filter_name.size(),
+                                           filter_name.data(), nullptr);
+    if (id != H5Z_FILTER_SHUFFLE)
+      throw FormatError(file, "filter",
+                        fmt::format("dataset {} applies scale-offset after filter {} ('{}'); the HDF5 library cannot "
+                                    "decode scale-offset from a resized chunk (it must come first)",
+                                    name, id, filter_name.data()));
+  }
+}
+
 // Refuses a dataset whose filter pipeline needs a filter the library lacks (bitshuffle, LZ4,
 // Blosc, ... registered by plugins), naming it, before any read fails deep in the library.
 std::vector<hsize_t> check_storage(hid_t dataset, std::size_t rank, const std::string& name, const std::string& file) {
@@ -131,6 +146,10 @@ std::vector<hsize_t> check_storage(hid_t dataset, std::size_t rank, const std::s
                                     "have (a plugin on HDF5_PLUGIN_PATH may provide it)",
                                     name, id, filter_name.data()));
     }
+    // libhdf5 decodes scale-offset assuming its input is the chunk's full size, so after a filter
+    // that changes the size (deflate, fletcher32, szip, ...) it reads past the chunk's end (h5py
+    // refuses to write such a pipeline). Shuffle keeps the size, so it may come first.
+    if (id == H5Z_FILTER_SCALEOFFSET && i > 0) check_before_scale_offset(plist.get(), i, name, file);
   }
   if (H5Pget_layout(plist.get()) != H5D_CHUNKED) return {};
   std::vector<hsize_t> chunk(rank);
@@ -205,8 +224,10 @@ class Hdf5Source final : public VolumeSource {
     const Handle file_space = checked(H5Dget_space(dataset_.get()), H5Sclose, file, field, "no dataspace");
     if (H5Sselect_hyperslab(file_space.get(), H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr) < 0)
       throw FormatError(file, field, fmt::format("cannot select {}: {}", box.to_string(), error_text()));
-    const hsize_t voxels = hsize_t(size.voxel_count());
-    const Handle memory_space = checked(H5Screate_simple(1, &voxels, nullptr), H5Sclose, file, field, "no memory space");
+    // The memory space has the selection's shape: with a flat one the library maps the selection
+    // row by row through its general iterator, ten times slower on a chunked whole-volume read.
+    const Handle memory_space =
+        checked(H5Screate_simple(int(count.size()), count.data(), nullptr), H5Sclose, file, field, "no memory space");
     if (H5Dread(dataset_.get(), hdf5::native_type(layout_.info.dtype), memory_space.get(), file_space.get(), H5P_DEFAULT,
                 out.bytes()) < 0)
       throw FormatError(file, field, fmt::format("cannot read {}: {}", box.to_string(), error_text()));
