@@ -27,6 +27,7 @@ PACKAGES=(
   python3-pil                                 # reference JPEG encoder of python/tests/test_precomputed.py
   python3-zarr python3-numcodecs              # reference Zarr reader and writer (python/tests/test_zarr.py)
   python3-dask python3-xarray                 # opened .strata files as dask/xarray arrays (test_geometry.py)
+  python3-aiohttp                             # zarr-python reading strata serve over HTTP (test_served_views.py)
   libhdf5-dev                                 # HDF5 files (src/io/hdf5.cpp), the C library
   python3-h5py                                # reference HDF5 reader and writer (python/tests/test_hdf5.py)
   chromium                                    # browser tests of the viewer (tests/web)

@@ -12,6 +12,7 @@
 #include "strata/io/precomputed.hpp"
 #include "strata/io/volume_io.hpp"
 #include "strata/store/volume_set.hpp"
+#include "strata/ta/level_source.hpp"
 #include "strata/ta/ta_volume.hpp"
 
 namespace strata::cli {
@@ -32,34 +33,6 @@ Volume to_output_type(Volume decoded, const ta::TaVolume& volume, const Decompre
   return decoded.converted(volume.source_info().dtype);
 }
 
-// One level of a .strata file as a volume source: boxes decoded at rank `rank`, in `dtype`
-// (rounded and clamped), placed where the level lies. The multiscale writers read it slab by slab.
-class LevelSource final : public io::VolumeSource {
- public:
-  LevelSource(const ta::TaVolume& volume, int level, int rank, DType dtype, std::filesystem::path path)
-      : volume_(volume), level_(level), rank_(rank), path_(std::move(path)) {
-    const Extent dims = volume.geometry().level(level).dims;
-    const double scale = double(std::int64_t(1) << level);
-    const Spacing& s = volume.source_info().spacing;
-    info_.dims = dims;
-    info_.dtype = dtype;
-    info_.spacing = {s.x * scale, s.y * scale, s.z * scale};
-    info_.geometry = volume.level_geometry(level, Box::whole(dims));
-  }
-  const VolumeInfo& info() const override { return info_; }
-  const std::filesystem::path& path() const override { return path_; }
-  Volume read_box(const Box& box) override {
-    Volume decoded = volume_.decode_box(level_, box, rank_);
-    return decoded.dtype() == info_.dtype ? decoded : decoded.converted(info_.dtype);
-  }
-
- private:
-  const ta::TaVolume& volume_;
-  int level_, rank_;
-  std::filesystem::path path_;
-  VolumeInfo info_;
-};
-
 // Multiscale outputs (OME-Zarr, Neuroglancer precomputed) take every level of the file, each in
 // the source's sample type (or float32 with --float), so viewers get the whole pyramid.
 bool writes_pyramid(const DecompressArgs& args) {
@@ -69,10 +42,10 @@ bool writes_pyramid(const DecompressArgs& args) {
 
 void write_pyramid(const ta::TaVolume& volume, int rank, const DecompressArgs& args) {
   const DType dtype = args.keep_float ? DType::f32 : volume.source_info().dtype;
-  std::vector<std::unique_ptr<LevelSource>> levels;
+  std::vector<std::unique_ptr<ta::LevelSource>> levels;
   std::vector<io::VolumeSource*> sources;
   for (int l = 0; l < volume.geometry().level_count(); ++l) {
-    levels.push_back(std::make_unique<LevelSource>(volume, l, rank, dtype, args.input));
+    levels.push_back(std::make_unique<ta::LevelSource>(volume, l, rank, dtype, args.input));
     sources.push_back(levels.back().get());
   }
   if (io::output_format(args.output).name == "precomputed")

@@ -22,6 +22,7 @@ struct ServeArgs {
   std::uint64_t cache_mb = 1024;
   std::size_t queue = 4;
   std::optional<std::int64_t> volume;
+  std::string cors;
 };
 
 void run_serve(const ServeArgs& a, const GlobalOptions&) {
@@ -30,6 +31,7 @@ void run_serve(const ServeArgs& a, const GlobalOptions&) {
   options.cache_bytes = a.cache_mb << 20;
   options.queue_capacity = a.queue;
   options.volume = a.volume;
+  options.cors_origin = a.cors;
   std::printf("Opening %zu dataset%s\n", files.size(), files.size() == 1 ? "" : "s");
   server::Api api(files, options);
   for (const std::string& line : api.summary()) std::printf("  %s\n", line.c_str());
@@ -39,6 +41,9 @@ void run_serve(const ServeArgs& a, const GlobalOptions&) {
   server::HttpServer server(api, http);
   server.bind();
   std::printf("Serving on %s  (Ctrl-C stops)\n", server.url().c_str());
+  std::string root = server.url();
+  if (root.ends_with('/')) root.pop_back();
+  std::printf("Neuroglancer: precomputed://%s/precomputed/<slug>   OME-Zarr: %s/zarr/<slug>\n", root.c_str(), root.c_str());
   std::fflush(stdout);
   server::serve_until_signal(server);
   std::printf("Stopped\n");
@@ -67,6 +72,9 @@ void register_serve(CLI::App& app, const GlobalOptions& global) {
   cmd->add_option("--queue", a->queue, "Frames that may wait for the renderer; more get 503 Retry-After: 1")
       ->capture_default_str()
       ->check(CLI::Range(1, 256));
+  cmd->add_option("--cors", a->cors,
+                  "Let pages of this origin (https://host:port, or *) read the server from another site, e.g. a "
+                  "Neuroglancer client served elsewhere (off by default)");
   add_volume_option(*cmd, a->volume);
   cmd->callback([a, &global] { run_serve(*a, global); });
 }

@@ -299,18 +299,25 @@ Volume LevelDecoder::slices(std::int64_t z0, std::int64_t z1) const {
   if (z0 < 0 || z1 <= z0 || z1 > d.z)
     throw Error(labels_.name() + ": slices [" + std::to_string(z0) + ", " + std::to_string(z1) +
                 ") are not within level " + std::to_string(level_) + " of dims " + d.to_string());
-  const Extent slab{d.x, d.y, z1 - z0};
-  std::vector<std::uint32_t> ids(std::size_t(slab.voxel_count()));
-  labels_.decode_box(level_, Box{{0, 0, z0}, {d.x, d.y, z1}}, ids);  // ids were range-checked at open
+  return box(Box{{0, 0, z0}, {d.x, d.y, z1}});
+}
+
+Volume LevelDecoder::box(const Box& box) const {
+  if (box.empty() || !Box::whole(info_.dims).contains(box))
+    throw Error(labels_.name() + ": box " + box.to_string() + " is not within level " + std::to_string(level_) +
+                " of dims " + info_.dims.to_string());
+  const Extent size = box.size();
+  std::vector<std::uint32_t> ids(std::size_t(size.voxel_count()));
+  labels_.decode_box(level_, box, ids);  // ids were range-checked at open
   if (!fraction_.empty()) {
-    Volume out(slab, DType::f32, info_.spacing);
+    Volume out(size, DType::f32, info_.spacing);
     auto s = out.samples<float>();
     for (std::size_t i = 0; i < ids.size(); ++i) s[i] = fraction_[ids[i]];
     return out;
   }
   if (!dominant_.empty())
     for (auto& id : ids) id = dominant_[id];
-  return labels_.label_map().decode(ids, slab, info_.spacing);
+  return labels_.label_map().decode(ids, size, info_.spacing);
 }
 
 }  // namespace strata::mixture

@@ -1,8 +1,9 @@
 // The router of the API: datasets, paths, static files, errors (endpoints in api_render.cpp,
-// api_views.cpp, api_labels.cpp).
+// api_views.cpp, api_labels.cpp; chunked views in api_chunks.cpp).
 #include "strata/server/api.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <fmt/format.h>
 
 #include "server/api_detail.hpp"
@@ -75,6 +76,7 @@ struct Api::Impl {
   HttpResponse route(const HttpRequest& r);
   HttpResponse list_datasets() const;
   HttpResponse dataset_endpoint(Dataset& d, const std::string& endpoint, const HttpRequest& r);
+  HttpResponse chunked_view(std::string_view path, const HttpRequest& r);
   Dataset* dataset(std::string_view id) const;
 };
 
@@ -98,6 +100,31 @@ render::SessionOptions session_options(const ApiOptions& o, std::size_t strata_f
   return s;
 }
 
+// A dataset's name in links: the file name without its extension(s) (".strata", ".nii.gz"),
+// characters other than letters, digits, '.', '_' and '-' replaced by '_', then "-2", "-3", ...
+// appended while another dataset has it.
+std::string dataset_name(const std::filesystem::path& file, const std::vector<std::unique_ptr<Dataset>>& taken) {
+  std::filesystem::path stem = file.filename();
+  do stem = stem.stem();
+  while (stem.has_extension() && (stem.extension() == ".nii" || stem.extension() == ".ome"));
+  std::string base = stem.string();
+  for (char& c : base)
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '.' && c != '_' && c != '-') c = '_';
+  if (base.empty() || base == "." || base == "..") base = "dataset";
+  const auto used = [&](const std::string& n) {
+    return std::any_of(taken.begin(), taken.end(), [&](const auto& d) { return d->name == n; });
+  };
+  std::string name = base;
+  for (int n = 2; used(name); ++n) name = base + "-" + std::to_string(n);
+  return name;
+}
+
+HttpResponse method_not_allowed(const std::string& allowed, const std::string& what) {
+  HttpResponse e = error_response(405, "use " + allowed + " for " + what);
+  e.set_header("Allow", allowed);
+  return e;
+}
+
 std::string size_text(const nlohmann::json& d) {
   return fmt::format("{}x{}x{}", d["dims"][0].get<std::int64_t>(), d["dims"][1].get<std::int64_t>(),
                      d["dims"][2].get<std::int64_t>());
@@ -114,19 +141,39 @@ Api::Impl::Impl(const std::vector<std::filesystem::path>& files, const ApiOption
   for (const std::filesystem::path& file : files) {
     auto d = std::make_unique<Dataset>();
     d->id = int(datasets.size());
+    d->name = dataset_name(file, datasets);
     d->path = file;
     d->session = std::make_unique<render::RenderSession>(file, session);
     d->description = d->session->describe();
     d->description["id"] = d->id;
+    d->description["slug"] = d->name;
     datasets.push_back(std::move(d));
   }
 }
 
 Dataset* Api::Impl::dataset(std::string_view id) const {
+  for (const auto& d : datasets)
+    if (d->name == id) return d.get();
   const auto index = detail::parse_integer(id);
   // Digits only: "+1", "01" and the like are not ids.
   if (!index || std::to_string(*index) != id || *index < 0 || *index >= std::int64_t(datasets.size())) return nullptr;
   return datasets[std::size_t(*index)].get();
+}
+
+HttpResponse Api::Impl::chunked_view(std::string_view path, const HttpRequest& r) {
+  const bool precomputed = path.starts_with("/precomputed/");
+  const std::string_view rest = path.substr(precomputed ? std::string_view("/precomputed/").size() : std::string_view("/zarr/").size());
+  const std::size_t slash = rest.find('/');
+  if (slash == std::string_view::npos) throw ApiError(404, "", "not found");
+  Dataset* d = nullptr;
+  for (const auto& candidate : datasets)
+    if (candidate->name == rest.substr(0, slash)) d = candidate.get();
+  // Names only: an index could name another file after a restart with other files.
+  if (!d) throw ApiError(404, "name", "unknown dataset " + std::string(rest.substr(0, slash)));
+  if (r.method != "GET" && r.method != "HEAD") return method_not_allowed("GET", "chunked views");
+  detail::Params(r, {});
+  const std::string_view file = rest.substr(slash + 1);
+  return precomputed ? detail::precomputed_file(*d, file, options.volume) : detail::zarr_file(*d, file, options.volume);
 }
 
 HttpResponse Api::Impl::list_datasets() const {
@@ -134,16 +181,6 @@ HttpResponse Api::Impl::list_datasets() const {
   for (const auto& d : datasets) list.push_back(d->description);
   return detail::json_response(list);
 }
-
-namespace {
-
-HttpResponse method_not_allowed(const std::string& allowed, const std::string& what) {
-  HttpResponse e = error_response(405, "use " + allowed + " for " + what);
-  e.set_header("Allow", allowed);
-  return e;
-}
-
-}  // namespace
 
 HttpResponse Api::Impl::dataset_endpoint(Dataset& d, const std::string& endpoint, const HttpRequest& r) {
   const bool post = endpoint == "palette";
@@ -189,6 +226,7 @@ HttpResponse Api::Impl::route(const HttpRequest& r) {
     detail::Params(r, {});
     return list_datasets();
   }
+  if (path.starts_with("/precomputed/") || path.starts_with("/zarr/")) return chunked_view(path, r);
   constexpr std::string_view prefix = "/api/datasets/";
   if (!path.starts_with(prefix)) throw ApiError(404, "", "not found");
   const std::string_view rest = std::string_view(path).substr(prefix.size());
@@ -220,7 +258,14 @@ Api::~Api() = default;
 HttpResponse Api::handle(const HttpRequest& request) {
   HttpResponse response;
   try {
-    response = impl_->route(request);
+    // A browser asks first before a page of another site sends a POST or custom headers.
+    if (request.method == "OPTIONS" && !impl_->options.cors_origin.empty()) {
+      response.status = 204;
+      response.set_header("Access-Control-Allow-Methods", "GET, HEAD, POST");
+      response.set_header("Access-Control-Allow-Headers", "Content-Type, Range");
+    } else {
+      response = impl_->route(request);
+    }
   } catch (const ApiError& e) {
     response = error_response(e.status(), e.what(), e.parameter());
   } catch (const ParameterError& e) {
@@ -229,6 +274,7 @@ HttpResponse Api::handle(const HttpRequest& request) {
     response = error_response(500, e.what());
   }
   response.set_header("Cache-Control", "no-store");
+  if (!impl_->options.cors_origin.empty()) response.set_header("Access-Control-Allow-Origin", impl_->options.cors_origin);
   return response;
 }
 
@@ -237,7 +283,7 @@ std::size_t Api::dataset_count() const { return impl_->datasets.size(); }
 std::vector<std::string> Api::summary() const {
   std::vector<std::string> lines;
   for (const auto& d : impl_->datasets)
-    lines.push_back(fmt::format("{:3}  {:<8} {:>14}  {}", d->id, d->description["kind"].get<std::string>(),
+    lines.push_back(fmt::format("{:3}  {:<16} {:<8} {:>14}  {}", d->id, d->name, d->description["kind"].get<std::string>(),
                                 size_text(d->description), d->path.string()));
   return lines;
 }

@@ -6,6 +6,7 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -18,9 +19,12 @@
 
 namespace strata::server::detail {
 
+struct ChunkViews;  // api_chunks.cpp
+
 // One served file.
 struct Dataset {
   int id = 0;
+  std::string name;  // stable in links ("slug"): the file name without its extension, made unique
   std::filesystem::path path;
   std::unique_ptr<render::RenderSession> session;
   nlohmann::json description;  // GET /api/datasets entry, worked out once
@@ -29,10 +33,15 @@ struct Dataset {
   // Box queries only read the encoded labels, so they run outside `mutex` (BoxQuery is const
   // and thread-safe); built on the first query.
   const mixture::BoxQuery& box_query();
+  // Its levels as precomputed and OME-Zarr volumes (api_chunks.cpp), built on first use;
+  // `volume` picks the member of a volume set, as the session did.
+  const ChunkViews& chunk_views(std::optional<std::int64_t> volume);
 
  private:
   std::once_flag query_once_;
   std::unique_ptr<mixture::BoxQuery> query_;
+  std::once_flag views_once_;
+  std::shared_ptr<const ChunkViews> views_;
 };
 
 HttpResponse json_response(const nlohmann::json& body);
@@ -50,5 +59,9 @@ HttpResponse slice_image(Dataset& d, const HttpRequest& r);
 HttpResponse voxel_value(Dataset& d, const HttpRequest& r);
 HttpResponse set_palette(Dataset& d, const HttpRequest& r);
 HttpResponse query_box(Dataset& d, const HttpRequest& r);
+// GET /precomputed/<name>/info and /precomputed/<name>/<key>/<chunk>: `rest` follows the name.
+HttpResponse precomputed_file(Dataset& d, std::string_view rest, std::optional<std::int64_t> volume);
+// GET /zarr/<name>/.zgroup, .zattrs, <level>/.zarray, <level>/<z>/<y>/<x>: `rest` follows the name.
+HttpResponse zarr_file(Dataset& d, std::string_view rest, std::optional<std::int64_t> volume);
 
 }  // namespace strata::server::detail

@@ -12,8 +12,12 @@
 #include <cstddef>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <span>
+#include <string_view>
 #include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "strata/core/volume.hpp"
 #include "strata/io/volume_io.hpp"
@@ -49,5 +53,35 @@ class PrecomputedPyramidWriter {
 /// @brief Writes every source of `levels` (finest first) as one scale of the precomputed volume
 /// `folder`, reading each slab by slab (a chunk row of 64 slices at a time).
 void write_precomputed(const std::filesystem::path& folder, std::span<VolumeSource* const> levels);
+
+/// @brief A precomputed volume of `levels` described without a folder: the `info` and the chunk
+/// bytes the pyramid writer would store, made on demand (the `/precomputed/` endpoints of
+/// `strata serve` answer with them). Thread-safe (const).
+class PrecomputedView {
+ public:
+  /// @brief A chunk of one scale: the level and the box it covers, in level coordinates.
+  struct Chunk {
+    std::size_t level = 0;
+    Box box;
+  };
+  /// @brief Throws Error naming `name` as PrecomputedPyramidWriter does for `levels`.
+  PrecomputedView(std::vector<VolumeInfo> levels, const std::string& name);
+  ~PrecomputedView();
+  /// @brief The `info` JSON.
+  const nlohmann::json& info() const { return info_; }
+  /// @brief The chunk a request path names: `key` a scale's key, `name` the canonical
+  /// `<x0>-<x1>_<y0>-<y1>_<z0>-<z1>` of a chunk of its grid (voxel space, clipped to the
+  /// scale). Nothing for anything else (unknown key, misaligned, outside, malformed).
+  std::optional<Chunk> chunk(std::string_view key, std::string_view name) const;
+  /// @brief The stored bytes of a chunk from its voxels (`samples`: the chunk's box, the
+  /// level's dtype): raw, or compressed_segmentation for u32/u64. Throws Error when the
+  /// samples do not fit the chunk.
+  std::vector<std::byte> encode(const Chunk& chunk, const Volume& samples) const;
+
+ private:
+  struct Scales;
+  std::unique_ptr<const Scales> scales_;
+  nlohmann::json info_;
+};
 
 }  // namespace strata::io

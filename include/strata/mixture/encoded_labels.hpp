@@ -22,6 +22,7 @@
 
 #include "strata/core/progress.hpp"
 #include "strata/core/volume.hpp"
+#include "strata/io/volume_io.hpp"
 #include "strata/mixture/factorize.hpp"
 #include "strata/mixture/graph_bitstream.hpp"
 #include "strata/mixture/id_storage.hpp"
@@ -31,9 +32,6 @@
 #include "strata/mixture/node_grid.hpp"
 #include "strata/mixture/schedule.hpp"
 
-namespace strata::io {
-class VolumeSource;
-}
 namespace strata::store {
 class ContainerReader;
 }
@@ -180,20 +178,26 @@ class EncodedLabels final : public NodeGrid {
   mutable std::unique_ptr<MixtureLookup> lookup_;
 };
 
-/// @brief Decodes one level of an EncodedLabels in z-slabs, so a level is never held whole
-/// (`strata labels decode`): level 0 the original labels (bit-exact, source dtype), a coarser
-/// level the dominant label per voxel (source dtype; ties: the smaller label), or with a label
-/// value that label's fraction per voxel (f32). Holds only a table per graph node (the dominant
-/// source or the fraction; none for level 0). `labels` must outlive it.
-class LevelDecoder {
+/// @brief Decodes one level of an EncodedLabels in z-slabs or boxes, so a level is never held
+/// whole (`strata labels decode`, the chunk endpoints of `strata serve`): level 0 the original
+/// labels (bit-exact, source dtype), a coarser level the dominant label per voxel (source dtype;
+/// ties: the smaller label), or with a label value that label's fraction per voxel (f32). Holds
+/// only a table per graph node (the dominant source or the fraction; none for level 0).
+/// `labels` must outlive it. read_box may be called from several threads at once.
+class LevelDecoder final : public io::VolumeSource {
  public:
   /// @brief Throws Error naming the file for a level outside 0..level_count()-1 or a label value
   /// that does not occur.
   LevelDecoder(const EncodedLabels& labels, int level, std::optional<std::int64_t> label = {});
-  /// @brief Dims, dtype and spacing (the file's, times 2^level) of the decoded level.
-  const VolumeInfo& info() const { return info_; }
+  /// @brief Dims, dtype, spacing (the file's, times 2^level) and placement of the decoded level.
+  const VolumeInfo& info() const override { return info_; }
+  const std::filesystem::path& path() const override { return labels_.path(); }
   /// @brief Slices [z0, z1) of the decoded level. Throws Error unless 0 <= z0 < z1 <= dims.z.
   Volume slices(std::int64_t z0, std::int64_t z1) const;
+  /// @brief The voxels of `box` (level coordinates). Throws Error unless the box is non-empty
+  /// and inside the level.
+  Volume box(const Box& box) const;
+  Volume read_box(const Box& b) override { return box(b); }
 
  private:
   const EncodedLabels& labels_;

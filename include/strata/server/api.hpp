@@ -3,8 +3,11 @@
 /// @brief The HTTP API of `strata serve` (docs/viewer.md) as a request router: a request in, a
 /// response out, no sockets. The HTTP layer (http_server.hpp) and the tests drive it alike.
 ///
-/// It serves only the datasets it was constructed with (addressed by their index) and the
-/// client files compiled into the binary; no request reaches the filesystem. Every parameter
+/// It serves only the datasets it was constructed with (addressed by their index or their
+/// name: the file name without its extension, made unique) and the client files compiled into
+/// the binary; no request reaches the filesystem outside them. Each .strata dataset is also a
+/// Neuroglancer precomputed volume (`/precomputed/<name>/`) and an OME-Zarr image
+/// (`/zarr/<name>/`), chunks decoded on request (docs/viewer.md). Every parameter
 /// is validated (400 with {"error", "parameter"}); unknown datasets and paths are 404. Frames
 /// go through a bounded RenderQueue (503 when full, 204 for superseded requests); slices, voxel
 /// values, palettes and box queries run on the calling thread. Calls to one dataset's session
@@ -37,6 +40,10 @@ struct ApiOptions {
   int loader_threads = 0;          ///< per TA dataset; 0 = lod::default_loader_threads()
   /// Which volume of every file that holds several (render::SessionOptions::volume; `--volume`).
   std::optional<std::int64_t> volume;
+  /// The origin (`https://host:port`, or `*`) whose pages may read the API from another site
+  /// (`--cors`): sent as Access-Control-Allow-Origin on every response. Empty: no CORS headers,
+  /// so browsers keep other sites' pages out.
+  std::string cors_origin;
 };
 
 class Api {

@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "io/io_detail.hpp"
+#include "io/precomputed/pyramid.hpp"
 #include "io/precomputed/sharding.hpp"
 #include "strata/core/error.hpp"
 
@@ -16,7 +17,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::int64_t chunks_along(std::int64_t size, std::int64_t chunk) { return (size + chunk - 1) / chunk; }
 
 // The bytes of a whole (small) file, or nothing when it does not exist.
 std::optional<Bytes> read_small_file(const fs::path& path, std::uint64_t limit, const std::string& field) {
@@ -40,8 +40,7 @@ std::optional<Bytes> read_small_file(const fs::path& path, std::uint64_t limit, 
 ChunkStore::ChunkStore(fs::path folder, Scale scale, std::uint64_t max_encoded_bytes)
     : folder_(std::move(folder)),
       scale_(std::move(scale)),
-      grid_{chunks_along(scale_.size.x, scale_.chunk.x), chunks_along(scale_.size.y, scale_.chunk.y),
-            chunks_along(scale_.size.z, scale_.chunk.z)},
+      grid_(chunk_grid(scale_)),
       max_encoded_bytes_(max_encoded_bytes) {}
 
 std::string ChunkStore::file_of(const Extent& position) const {
@@ -49,13 +48,7 @@ std::string ChunkStore::file_of(const Extent& position) const {
     const std::uint64_t id = compressed_morton_code(position, grid_);
     return (folder_ / shard_slot(*scale_.sharding, id).file_name).string();
   }
-  const Extent& o = scale_.voxel_offset;
-  const Extent lo{o.x + position.x * scale_.chunk.x, o.y + position.y * scale_.chunk.y,
-                  o.z + position.z * scale_.chunk.z};
-  const Extent hi{std::min(lo.x + scale_.chunk.x, o.x + scale_.size.x),
-                  std::min(lo.y + scale_.chunk.y, o.y + scale_.size.y),
-                  std::min(lo.z + scale_.chunk.z, o.z + scale_.size.z)};
-  return (folder_ / fmt::format("{}-{}_{}-{}_{}-{}", lo.x, hi.x, lo.y, hi.y, lo.z, hi.z)).string();
+  return (folder_ / chunk_name(scale_, position)).string();
 }
 
 std::optional<Bytes> ChunkStore::read(const Extent& position) const {

@@ -2,7 +2,6 @@
 // row (64 slices of the whole x-y plane), then encodes and writes its chunks as unsharded files
 // `<key>/<x0>-<x1>_<y0>-<y1>_<z0>-<z1>`. The `info` file is written last, then the temporary
 // folder is renamed into place.
-#include <cmath>
 #include <cstring>
 #include <fstream>
 
@@ -11,6 +10,7 @@
 #include "io/io_detail.hpp"
 #include "io/precomputed/chunk_codec.hpp"
 #include "io/precomputed/info.hpp"
+#include "io/precomputed/pyramid.hpp"
 #include "strata/core/error.hpp"
 #include "strata/io/file_names.hpp"
 #include "strata/io/precomputed.hpp"
@@ -22,36 +22,7 @@ namespace {
 namespace fs = std::filesystem;
 using namespace detail::precomputed;
 
-constexpr std::int64_t kChunkSize = 64;
-constexpr std::int64_t kBlockSize = 8;
-
-// Nanometres per unit of the geometry's length unit; spacing without a known unit is taken as nm.
-double nanometres_per_unit(const std::string& unit) {
-  const std::string u = canonical_length_unit(unit);
-  if (u == "m") return 1e9;
-  if (u == "cm") return 1e7;
-  if (u == "mm") return 1e6;
-  if (u == "um") return 1e3;
-  if (u == "angstrom") return 0.1;
-  return 1;
-}
-
-Scale scale_of(const VolumeInfo& info, std::size_t level) {
-  Scale s;
-  const double nm = nanometres_per_unit(info.geometry.unit);
-  s.resolution = {info.spacing.x * nm, info.spacing.y * nm, info.spacing.z * nm};
-  const Vector3& origin = info.geometry.origin;
-  s.voxel_offset = {std::llround(origin[0] * nm / s.resolution[0]), std::llround(origin[1] * nm / s.resolution[1]),
-                    std::llround(origin[2] * nm / s.resolution[2])};
-  s.size = info.dims;
-  s.chunk = {kChunkSize, kChunkSize, kChunkSize};
-  const bool labels = info.dtype == DType::u32 || info.dtype == DType::u64;
-  s.encoding = labels ? ChunkEncoding::compressed_segmentation : ChunkEncoding::raw;
-  s.block = {kBlockSize, kBlockSize, kBlockSize};
-  s.key = fmt::format("{}_{}_{}", s.resolution[0], s.resolution[1], s.resolution[2]);
-  if (level > 0) s.key = fmt::format("s{}_{}", level, s.key);  // distinct even when resolutions repeat
-  return s;
-}
+constexpr std::int64_t kChunkSize = kWrittenChunkEdge;
 
 void write_file(const fs::path& path, const std::vector<std::byte>& bytes) {
   std::ofstream out(path, std::ios::binary);
@@ -96,9 +67,7 @@ class ScaleWriter final : public VolumeWriter {
       for (std::int64_t x0 = 0; x0 < scale_.size.x; x0 += c.x) {
         const Box box{{x0, y0, 0}, {std::min(x0 + c.x, scale_.size.x), std::min(y0 + c.y, scale_.size.y), filled_}};
         const Volume chunk = row_.crop(box);
-        const Extent& o = scale_.voxel_offset;
-        const std::string name = fmt::format("{}-{}_{}-{}_{}-{}", o.x + x0, o.x + box.hi.x, o.y + y0, o.y + box.hi.y,
-                                             o.z + z0, o.z + z0 + filled_);
+        const std::string name = chunk_name(scale_, {x0 / c.x, y0 / c.y, z0 / c.z});
         write_file(folder_ / name, encode_chunk(chunk.bytes(), chunk.dims(), scale_, dtype_));
       }
     row_ = Volume();
@@ -127,28 +96,13 @@ PrecomputedPyramidWriter::PrecomputedPyramidWriter(fs::path folder, std::vector<
   Impl& m = *impl_;
   m.folder = std::move(folder);
   m.temporary = fs::path(m.folder.string() + std::string(kTemporarySuffix));
-  if (levels.empty()) throw Error(fmt::format("{}: a precomputed volume needs at least one scale", m.folder.string()));
-  const DType dtype = levels[0].dtype;
-  if (!data_type_name(dtype))
-    throw Error(
-        fmt::format("{}: Neuroglancer precomputed stores u8, i8, u16, i16, u32, i32, u64 or f32 samples, not {}",
-                    m.folder.string(), dtype_name(dtype)));
+  m.description = written_description(levels, m.folder.string());
   std::error_code ec;
   if (fs::exists(m.folder, ec) && !fs::exists(m.folder / "info", ec))
     throw Error(fmt::format("{}: exists and is not a precomputed volume; not replaced", m.folder.string()));
   fs::remove_all(m.temporary, ec);
-  m.description = {.dtype = dtype,
-                   .segmentation = dtype == DType::u32 || dtype == DType::u64,
-                   .channels = 1,
-                   .scales = {}};
-  for (std::size_t i = 0; i < levels.size(); ++i) {
-    if (levels[i].dtype != dtype)
-      throw Error(fmt::format("{}: scale {} is {}, scale 0 {}", m.folder.string(), i, dtype_name(levels[i].dtype),
-                              dtype_name(dtype)));
-    m.description.scales.push_back(scale_of(levels[i], i));
-    m.scales.push_back(std::make_unique<ScaleWriter>(m.temporary / m.description.scales.back().key,
-                                                     m.description.scales.back(), dtype));
-  }
+  for (const Scale& scale : m.description.scales)
+    m.scales.push_back(std::make_unique<ScaleWriter>(m.temporary / scale.key, scale, m.description.dtype));
 }
 
 PrecomputedPyramidWriter::~PrecomputedPyramidWriter() {

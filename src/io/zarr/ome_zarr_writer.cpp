@@ -58,6 +58,8 @@ json dataset_entry(const std::string& name, const VolumeInfo& info) {
                         {{"type", "translation"}, {"translation", {o[2], o[1], o[0]}}}})}};
 }
 
+}  // namespace
+
 json multiscales_attributes(const std::string& name, const std::vector<VolumeInfo>& levels) {
   json axes = json::array();
   const std::string unit = ngff_unit(levels.front().geometry.unit);
@@ -71,29 +73,54 @@ json multiscales_attributes(const std::string& name, const std::vector<VolumeInf
   return {{"multiscales", json::array({{{"version", "0.4"}, {"name", name}, {"axes", axes}, {"datasets", datasets}}})}};
 }
 
+Extent ome_zarr_chunk_shape(const VolumeInfo& info) {
+  return {std::min(kChunkEdge, info.dims.x), std::min(kChunkEdge, info.dims.y), std::min(kChunkEdge, info.dims.z)};
+}
+
+json ome_zarr_array_metadata(const VolumeInfo& info, bool compress) {
+  const Extent chunk = ome_zarr_chunk_shape(info);
+  return {{"zarr_format", 2},
+          {"shape", {info.dims.z, info.dims.y, info.dims.x}},
+          {"chunks", {chunk.z, chunk.y, chunk.x}},
+          {"dtype", zarr_v2_dtype(info.dtype)},
+          {"compressor", compress ? blosc_zstd_compressor_json() : json()},
+          {"fill_value", 0},
+          {"order", "C"},
+          {"filters", nullptr},
+          {"dimension_separator", "/"}};
+}
+
+std::vector<std::byte> ome_zarr_stored_chunk(const Volume& part, const Extent& chunk, bool compress) {
+  const Extent d = part.dims();
+  if (d.x > chunk.x || d.y > chunk.y || d.z > chunk.z)
+    throw Error(fmt::format("a Zarr chunk of {} cannot hold {} samples", chunk.to_string(), d.to_string()));
+  const std::size_t sample = dtype_size(part.dtype());
+  // Zarr chunks are whole: the part beyond the array's edge is zeros (the fill value).
+  std::vector<std::byte> bytes(std::size_t(chunk.voxel_count()) * sample, std::byte{0});
+  for (std::int64_t z = 0; z < d.z; ++z)
+    for (std::int64_t y = 0; y < d.y; ++y)
+      std::memcpy(bytes.data() + std::size_t((z * chunk.y + y) * chunk.x) * sample,
+                  part.bytes() + std::size_t((z * d.y + y) * d.x) * sample, std::size_t(d.x) * sample);
+  return compress ? blosc_zstd_compress(bytes, sample) : bytes;
+}
+
+namespace {
+
 // One Zarr v2 array of a level, fed slabs in z order; a chunk row (kChunkEdge slices) is kept
 // until it is full, then written chunk by chunk.
 class ArrayWriter {
  public:
-  ArrayWriter(fs::path dir, const VolumeInfo& info, bool compress) : dir_(std::move(dir)), info_(info), compress_(compress) {
-    chunk_ = {std::min(kChunkEdge, info.dims.x), std::min(kChunkEdge, info.dims.y), std::min(kChunkEdge, info.dims.z)};
+  ArrayWriter(fs::path dir, const VolumeInfo& info, bool compress)
+      : dir_(std::move(dir)), info_(info), compress_(compress), chunk_(ome_zarr_chunk_shape(info)),
+        row_({info.dims.x, info.dims.y, chunk_.z}, info.dtype) {
     fs::create_directories(dir_);
-    write_json(dir_ / ".zarray", {{"zarr_format", 2},
-                                  {"shape", {info.dims.z, info.dims.y, info.dims.x}},
-                                  {"chunks", {chunk_.z, chunk_.y, chunk_.x}},
-                                  {"dtype", zarr_v2_dtype(info.dtype)},
-                                  {"compressor", compress ? blosc_zstd_compressor_json() : json()},
-                                  {"fill_value", 0},
-                                  {"order", "C"},
-                                  {"filters", nullptr},
-                                  {"dimension_separator", "/"}});
-    row_.assign(std::size_t(info.bytes_per_slice()) * std::size_t(chunk_.z), std::byte{0});
+    write_json(dir_ / ".zarray", ome_zarr_array_metadata(info, compress));
   }
 
   void write_slab(const Volume& slab) {
     const std::size_t slice = info_.bytes_per_slice();
     for (std::int64_t z = 0; z < slab.dims().z; ++z) {
-      std::memcpy(row_.data() + std::size_t(filled_) * slice, slab.bytes() + std::size_t(z) * slice, slice);
+      std::memcpy(row_.bytes() + std::size_t(filled_) * slice, slab.bytes() + std::size_t(z) * slice, slice);
       if (++filled_ == chunk_.z) flush_row();
     }
   }
@@ -104,9 +131,6 @@ class ArrayWriter {
 
  private:
   void flush_row() {
-    // Slices past the volume's end (the last row) are zero: the fill value.
-    const std::size_t slice = info_.bytes_per_slice();
-    std::fill(row_.begin() + std::ptrdiff_t(std::size_t(filled_) * slice), row_.end(), std::byte{0});
     for (std::int64_t cy = 0; cy * chunk_.y < info_.dims.y; ++cy)
       for (std::int64_t cx = 0; cx * chunk_.x < info_.dims.x; ++cx) write_chunk(cx, cy);
     ++row_index_;
@@ -114,16 +138,9 @@ class ArrayWriter {
   }
 
   void write_chunk(std::int64_t cx, std::int64_t cy) {
-    const std::size_t sample = dtype_size(info_.dtype);
-    std::vector<std::byte> chunk(std::size_t(chunk_.voxel_count()) * sample, std::byte{0});
     const std::int64_t x0 = cx * chunk_.x, y0 = cy * chunk_.y;
-    const std::int64_t nx = std::min(chunk_.x, info_.dims.x - x0), ny = std::min(chunk_.y, info_.dims.y - y0);
-    for (std::int64_t z = 0; z < chunk_.z; ++z)
-      for (std::int64_t y = 0; y < ny; ++y)
-        std::memcpy(chunk.data() + std::size_t((z * chunk_.y + y) * chunk_.x) * sample,
-                    row_.data() + std::size_t((z * info_.dims.y + y0 + y) * info_.dims.x + x0) * sample,
-                    std::size_t(nx) * sample);
-    if (compress_) chunk = blosc_zstd_compress(chunk, sample);
+    const Box part{{x0, y0, 0}, {std::min(x0 + chunk_.x, info_.dims.x), std::min(y0 + chunk_.y, info_.dims.y), filled_}};
+    const std::vector<std::byte> chunk = ome_zarr_stored_chunk(row_.crop(part), chunk_, compress_);
     const fs::path folder = dir_ / std::to_string(row_index_) / std::to_string(cy);
     fs::create_directories(folder);
     const fs::path file = folder / std::to_string(cx);
@@ -136,7 +153,7 @@ class ArrayWriter {
   VolumeInfo info_;
   bool compress_;
   Extent chunk_;
-  std::vector<std::byte> row_;  // chunk_.z slices
+  Volume row_;  // chunk_.z slices
   std::int64_t filled_ = 0, row_index_ = 0;
 };
 
