@@ -131,3 +131,90 @@ def test_zarr_reads_what_strata_writes(tmp_path, dtype, compress):
     assert [ax["name"] for ax in ms["axes"]] == ["z", "y", "x"]
     assert ms["datasets"][0]["coordinateTransformations"][0]["scale"] == pytest.approx([3.0, 2.0, 0.5])
     assert (root["0"].compressor is not None) == compress
+
+
+@pytest.mark.parametrize("compression", ["stored", "deflated"])
+def test_zip_store_of_the_reference_library(tmp_path, cli, compression):
+    """zarr.ZipStore (stored members by default, deflated on request) read as the folder would be,
+    by the module and by `strata convert`."""
+    import zipfile
+
+    a = sample("u2", (12, 17, 23))
+    path = tmp_path / "image.ome.zarr.zip"
+    store = zarr.ZipStore(str(path), mode="w",
+                          compression=zipfile.ZIP_STORED if compression == "stored" else zipfile.ZIP_DEFLATED)
+    root = zarr.group(store=store)
+    root.create_dataset("0", data=a, chunks=(5, 8, 8), compressor=numcodecs.Blosc(cname="lz4"))
+    root.attrs.update(ome_zattrs((2.0, 0.75, 0.5), (1, 2, 3)))
+    store.close()
+    np.testing.assert_array_equal(strata.read(path), a)
+    assert strata.info(path)["spacing"] == pytest.approx((2.0, 0.75, 0.5))
+    cli("convert", path, tmp_path / "copy.nrrd")
+    np.testing.assert_array_equal(strata.read(tmp_path / "copy.nrrd"), a)
+
+
+def crc32c(data):
+    crc = 0xFFFFFFFF
+    for byte in data:
+        crc ^= byte
+        for _ in range(8):
+            crc = (crc >> 1) ^ 0x82F63B78 if crc & 1 else crc >> 1
+    return crc ^ 0xFFFFFFFF
+
+
+def write_sharded(path, a, shard, inner, fill, location, crc, empty=(), missing=()):
+    """A Zarr v3 array with the sharding_indexed codec, written with numpy as the spec says:
+    gzip inner chunks (edge chunks padded with the fill value), a little-endian u64 (offset,
+    nbytes) index in C order of the inner chunks, 2^64-1 for an empty one, optionally with its
+    crc32c, at the end or the start of each shard file "c/i/j/k". Returns what must be read."""
+    import gzip
+    import itertools
+
+    index_codecs = [{"name": "bytes", "configuration": {"endian": "little"}}] + ([{"name": "crc32c"}] if crc else [])
+    meta = {"zarr_format": 3, "node_type": "array", "shape": list(a.shape), "data_type": str(a.dtype),
+            "chunk_grid": {"name": "regular", "configuration": {"chunk_shape": list(shard)}},
+            "chunk_key_encoding": {"name": "default"}, "fill_value": fill,
+            "codecs": [{"name": "sharding_indexed", "configuration": {
+                "chunk_shape": list(inner), "index_location": location, "index_codecs": index_codecs,
+                "codecs": [{"name": "bytes", "configuration": {"endian": "little"}}, {"name": "gzip", "configuration": {"level": 1}}]}}]}
+    path.mkdir()
+    (path / "zarr.json").write_text(json.dumps(meta))
+    expected = a.copy()
+    per = [s // c for s, c in zip(shard, inner)]
+    grid = [-(-n // s) for n, s in zip(a.shape, shard)]
+    padded = np.full([g * s for g, s in zip(grid, shard)], fill, dtype=a.dtype)
+    padded[tuple(slice(0, n) for n in a.shape)] = a
+    for cell in itertools.product(*map(range, grid)):
+        lo = [c * s for c, s in zip(cell, shard)]
+        if cell in missing:
+            expected[tuple(slice(l, l + s) for l, s in zip(lo, shard))] = fill
+            continue
+        index_bytes = 16 * int(np.prod(per)) + (4 if crc else 0)
+        data, entries = b"", []
+        for local in itertools.product(*map(range, per)):
+            start = [l + i * c for l, i, c in zip(lo, local, inner)]
+            window = tuple(slice(s, s + c) for s, c in zip(start, inner))
+            if tuple(s // c for s, c in zip(start, inner)) in empty:
+                entries.append((2**64 - 1, 2**64 - 1))
+                expected[window] = fill
+                continue
+            chunk = gzip.compress(padded[window].astype("<" + a.dtype.str[1:]).tobytes())
+            entries.append(((index_bytes if location == "start" else 0) + len(data), len(chunk)))
+            data += chunk
+        index = np.array(entries, dtype="<u8").tobytes()
+        if crc:
+            index += crc32c(index).to_bytes(4, "little")
+        key = path / "c" / "/".join(map(str, cell))
+        key.parent.mkdir(parents=True, exist_ok=True)
+        key.write_bytes(index + data if location == "start" else data + index)
+    return expected
+
+
+@pytest.mark.parametrize("location", ["end", "start"])
+@pytest.mark.parametrize("crc", [True, False])
+def test_sharded_v3_array_written_with_numpy(tmp_path, location, crc):
+    a = sample("i4", (9, 13, 17))
+    expected = write_sharded(tmp_path / "s.zarr", a, (4, 8, 8), (2, 4, 4), -5, location, crc,
+                             empty={(0, 0, 0), (4, 3, 4)}, missing={(1, 1, 0)})
+    np.testing.assert_array_equal(strata.read(tmp_path / "s.zarr"), expected)
+    assert (expected == -5).any()
