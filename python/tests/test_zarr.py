@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import strata
+import zarr_shards
 
 zarr = pytest.importorskip("zarr")
 numcodecs = pytest.importorskip("numcodecs")
@@ -153,61 +154,27 @@ def test_zip_store_of_the_reference_library(tmp_path, cli, compression):
     np.testing.assert_array_equal(strata.read(tmp_path / "copy.nrrd"), a)
 
 
-def crc32c(data):
-    crc = 0xFFFFFFFF
-    for byte in data:
-        crc ^= byte
-        for _ in range(8):
-            crc = (crc >> 1) ^ 0x82F63B78 if crc & 1 else crc >> 1
-    return crc ^ 0xFFFFFFFF
-
-
 def write_sharded(path, a, shard, inner, fill, location, crc, empty=(), missing=()):
-    """A Zarr v3 array with the sharding_indexed codec, written with numpy as the spec says:
-    gzip inner chunks (edge chunks padded with the fill value), a little-endian u64 (offset,
-    nbytes) index in C order of the inner chunks, 2^64-1 for an empty one, optionally with its
-    crc32c, at the end or the start of each shard file "c/i/j/k". Returns what must be read."""
-    import gzip
+    """`a` as a sharded v3 array in the folder `path` (shard files "c/i/j/k"), leaving out the
+    shards in `missing` and the inner chunks in `empty`. Returns what must be read."""
     import itertools
 
-    index_codecs = [{"name": "bytes", "configuration": {"endian": "little"}}] + ([{"name": "crc32c"}] if crc else [])
-    meta = {"zarr_format": 3, "node_type": "array", "shape": list(a.shape), "data_type": str(a.dtype),
-            "chunk_grid": {"name": "regular", "configuration": {"chunk_shape": list(shard)}},
-            "chunk_key_encoding": {"name": "default"}, "fill_value": fill,
-            "codecs": [{"name": "sharding_indexed", "configuration": {
-                "chunk_shape": list(inner), "index_location": location, "index_codecs": index_codecs,
-                "codecs": [{"name": "bytes", "configuration": {"endian": "little"}}, {"name": "gzip", "configuration": {"level": 1}}]}}]}
     path.mkdir()
-    (path / "zarr.json").write_text(json.dumps(meta))
-    expected = a.copy()
-    per = [s // c for s, c in zip(shard, inner)]
+    (path / "zarr.json").write_text(json.dumps(zarr_shards.sharded_metadata(a.shape, a.dtype, shard, inner, fill, location, crc)))
     grid = [-(-n // s) for n, s in zip(a.shape, shard)]
     padded = np.full([g * s for g, s in zip(grid, shard)], fill, dtype=a.dtype)
     padded[tuple(slice(0, n) for n in a.shape)] = a
     for cell in itertools.product(*map(range, grid)):
-        lo = [c * s for c, s in zip(cell, shard)]
+        window = tuple(slice(c * s, (c + 1) * s) for c, s in zip(cell, shard))
         if cell in missing:
-            expected[tuple(slice(l, l + s) for l, s in zip(lo, shard))] = fill
+            padded[window] = fill
             continue
-        index_bytes = 16 * int(np.prod(per)) + (4 if crc else 0)
-        data, entries = b"", []
-        for local in itertools.product(*map(range, per)):
-            start = [l + i * c for l, i, c in zip(lo, local, inner)]
-            window = tuple(slice(s, s + c) for s, c in zip(start, inner))
-            if tuple(s // c for s, c in zip(start, inner)) in empty:
-                entries.append((2**64 - 1, 2**64 - 1))
-                expected[window] = fill
-                continue
-            chunk = gzip.compress(padded[window].astype("<" + a.dtype.str[1:]).tobytes())
-            entries.append(((index_bytes if location == "start" else 0) + len(data), len(chunk)))
-            data += chunk
-        index = np.array(entries, dtype="<u8").tobytes()
-        if crc:
-            index += crc32c(index).to_bytes(4, "little")
         key = path / "c" / "/".join(map(str, cell))
         key.parent.mkdir(parents=True, exist_ok=True)
-        key.write_bytes(index + data if location == "start" else data + index)
-    return expected
+        key.write_bytes(zarr_shards.shard_bytes(padded, cell, shard, inner, location, crc, empty))
+    for cell in empty:
+        padded[tuple(slice(c * n, (c + 1) * n) for c, n in zip(cell, inner))] = fill
+    return padded[tuple(slice(0, n) for n in a.shape)]
 
 
 @pytest.mark.parametrize("location", ["end", "start"])

@@ -242,32 +242,40 @@ class ZipStore final : public ZarrStore {
     return member_range(start, m.compressed, key, "data").data();
   }
 
+  // The member's plain bytes. The buffer grows with what is decoded, never to the declared size
+  // at once: a small member cannot make the reader allocate what its directory entry claims.
   std::vector<std::byte> inflate_member(const Member& m, const std::byte* data, const std::string& key) const {
-    std::vector<std::byte> out(std::size_t(m.plain) + 1);  // one byte more: room to tell a longer stream
+    const std::uint64_t cap = m.plain + 1;  // one byte more: room to tell a longer stream
+    std::vector<std::byte> out(std::size_t(std::min<std::uint64_t>(cap, 1u << 16)));
     z_stream stream{};
     if (inflateInit2(&stream, -MAX_WBITS) != Z_OK) fail_member(root_ + key, "cannot initialise deflate decoding");
     struct End { z_stream* s; ~End() { inflateEnd(s); } } end_guard{&stream};
-    // zlib counts in 32 bits: feed and drain in pieces.
-    std::uint64_t in_left = m.compressed, out_left = out.size();
+    std::uint64_t in_left = m.compressed, produced = 0;
     stream.next_in = reinterpret_cast<Bytef*>(const_cast<std::byte*>(data));
-    stream.next_out = reinterpret_cast<Bytef*>(out.data());
     int status = Z_OK;
     while (status == Z_OK) {
-      const auto in_piece = uInt(std::min<std::uint64_t>(in_left, 1u << 30)), out_piece = uInt(std::min<std::uint64_t>(out_left, 1u << 30));
+      if (produced == out.size()) {
+        if (out.size() == cap) break;
+        out.resize(std::size_t(std::min<std::uint64_t>(cap, 2 * std::uint64_t(out.size()))));
+      }
+      // zlib counts in 32 bits: feed and drain in pieces.
+      const auto in_piece = uInt(std::min<std::uint64_t>(in_left, 1u << 30));
+      const auto out_piece = uInt(std::min<std::uint64_t>(out.size() - produced, 1u << 30));
+      stream.next_out = reinterpret_cast<Bytef*>(out.data() + produced);
       stream.avail_in = in_piece;
       stream.avail_out = out_piece;
       status = inflate(&stream, Z_NO_FLUSH);
       in_left -= in_piece - stream.avail_in;
-      out_left -= out_piece - stream.avail_out;
-      if (status == Z_BUF_ERROR && in_left > 0 && out_left > 0) status = Z_OK;
+      produced += out_piece - stream.avail_out;
+      if (status == Z_BUF_ERROR && in_left > 0) status = Z_OK;  // it wanted room: the loop grows it
     }
-    const std::uint64_t produced = out.size() - out_left;
     if (status != Z_STREAM_END || produced != m.plain)
       fail_member(root_ + key, fmt::format("the deflate data {} (the directory says {} bytes)",
-                                  status == Z_STREAM_END ? fmt::format("decodes to {} bytes", produced)
-                                  : produced > m.plain   ? std::string("decodes to more")
-                                                         : fmt::format("is damaged or truncated ({})", stream.msg ? stream.msg : "ends early"),
-                                  m.plain));
+                                           status == Z_STREAM_END ? fmt::format("decodes to {} bytes", produced)
+                                           : produced > m.plain   ? std::string("decodes to more")
+                                                                  : fmt::format("is damaged or truncated ({})",
+                                                                                stream.msg ? stream.msg : "ends early"),
+                                           m.plain));
     out.resize(std::size_t(produced));
     return out;
   }
