@@ -1,10 +1,15 @@
-// Zarr stores, read as `strata info` reads them: the input is array metadata (a `.zarray`, or a
-// `zarr.json` when it names a node_type), a NUL byte, then the bytes of chunk (0, 0, 0), stored
-// under each of the keys "0.0.0", "0/0/0" and "c/0/0/0" so every key encoding finds it. The
-// metadata parser (shape, chunk and fill checks, codecs) and the chunk decoders (gzip, zlib,
-// zstd, blosc, crc32c, byte order, transpose) see hostile bytes. Seeds: fuzz/corpus/zarr, small
-// stores written by hand in this layout.
+// Zarr stores, read as `strata info` reads them. An input that starts with a zip signature
+// ("PK\3\4") is a zip store, written as is to `input.zarr.zip`: the central directory and
+// member parsing (zip64, stored and deflated members, crc32) and everything behind them see it.
+// Any other input is array metadata (a `.zarray`, or a `zarr.json` when it names a node_type),
+// a NUL byte, then the bytes of chunk (0, 0, 0), stored under each of the keys "0.0.0", "0/0/0"
+// and "c/0/0/0" so every key encoding finds it; with sharding_indexed metadata those bytes are
+// shard (0, 0, 0): its index and inner chunks. The metadata parser (shape, chunk and fill
+// checks, codecs, sharding) and the chunk decoders (gzip, zlib, zstd, blosc, crc32c, byte order,
+// transpose, shard indexes) see hostile bytes. Seeds: fuzz/corpus/zarr, small stores in these
+// layouts (fuzz/tools/zarr_seeds.py writes the sharded and zip ones).
 #include <algorithm>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <string_view>
@@ -27,6 +32,12 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::span<const std::byte> input = strata::fuzz::as_bytes(data, size);
+  if (size >= 4 && std::memcmp(data, "PK\3\4", 4) == 0) {
+    const std::filesystem::path zip = strata::fuzz::temp_dir() / "input.zarr.zip";
+    write_bytes(zip, input);
+    strata::fuzz::run_guarded([&] { strata::fuzz::read_volume_file(zip, {}); });
+    return 0;
+  }
   const auto nul = std::find(input.begin(), input.end(), std::byte{0});
   const std::span<const std::byte> metadata(input.begin(), nul);
   const std::span<const std::byte> chunk = nul == input.end() ? std::span<const std::byte>() : std::span(nul + 1, input.end());

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import strata
+import zarr_shards
 
 zarr = pytest.importorskip("zarr")
 numcodecs = pytest.importorskip("numcodecs")
@@ -131,3 +132,56 @@ def test_zarr_reads_what_strata_writes(tmp_path, dtype, compress):
     assert [ax["name"] for ax in ms["axes"]] == ["z", "y", "x"]
     assert ms["datasets"][0]["coordinateTransformations"][0]["scale"] == pytest.approx([3.0, 2.0, 0.5])
     assert (root["0"].compressor is not None) == compress
+
+
+@pytest.mark.parametrize("compression", ["stored", "deflated"])
+def test_zip_store_of_the_reference_library(tmp_path, cli, compression):
+    """zarr.ZipStore (stored members by default, deflated on request) read as the folder would be,
+    by the module and by `strata convert`."""
+    import zipfile
+
+    a = sample("u2", (12, 17, 23))
+    path = tmp_path / "image.ome.zarr.zip"
+    store = zarr.ZipStore(str(path), mode="w",
+                          compression=zipfile.ZIP_STORED if compression == "stored" else zipfile.ZIP_DEFLATED)
+    root = zarr.group(store=store)
+    root.create_dataset("0", data=a, chunks=(5, 8, 8), compressor=numcodecs.Blosc(cname="lz4"))
+    root.attrs.update(ome_zattrs((2.0, 0.75, 0.5), (1, 2, 3)))
+    store.close()
+    np.testing.assert_array_equal(strata.read(path), a)
+    assert strata.info(path)["spacing"] == pytest.approx((2.0, 0.75, 0.5))
+    cli("convert", path, tmp_path / "copy.nrrd")
+    np.testing.assert_array_equal(strata.read(tmp_path / "copy.nrrd"), a)
+
+
+def write_sharded(path, a, shard, inner, fill, location, crc, empty=(), missing=()):
+    """`a` as a sharded v3 array in the folder `path` (shard files "c/i/j/k"), leaving out the
+    shards in `missing` and the inner chunks in `empty`. Returns what must be read."""
+    import itertools
+
+    path.mkdir()
+    (path / "zarr.json").write_text(json.dumps(zarr_shards.sharded_metadata(a.shape, a.dtype, shard, inner, fill, location, crc)))
+    grid = [-(-n // s) for n, s in zip(a.shape, shard)]
+    padded = np.full([g * s for g, s in zip(grid, shard)], fill, dtype=a.dtype)
+    padded[tuple(slice(0, n) for n in a.shape)] = a
+    for cell in itertools.product(*map(range, grid)):
+        window = tuple(slice(c * s, (c + 1) * s) for c, s in zip(cell, shard))
+        if cell in missing:
+            padded[window] = fill
+            continue
+        key = path / "c" / "/".join(map(str, cell))
+        key.parent.mkdir(parents=True, exist_ok=True)
+        key.write_bytes(zarr_shards.shard_bytes(padded, cell, shard, inner, location, crc, empty))
+    for cell in empty:
+        padded[tuple(slice(c * n, (c + 1) * n) for c, n in zip(cell, inner))] = fill
+    return padded[tuple(slice(0, n) for n in a.shape)]
+
+
+@pytest.mark.parametrize("location", ["end", "start"])
+@pytest.mark.parametrize("crc", [True, False])
+def test_sharded_v3_array_written_with_numpy(tmp_path, location, crc):
+    a = sample("i4", (9, 13, 17))
+    expected = write_sharded(tmp_path / "s.zarr", a, (4, 8, 8), (2, 4, 4), -5, location, crc,
+                             empty={(0, 0, 0), (4, 3, 4)}, missing={(1, 1, 0)})
+    np.testing.assert_array_equal(strata.read(tmp_path / "s.zarr"), expected)
+    assert (expected == -5).any()

@@ -1,9 +1,10 @@
-// Zarr v2 and v3 stores (folders) and OME-Zarr images (NGFF 0.4 and 0.5), read; OME-Zarr 0.4
-// written (src/io/zarr/ome_zarr_writer.cpp). The array metadata and chunk codecs are in
-// src/io/zarr/zarr_array.cpp, the chunked box reads in src/io/zarr/zarr_source.cpp.
+// Zarr v2 and v3 stores (folders and zip files) and OME-Zarr images (NGFF 0.4 and 0.5), read;
+// OME-Zarr 0.4 written (src/io/zarr/ome_zarr_writer.cpp). The stores are in
+// src/io/zarr/zarr_store.cpp and zip_store.cpp, the array metadata and chunk codecs in
+// zarr_array.cpp, shards in zarr_chunk_reader.cpp, the chunked box reads in zarr_source.cpp.
 //
 // What a path opens (ReadOptions::dataset, a path inside the store, is appended first):
-// | the folder holds                          | opens                                              |
+// | the store (folder or zip) holds           | opens                                              |
 // | ----------------------------------------- | -------------------------------------------------- |
 // | `.zarray`, or `zarr.json` of an array     | that array (level must be 0)                       |
 // | a group with `multiscales`                | datasets[level].path, with axes and transforms     |
@@ -25,9 +26,10 @@
 #include "io/builtin_formats.hpp"
 #include "io/io_detail.hpp"
 #include "io/zarr/zarr_array.hpp"
-#include "io/zarr/zarr_source.hpp"
-#include "strata/core/error.hpp"
 #include "io/zarr/ome_zarr_writer.hpp"
+#include "io/zarr/zarr_source.hpp"
+#include "io/zarr/zarr_store.hpp"
+#include "strata/core/error.hpp"
 
 namespace strata::io::detail {
 
@@ -52,11 +54,20 @@ struct Node {
   json attributes;  // user attributes (v2 .zattrs, v3 zarr.json "attributes"); null when none
 };
 
-Node read_node(const fs::path& dir) {
-  if (is_file(dir / ".zarray")) return {NodeKind::array, {}};
-  if (is_file(dir / "zarr.json")) {
-    const json j = read_zarr_json(dir / "zarr.json");
-    const std::string file = (dir / "zarr.json").string();
+// The store and the key of one of its nodes ("" for the root).
+struct Place {
+  std::shared_ptr<const ZarrStore> store;
+  std::string node;
+  std::string key(const std::string& name) const { return join_key(node, name); }
+  std::string file() const { return store->name(node); }
+};
+
+Node read_node(const Place& at) {
+  const ZarrStore& store = *at.store;
+  if (store.exists(at.key(".zarray"))) return {NodeKind::array, {}};
+  if (store.exists(at.key("zarr.json"))) {
+    const json j = read_zarr_json(store, at.key("zarr.json"));
+    const std::string file = store.name(at.key("zarr.json"));
     if (!j.contains("node_type") || !j["node_type"].is_string())
       throw FormatError(file, "node_type", "missing (expected \"array\" or \"group\")");
     const std::string type = j["node_type"].get<std::string>();
@@ -64,9 +75,10 @@ Node read_node(const fs::path& dir) {
       throw FormatError(file, "node_type", fmt::format("\"{}\" (expected array or group)", type));
     return {type == "array" ? NodeKind::array : NodeKind::group, j.value("attributes", json())};
   }
-  if (is_file(dir / ".zgroup") || is_file(dir / ".zattrs"))
-    return {NodeKind::group, is_file(dir / ".zattrs") ? read_zarr_json(dir / ".zattrs") : json()};
-  throw FormatError(dir.string(), "metadata", "no .zarray, .zgroup, .zattrs or zarr.json: not a Zarr store");
+  const bool has_attributes = store.exists(at.key(".zattrs"));
+  if (store.exists(at.key(".zgroup")) || has_attributes)
+    return {NodeKind::group, has_attributes ? read_zarr_json(store, at.key(".zattrs")) : json()};
+  throw FormatError(at.file(), "metadata", "no .zarray, .zgroup, .zattrs or zarr.json: not a Zarr store");
 }
 
 // The `multiscales` list of a group's attributes (0.4 top level, 0.5 under "ome"), or null.
@@ -184,8 +196,8 @@ Opened view_array(ZarrArray array, int spatial, const ReadOptions& options) {
   return o;
 }
 
-Opened open_plain_array(const fs::path& dir, const ReadOptions& options) {
-  ZarrArray array = parse_zarr_array(dir);
+Opened open_plain_array(const Place& at, const ReadOptions& options) {
+  ZarrArray array = parse_zarr_array(at.store, at.node);
   const int spatial = int(std::min<std::size_t>(array.shape.size(), 3));
   return view_array(std::move(array), spatial, options);
 }
@@ -199,25 +211,37 @@ std::int64_t choose_level(const json& datasets, const ReadOptions& options, cons
   return level;
 }
 
-fs::path dataset_dir(const fs::path& group, const json& dataset, const std::string& file) {
+// "a//b/./c" -> "a/b/c"; nothing when a part is ".." (it would leave the store).
+std::optional<std::string> relative_key(const std::string& path) {
+  std::string key;
+  for (const fs::path& part : fs::path(path)) {
+    const std::string p = part.string();
+    if (p == "..") return std::nullopt;
+    if (p.empty() || p == "." || p == "/") continue;
+    key = join_key(key, p);
+  }
+  return key;
+}
+
+Place dataset_place(const Place& group, const json& dataset, const std::string& file) {
   const std::string path = dataset.is_object() && dataset.contains("path") && dataset["path"].is_string()
                                ? dataset["path"].get<std::string>()
                                : throw FormatError(file, "multiscales.datasets.path", "missing");
-  const fs::path relative(path);
-  if (path.empty() || relative.is_absolute() ||
-      std::any_of(relative.begin(), relative.end(), [](const fs::path& part) { return part == ".."; }))
+  const std::optional<std::string> key = relative_key(path);
+  if (path.empty() || fs::path(path).is_absolute() || !key || key->empty())
     throw FormatError(file, "multiscales.datasets.path", fmt::format("\"{}\" is not a path inside the image", path));
-  return group / relative;
+  return {group.store, group.key(*key)};
 }
 
-Opened open_multiscale(const fs::path& group, const json& multiscales, const ReadOptions& options, const std::string& file) {
+Opened open_multiscale(const Place& group, const json& multiscales, const ReadOptions& options, const std::string& file) {
   if (!multiscales.is_array() || multiscales.empty() || !multiscales[0].is_object())
     throw FormatError(file, "multiscales", "expected a list of multiscale objects");
   const json& ms = multiscales[0];  // the first is the image itself (NGFF)
   const json& datasets = ms.contains("datasets") ? ms["datasets"] : json();
   const std::int64_t level = choose_level(datasets, options, file);
   const json& dataset = datasets[std::size_t(level)];
-  ZarrArray array = parse_zarr_array(dataset_dir(group, dataset, file));
+  const Place level_array = dataset_place(group, dataset, file);
+  ZarrArray array = parse_zarr_array(level_array.store, level_array.node);
   const std::size_t rank = array.shape.size();
   const std::vector<Axis> axes = parse_axes(ms, rank, file);
   const int spatial = int(trailing_space_axes(axes, file));
@@ -239,40 +263,37 @@ Opened open_multiscale(const fs::path& group, const json& multiscales, const Rea
 }
 
 // The names of the arrays directly inside a group, for choosing one.
-std::vector<std::string> child_arrays(const fs::path& group) {
+std::vector<std::string> child_arrays(const Place& group) {
   std::vector<std::string> names;
-  std::error_code ec;
-  for (const auto& entry : fs::directory_iterator(group, ec))
-    if (entry.is_directory(ec) && (is_file(entry.path() / ".zarray") || is_file(entry.path() / "zarr.json")))
+  for (const std::string& child : group.store->children(group.node)) {
+    const Place at{group.store, group.key(child)};
+    if (at.store->exists(at.key(".zarray")) || at.store->exists(at.key("zarr.json")))
       try {
-        if (read_node(entry.path()).kind == NodeKind::array) names.push_back(entry.path().filename().string());
+        if (read_node(at).kind == NodeKind::array) names.push_back(child);
       } catch (const FormatError&) {
         // a damaged sibling is reported when it is chosen, not when another one is
       }
-  std::sort(names.begin(), names.end());
+  }
   return names;
 }
 
-fs::path node_path(const fs::path& store, const std::string& dataset) {
-  std::string inner = dataset;
-  while (!inner.empty() && inner.front() == '/') inner.erase(inner.begin());
-  const fs::path relative(inner);
-  if (std::any_of(relative.begin(), relative.end(), [](const fs::path& part) { return part == ".."; }))
-    throw ParameterError("ReadOptions::dataset", fmt::format("\"{}\" leaves the store {}", dataset, store.string()));
-  return inner.empty() ? store : store / relative;
+Place node_place(const fs::path& path, const std::string& dataset) {
+  const std::optional<std::string> key = relative_key(dataset);
+  if (!key) throw ParameterError("ReadOptions::dataset", fmt::format("\"{}\" leaves the store {}", dataset, path.string()));
+  return {open_zarr_store(path), *key};
 }
 
-Opened open_node(const fs::path& store, const ReadOptions& options) {
-  const fs::path dir = node_path(store, options.dataset);
-  const Node node = read_node(dir);
-  const std::string file = dir.string();
+Opened open_node(const fs::path& path, const ReadOptions& options) {
+  const Place at = node_place(path, options.dataset);
+  const Node node = read_node(at);
+  const std::string file = at.file();
   const json multiscales = multiscales_of(node.attributes);
-  if (node.kind == NodeKind::group && !multiscales.is_null()) return open_multiscale(dir, multiscales, options, file);
+  if (node.kind == NodeKind::group && !multiscales.is_null()) return open_multiscale(at, multiscales, options, file);
   if (options.level.value_or(0) != 0)
     throw ParameterError("ReadOptions::level", fmt::format("{}: not a multiscale image (no OME-Zarr multiscales)", file));
-  if (node.kind == NodeKind::array) return open_plain_array(dir, options);
-  const std::vector<std::string> arrays = child_arrays(dir);
-  if (arrays.size() == 1) return open_plain_array(dir / arrays[0], options);
+  if (node.kind == NodeKind::array) return open_plain_array(at, options);
+  const std::vector<std::string> arrays = child_arrays(at);
+  if (arrays.size() == 1) return open_plain_array({at.store, at.key(arrays[0])}, options);
   throw FormatError(file, "dataset",
                     arrays.empty() ? std::string("a group without multiscales or arrays")
                                    : fmt::format("a group of {} arrays ({}); choose one with --dataset", arrays.size(),
@@ -285,6 +306,10 @@ std::unique_ptr<VolumeSource> open_zarr(const fs::path& path, const ReadOptions&
 }
 
 std::unique_ptr<VolumeWriter> create_zarr_writer(const fs::path& path, const VolumeInfo& info, const WriteOptions& options) {
+  if (is_zip_store_name(path))
+    throw Error(fmt::format("{}: zip stores are read, not written; write a .zarr or .ome.zarr folder (and zip it "
+                            "with no compression if a zip is needed)",
+                            path.string()));
   return make_ome_zarr_writer(path, info, options);
 }
 
@@ -294,8 +319,9 @@ VolumeFormat zarr_format() {
   return {
       .name = "zarr",
       .title = "Zarr, OME-Zarr",
-      .description = "chunked arrays in a folder (Zarr v2 and v3), and OME-Zarr multiscale images (NGFF 0.4, 0.5)",
-      .extensions = {".zarr", ".ome.zarr"},
+      .description = "chunked arrays in a folder or a zip file (Zarr v2 and v3), and OME-Zarr multiscale images "
+                     "(NGFF 0.4, 0.5)",
+      .extensions = {".zarr", ".ome.zarr", ".zarr.zip", ".ome.zarr.zip"},
       .directory = "a Zarr store (.zarray, .zgroup, .zattrs or zarr.json)",
       .sniff_directory = looks_like_zarr,
       .open = open_zarr,
@@ -305,11 +331,12 @@ VolumeFormat zarr_format() {
       .write_dtypes = DTypeSet::all(),
       .read_notes = "Zarr v2 and v3 (regular chunks; C or F order, transpose; compressors gzip, zlib, zstd, blosc "
                     "with lz4/zstd/zlib/blosclz and shuffle/bitshuffle; crc32c; fill values; missing chunks; either "
-                    "byte order); OME-Zarr 0.4/0.5 multiscales: --level, axes units, scale and translation; t/c axes "
+                    "byte order; v3 sharding_indexed, inner chunks read by range); folders or zip stores (stored or "
+                    "deflated members, zip64); OME-Zarr 0.4/0.5 multiscales: --level, axes units, scale and translation; t/c axes "
                     "as --volume; --dataset for an array in a group; chunks decoded as boxes need them",
       .write_notes = "OME-Zarr 0.4 (Zarr v2, 64^3 chunks, blosc-zstd or uncompressed, \"/\" keys) with scale, "
                      "translation and unit; direction cosines are not written (NGFF has none); every level of a "
-                     ".strata file through io::write_ome_zarr_pyramid",
+                     ".strata file through io::write_ome_zarr_pyramid; no zip stores",
   };
 }
 

@@ -21,6 +21,7 @@
 #include "strata/io/volume_io.hpp"
 #include "support/test_support.hpp"
 #include "io/io_test_util.hpp"
+#include "io/zarr_test_util.hpp"
 
 namespace strata::io {
 namespace {
@@ -29,6 +30,7 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 using test::error_of;
 using test::TempDir;
+using test::zarr::expect_refused;
 
 void write_text(const fs::path& path, const std::string& text) {
   fs::create_directories(path.parent_path());
@@ -246,12 +248,6 @@ TEST(IoZarr, DatasetChoosesAnArrayOfAGroup) {
   options.dataset = "/raw";
   EXPECT_EQ(at<std::uint8_t>(read_volume(store, options), 1, 0, 0), 6);
   EXPECT_EQ(read_volume(fs::path(store.string() + ":/labels/cells")).dtype(), DType::u32);
-}
-
-void expect_refused(const std::function<void()>& f, const std::string& file_part, const std::string& field) {
-  const std::string message = error_of(f);
-  EXPECT_NE(message.find(file_part), std::string::npos) << message;
-  EXPECT_NE(message.find(field), std::string::npos) << message;
 }
 
 TEST(IoZarr, HostileMetadataAndChunksAreRefusedNamingFileAndField) {

@@ -20,14 +20,23 @@
 // | chunk_key_encoding | default ("c/i/j/k") or v2 ("i.j.k")     | configuration.separator               |
 // | fill_value         | number, "NaN", "Infinity", "0x7fc00000" | as v2; hex: the float's bits          |
 // | codecs             | transpose, bytes, gzip, zstd, blosc,    | array-to-array, array-to-bytes, then  |
-// |                    | crc32c                                  | bytes-to-bytes; sharding refused      |
+// |                    | crc32c; or sharding_indexed alone       | bytes-to-bytes                        |
+//
+// `sharding_indexed` configuration (the chunk grid's cells are then shards):
+// | field          | value                                      | here                                 |
+// | -------------- | ------------------------------------------ | ------------------------------------ |
+// | chunk_shape    | int[n], dividing the shard shape            | the inner chunks, what is decoded     |
+// | codecs         | as above, but no sharding_indexed           | the inner chunks' codecs (nested      |
+// |                |                                            | sharding refused)                    |
+// | index_codecs   | bytes (either endian), then crc32c or none | the index: per inner chunk (C order)  |
+// |                |                                            | u64 offset, u64 nbytes; ~0 both=empty |
+// | index_location | "end" (default) or "start"                 | where the index sits in the shard     |
 #include "io/zarr/zarr_array.hpp"
 
 #include <algorithm>
 #include <bit>
 #include <cmath>
 #include <cstring>
-#include <fstream>
 #include <limits>
 #include <numeric>
 
@@ -44,7 +53,6 @@ namespace strata::io::detail {
 
 namespace {
 
-namespace fs = std::filesystem;
 using nlohmann::json;
 
 // Deepest nesting of `text`'s arrays and objects, counted outside strings, stopping once it
@@ -213,10 +221,9 @@ ZarrByteCodec v2_compressor(const json& c, const std::string& file) {
   throw FormatError(file, "compressor", fmt::format("\"{}\" is not read (expected gzip, zlib, zstd or blosc)", id));
 }
 
-ZarrArray parse_v2(const fs::path& dir, const json& j, const std::string& file) {
+ZarrArray parse_v2(const json& j, const std::string& file) {
   const Fields f{j, file};
   ZarrArray a;
-  a.dir = dir;
   a.metadata_file = file;
   if (f.at("zarr_format") != 2) throw FormatError(file, "zarr_format", "expected 2");
   a.shape = positive_list(f.at("shape"), file, "shape", 0);
@@ -240,15 +247,31 @@ ZarrArray parse_v2(const fs::path& dir, const json& j, const std::string& file) 
 // v3 codec "configuration" (an object, empty when absent).
 json configuration(const json& codec) { return codec.contains("configuration") ? codec["configuration"] : json::object(); }
 
-void parse_v3_codecs(const json& codecs, ZarrArray& a) {
+// The "name" of a v3 codec object.
+std::string codec_name(const json& codec, const std::string& file, const std::string& field) {
+  if (codec.is_object() && codec.contains("name") && codec["name"].is_string()) return codec["name"].get<std::string>();
+  throw FormatError(file, field, fmt::format("{} has no name", codec.dump()));
+}
+
+void parse_sharding(const json& config, ZarrArray& a, const std::string& field);
+
+// `field`: where the list is ("codecs", or the inner codecs of sharding_indexed).
+void parse_v3_codecs(const json& codecs, ZarrArray& a, const std::string& field = "codecs") {
   const std::string& file = a.metadata_file;
-  if (!codecs.is_array() || codecs.empty()) throw FormatError(file, "codecs", "expected a list of codecs");
+  if (!codecs.is_array() || codecs.empty()) throw FormatError(file, field, "expected a list of codecs");
   bool have_bytes = false;
   for (const json& codec : codecs) {
-    const std::string name = codec.is_object() && codec.contains("name") && codec["name"].is_string()
-                                 ? codec["name"].get<std::string>()
-                                 : throw FormatError(file, "codecs", fmt::format("{} has no name", codec.dump()));
+    const std::string name = codec_name(codec, file, field);
     const json config = configuration(codec);
+    if (name == "sharding_indexed") {
+      // Shards are read by range: nothing may transform a whole shard before or after it.
+      if (field != "codecs")
+        throw FormatError(file, field, "nested sharding_indexed is not read");
+      if (codecs.size() != 1)
+        throw FormatError(file, field, "sharding_indexed with other codecs around it is not read (expected it alone)");
+      parse_sharding(config, a, field + ".sharding_indexed");
+      return;
+    }
     if (name == "transpose") {
       const json order = config.contains("order") ? config["order"] : json();
       std::vector<int> next;
@@ -259,28 +282,77 @@ void parse_v3_codecs(const json& codecs, ZarrArray& a) {
       std::vector<int> sorted = next;
       std::sort(sorted.begin(), sorted.end());
       if (have_bytes || sorted != identity_axes(a.shape.size()))
-        throw FormatError(file, "codecs.transpose.order",
+        throw FormatError(file, field + ".transpose.order",
                           fmt::format("{} is not a permutation of the {} axes before the bytes codec", order.dump(),
                                       a.shape.size()));
       a.stored_axis = next;
     } else if (name == "bytes") {
       const std::string endian = config.contains("endian") && config["endian"].is_string() ? config["endian"].get<std::string>() : "little";
       if (endian != "little" && endian != "big")
-        throw FormatError(file, "codecs.bytes.endian", fmt::format("\"{}\" (expected little or big)", endian));
+        throw FormatError(file, field + ".bytes.endian", fmt::format("\"{}\" (expected little or big)", endian));
       a.big_endian = endian == "big" && dtype_size(a.dtype) > 1;
       have_bytes = true;
     } else if (name == "gzip" || name == "zstd" || name == "blosc" || name == "crc32c") {
-      if (!have_bytes) throw FormatError(file, "codecs", fmt::format("{} comes before the bytes codec", name));
+      if (!have_bytes) throw FormatError(file, field, fmt::format("{} comes before the bytes codec", name));
       a.byte_codecs.push_back(name == "gzip"   ? ZarrByteCodec::gzip_or_zlib
                               : name == "zstd" ? ZarrByteCodec::zstd
                               : name == "blosc" ? ZarrByteCodec::blosc
                                                 : ZarrByteCodec::crc32c);
     } else {
-      throw FormatError(file, "codecs",
-                        fmt::format("codec \"{}\" is not read (expected transpose, bytes, gzip, zstd, blosc, crc32c)", name));
+      throw FormatError(file, field,
+                        fmt::format("codec \"{}\" is not read (expected transpose, bytes, gzip, zstd, blosc, crc32c, "
+                                    "sharding_indexed)",
+                                    name));
     }
   }
-  if (!have_bytes) throw FormatError(file, "codecs", "no bytes codec (sharding_indexed is not read)");
+  if (!have_bytes) throw FormatError(file, field, "no bytes codec");
+}
+
+// index_codecs: bytes, optionally crc32c after it; what the index of every shard is encoded with.
+void parse_index_codecs(const json& codecs, ZarrSharding& s, const std::string& file, const std::string& field) {
+  std::vector<std::string> names;
+  if (codecs.is_array())
+    for (const json& c : codecs) names.push_back(codec_name(c, file, field));
+  if (names.empty() || names[0] != "bytes" || names.size() > 2 || (names.size() == 2 && names[1] != "crc32c"))
+    throw FormatError(file, field, fmt::format("{} is not read (expected bytes, then crc32c or nothing)", codecs.dump()));
+  const json bytes_config = configuration(codecs[0]);
+  const std::string endian = bytes_config.value("endian", json("little")).is_string()
+                                 ? bytes_config.value("endian", std::string("little"))
+                                 : std::string();
+  if (endian != "little" && endian != "big")
+    throw FormatError(file, field + ".bytes.endian", fmt::format("{} (expected little or big)", bytes_config.dump()));
+  s.index_big_endian = endian == "big";
+  s.index_crc32c = names.size() == 2;
+}
+
+// sharding_indexed's configuration: the inner chunks become the array's `chunks`.
+void parse_sharding(const json& config, ZarrArray& a, const std::string& field) {
+  const std::string& file = a.metadata_file;
+  const Fields f{config, file};
+  ZarrSharding s;
+  s.shard_shape = a.chunks;
+  const std::vector<std::int64_t> inner = positive_list(f.at("chunk_shape"), file, field + ".chunk_shape", a.shape.size());
+  std::uint64_t entries = 1;
+  for (std::size_t i = 0; i < inner.size(); ++i) {
+    if (s.shard_shape[i] % inner[i] != 0)
+      throw FormatError(file, field + ".chunk_shape",
+                        fmt::format("{} does not divide the shard shape {}", config["chunk_shape"].dump(),
+                                    json(s.shard_shape).dump()));
+    s.per_shard.push_back(s.shard_shape[i] / inner[i]);
+    const auto product = checked_mul(entries, std::uint64_t(s.per_shard.back()));
+    if (!product || *product > kMaxZarrShardIndexEntries)
+      throw FormatError(file, field + ".chunk_shape",
+                        fmt::format("more than {} inner chunks per shard are not read", kMaxZarrShardIndexEntries));
+    entries = *product;
+  }
+  const std::string location = f.text_or("index_location", "end");
+  if (location != "end" && location != "start")
+    throw FormatError(file, field + ".index_location", fmt::format("\"{}\" (expected end or start)", location));
+  s.index_at_start = location == "start";
+  parse_index_codecs(f.at("index_codecs"), s, file, field + ".index_codecs");
+  a.chunks = inner;
+  a.sharding = std::move(s);
+  parse_v3_codecs(f.at("codecs"), a, field + ".codecs");
 }
 
 void parse_v3_key_encoding(const json& j, ZarrArray& a) {
@@ -305,10 +377,9 @@ void parse_v3_key_encoding(const json& j, ZarrArray& a) {
   a.key_prefix = name == "default" ? "c" + separator : "";
 }
 
-ZarrArray parse_v3(const fs::path& dir, const json& j, const std::string& file) {
+ZarrArray parse_v3(const json& j, const std::string& file) {
   const Fields f{j, file};
   ZarrArray a;
-  a.dir = dir;
   a.metadata_file = file;
   a.zarr_format = 3;
   if (f.text("node_type") != "array") throw FormatError(file, "node_type", "a group, not an array");
@@ -328,6 +399,8 @@ ZarrArray parse_v3(const fs::path& dir, const json& j, const std::string& file) 
   return a;
 }
 
+}  // namespace
+
 std::uint32_t crc32c(std::span<const std::byte> data) {
   static const auto table = [] {
     std::array<std::uint32_t, 256> t{};
@@ -342,6 +415,8 @@ std::uint32_t crc32c(std::span<const std::byte> data) {
   for (std::byte b : data) crc = table[(crc ^ std::to_integer<std::uint32_t>(b)) & 0xFFu] ^ (crc >> 8);
   return ~crc;
 }
+
+namespace {
 
 // Undoes one bytes-to-bytes codec; `limit` bounds what it may decode to.
 std::vector<std::byte> undo(ZarrByteCodec codec, const std::vector<std::byte>& in, std::uint64_t limit,
@@ -388,41 +463,47 @@ std::uint64_t ZarrArray::chunk_bytes() const {
   return n;
 }
 
-fs::path ZarrArray::chunk_path(std::span<const std::int64_t> index) const {
+std::uint64_t ZarrSharding::index_entries() const {
+  std::uint64_t n = 1;
+  for (std::int64_t c : per_shard) n *= std::uint64_t(c);  // checked by parse_sharding
+  return n;
+}
+
+std::uint64_t ZarrSharding::index_bytes() const { return 16 * index_entries() + (index_crc32c ? 4 : 0); }
+
+std::string ZarrArray::chunk_key(std::span<const std::int64_t> index) const {
   std::string key = key_prefix;
   for (std::size_t i = 0; i < index.size(); ++i) {
     if (i) key += separator;
     key += std::to_string(index[i]);
   }
-  return dir / key;
+  return join_key(node, key);
 }
 
-json read_zarr_json(const fs::path& file) {
-  std::error_code ec;
-  const std::uintmax_t size = fs::file_size(file, ec);
-  if (ec) throw FormatError(file.string(), "metadata", fmt::format("cannot read: {}", ec.message()));
-  if (size > kMaxZarrMetadataBytes)
-    throw FormatError(file.string(), "metadata",
-                      fmt::format("{} bytes of JSON, more than the {} read", size, kMaxZarrMetadataBytes));
-  std::ifstream in(file, std::ios::binary);
-  std::string text(size, '\0');
-  in.read(text.data(), std::streamsize(size));
-  if (!in) throw FormatError(file.string(), "metadata", "cannot read");
+json read_zarr_json(const ZarrStore& store, const std::string& key) {
+  const std::string file = store.name(key);
+  const std::optional<std::uint64_t> size = store.size(key);
+  if (!size) throw FormatError(file, "metadata", "cannot read: missing");
+  if (*size > kMaxZarrMetadataBytes)
+    throw FormatError(file, "metadata", fmt::format("{} bytes of JSON, more than the {} read", *size, kMaxZarrMetadataBytes));
+  const std::vector<std::byte> bytes = store.read(key, 0, *size, "metadata");
+  const std::string text(reinterpret_cast<const char*>(bytes.data()), bytes.size());
   if (json_depth(text, kMaxZarrJsonDepth) > kMaxZarrJsonDepth)
-    throw FormatError(file.string(), "metadata", fmt::format("JSON nested deeper than {} levels", kMaxZarrJsonDepth));
+    throw FormatError(file, "metadata", fmt::format("JSON nested deeper than {} levels", kMaxZarrJsonDepth));
   json j = json::parse(text, nullptr, false);
-  if (j.is_discarded()) throw FormatError(file.string(), "metadata", "not valid JSON");
-  if (!j.is_object()) throw FormatError(file.string(), "metadata", "expected a JSON object");
+  if (j.is_discarded()) throw FormatError(file, "metadata", "not valid JSON");
+  if (!j.is_object()) throw FormatError(file, "metadata", "expected a JSON object");
   return j;
 }
 
-ZarrArray parse_zarr_array(const fs::path& dir) {
-  const fs::path v2 = dir / ".zarray", v3 = dir / "zarr.json";
-  std::error_code ec;
-  const bool is_v2 = fs::is_regular_file(v2, ec);
-  const fs::path file = is_v2 ? v2 : v3;
-  const json j = read_zarr_json(file);
-  ZarrArray a = is_v2 ? parse_v2(dir, j, file.string()) : parse_v3(dir, j, file.string());
+ZarrArray parse_zarr_array(std::shared_ptr<const ZarrStore> store, const std::string& node) {
+  const std::string v2 = join_key(node, ".zarray"), v3 = join_key(node, "zarr.json");
+  const bool is_v2 = store->exists(v2);
+  const std::string key = is_v2 ? v2 : v3;
+  const json j = read_zarr_json(*store, key);
+  ZarrArray a = is_v2 ? parse_v2(j, store->name(key)) : parse_v3(j, store->name(key));
+  a.store = std::move(store);
+  a.node = node;
   check_sizes(a);
   return a;
 }

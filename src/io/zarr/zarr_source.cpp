@@ -6,7 +6,6 @@
 #include <array>
 #include <exception>
 #include <cstring>
-#include <fstream>
 #include <list>
 #include <map>
 #include <mutex>
@@ -14,6 +13,7 @@
 #include <fmt/format.h>
 
 #include "io/io_detail.hpp"
+#include "io/zarr/zarr_chunk_reader.hpp"
 #include "strata/core/error.hpp"
 
 namespace strata::io::detail {
@@ -23,10 +23,6 @@ namespace {
 namespace fs = std::filesystem;
 using ChunkIndex = std::vector<std::int64_t>;
 using Chunk = std::shared_ptr<const std::vector<std::byte>>;
-
-// A chunk file larger than its decoded size plus this is not a chunk of the array (blosc and
-// the deflate codecs add at most a few hundred bytes to incompressible data).
-constexpr std::uint64_t kEncodedSlack = 1u << 20;
 
 // The most recently used decoded chunks, at most `capacity` of them.
 class ChunkCache {
@@ -128,24 +124,13 @@ class ZarrSource final : public VolumeSource {
     return index;
   }
 
-  // The decoded chunk, or nullptr when its file does not exist (all fill value).
+  // The decoded chunk, or nullptr when it is not stored (all fill value).
   Chunk load(const ChunkIndex& index) {
     if (Chunk cached = cache_.find(index)) return cached;
-    const fs::path file = array_.chunk_path(index);
-    std::error_code ec;
-    const std::uintmax_t size = fs::file_size(file, ec);
-    if (ec) {
-      if (!fs::exists(file, ec)) return nullptr;
-      throw FormatError(file.string(), "chunk", "cannot read: not a file");
-    }
-    if (size > array_.chunk_bytes() + kEncodedSlack)
-      throw FormatError(file.string(), "chunk",
-                        fmt::format("{} bytes, more than a chunk of {} bytes can take", size, array_.chunk_bytes()));
-    std::vector<std::byte> encoded(size);
-    std::ifstream in(file, std::ios::binary);
-    in.read(reinterpret_cast<char*>(encoded.data()), std::streamsize(size));
-    if (!in) throw FormatError(file.string(), "chunk", "cannot read");
-    auto chunk = std::make_shared<const std::vector<std::byte>>(decode_zarr_chunk(array_, std::move(encoded), file.string()));
+    std::optional<EncodedChunk> encoded = reader_.read(index);
+    if (!encoded) return nullptr;
+    auto chunk = std::make_shared<const std::vector<std::byte>>(
+        decode_zarr_chunk(array_, std::move(encoded->bytes), encoded->name));
     cache_.insert(index, chunk);
     return chunk;
   }
@@ -193,6 +178,7 @@ class ZarrSource final : public VolumeSource {
   }
 
   ZarrArray array_;
+  ZarrChunkReader reader_{array_};  // after array_: it reads through it
   ZarrView view_;
   VolumeInfo info_;
   fs::path path_;
