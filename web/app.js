@@ -66,8 +66,8 @@ class Viewer {
 
   // --- datasets ----------------------------------------------------------------------------------
 
-  dataset(id) {
-    return id === null || id === undefined ? null : this.datasets.find((d) => d.id === id) ?? null;
+  dataset(slug) {
+    return slug === null || slug === undefined ? null : this.datasets.find((d) => d.slug === slug) ?? null;
   }
 
   scalarDataset() {
@@ -104,12 +104,17 @@ class Viewer {
     return this.datasets.filter((d) => d.kind === 'labels' && (!scalar || d.dims.join() === scalar.dims.join()));
   }
 
-  // A hash's choice when it names a suitable dataset; undefined (not in the hash) means the first
-  // suitable one, null means none.
+  // A hash's choice when it names a suitable dataset (by slug); undefined (not in the hash) means
+  // the first suitable one, null means none. A slug the server does not have (a link from another
+  // server, or a file since removed) opens nothing and says so: the first dataset would be a
+  // different volume under the same view.
   pickDatasets(wanted) {
-    const pick = (id, choices) => {
-      if (id === null) return null;
-      return choices.find((d) => d.id === id) ?? choices[0] ?? null;
+    const pick = (slug, choices) => {
+      if (slug === null) return null;
+      if (slug === undefined) return choices[0] ?? null;
+      const found = choices.find((d) => d.slug === slug);
+      if (!found && !this.dataset(slug)) this.status.message(`the link's dataset "${slug}" is not served here`, 'error');
+      return found ?? null;
     };
     const scalar = pick(wanted.scalar, this.preferredScalarChoices());
     const labels = pick(wanted.labels, this.labelChoices(scalar));
@@ -119,9 +124,9 @@ class Viewer {
   fillDatasetSelects() {
     const option = (value, text) => Object.assign(document.createElement('option'), { value, textContent: text });
     const describe = (d) => `${d.name}  (${d.dims.join('×')})`;
-    $('scalar-select').replaceChildren(option('none', '— none —'), ...this.scalarChoices().map((d) => option(d.id, describe(d))));
+    $('scalar-select').replaceChildren(option('none', '— none —'), ...this.scalarChoices().map((d) => option(d.slug, describe(d))));
     const labels = this.labelChoices();
-    $('labels-select').replaceChildren(option('none', '— none —'), ...labels.map((d) => option(d.id, describe(d))));
+    $('labels-select').replaceChildren(option('none', '— none —'), ...labels.map((d) => option(d.slug, describe(d))));
   }
 
   // Switches datasets: everything tied to the old data (camera, TF, cursor, label colours) resets.
@@ -301,7 +306,7 @@ class Viewer {
   }
 
   bindDatasetControls() {
-    const id = (value) => (value === 'none' ? null : Number(value));
+    const id = (value) => (value === 'none' ? null : value);
     $('scalar-select').addEventListener('change', (e) => this.chooseDatasets(id(e.target.value), undefined));
     $('labels-select').addEventListener('change', (e) => this.chooseLabels(id(e.target.value)));
     $('source-3d').addEventListener('change', (e) => this.setSource3d(e.target.value));
@@ -309,7 +314,7 @@ class Viewer {
 
   // Changing only the label layer keeps the camera, cursor and TF.
   chooseLabels(labelsId) {
-    this.state.labels = this.labelChoices().some((d) => d.id === labelsId) ? labelsId : null;
+    this.state.labels = this.labelChoices().some((d) => d.slug === labelsId) ? labelsId : null;
     Object.assign(this.state, { labelColors: {}, hiddenLabels: [], box: null });
     if (!this.state.labels && this.state.source3d === 'labels') this.state.source3d = 'scalar';
     this.applyState({ postPalette: true });

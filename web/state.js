@@ -19,8 +19,8 @@ export function defaultState(scalar, labels) {
   const reference = scalar ?? labels;
   const range = scalar?.value_range ?? [0, 1];
   return {
-    scalar: scalar?.id ?? null,
-    labels: labels?.id ?? null,
+    scalar: scalar?.slug ?? null,
+    labels: labels?.slug ?? null,
     camera: { az: 30, el: 20, dist: null, target: null },
     cursor: reference ? reference.dims.map((d) => Math.floor(d / 2)) : [0, 0, 0],
     tf: presetPoints('ct', range),
@@ -101,13 +101,14 @@ const numbers = (text, count) => {
   return values.length === count && values.every(Number.isFinite) ? values : null;
 };
 
-const datasetId = (text) => (text === 'none' ? null : Number(text));
+const datasetSlug = (text) => (text === 'none' ? null : text);
 
-// The dataset choice a hash asks for: {scalar, labels} ids (null = none, undefined = not given).
+// The dataset choice a hash asks for: {scalar, labels} slugs (null = none, undefined = not
+// given). Links name datasets by slug, never by index: another server's third file is not this one's.
 export function datasetsFromHash(fields) {
   return {
-    scalar: 'v' in fields ? datasetId(fields.v) : undefined,
-    labels: 'l' in fields ? datasetId(fields.l) : undefined,
+    scalar: 'v' in fields ? datasetSlug(fields.v) : undefined,
+    labels: 'l' in fields ? datasetSlug(fields.l) : undefined,
   };
 }
 

@@ -84,7 +84,9 @@ bool is_folder(const fs::path& path) {
 
 // The longest extension of a format that `path`'s name ends with; for a folder only the
 // formats that take folders count.
-const VolumeFormat* by_extension(const fs::path& path, bool folder) {
+// The format with the longest extension `path`'s name ends with (only folder formats when
+// `folder`), and that extension's length.
+std::pair<const VolumeFormat*, std::size_t> longest_extension(const fs::path& path, bool folder) {
   const std::string name = detail::ascii_lower(path.filename().string());
   const VolumeFormat* best = nullptr;
   std::size_t best_size = 0;
@@ -96,8 +98,10 @@ const VolumeFormat* by_extension(const fs::path& path, bool folder) {
         best_size = ext.size();
       }
   }
-  return best;
+  return {best, best_size};
 }
+
+const VolumeFormat* by_extension(const fs::path& path, bool folder) { return longest_extension(path, folder).first; }
 
 // A folder's format: the first whose predicate takes it, else the first folder format that
 // takes every folder (no predicate; its reader reports what the folder lacks).
@@ -187,6 +191,13 @@ const VolumeFormat* find_format(std::string_view name) {
 }
 
 const VolumeFormat* format_by_extension(const fs::path& path) { return by_extension(path, false); }
+
+std::string name_without_extension(const fs::path& path) {
+  const std::string name = path.filename().string();
+  std::size_t cut = longest_extension(path, false).second;
+  if (detail::ascii_lower(name).ends_with(kStrataExtension)) cut = std::max(cut, kStrataExtension.size());
+  return name.substr(0, name.size() - std::min(cut, name.size()));
+}
 
 const VolumeFormat& detect_format(const fs::path& path) {
   const bool folder = is_folder(path);

@@ -100,18 +100,28 @@ std::string named_array(const std::string& from_path, const std::string& from_op
 
 }  // namespace
 
-std::pair<std::filesystem::path, std::string> split_container_path(const std::filesystem::path& path) {
-  std::error_code ec;
+namespace {
+
+// `path` split at its last colon whose left part `is_container` accepts, so "C:" style prefixes
+// and colons inside folder names still resolve to the longest container; the whole path and no
+// inner name when no part is one.
+template <class IsContainer>
+std::pair<std::filesystem::path, std::string> split_at_container(const std::filesystem::path& path,
+                                                                 IsContainer&& is_container) {
   const std::string text = path.string();
-  if (std::filesystem::exists(path, ec)) return {path, {}};
-  // The last colon whose left part exists: "C:" style prefixes and colons inside folder names
-  // still resolve to the longest existing container.
   for (std::size_t colon = text.rfind(':'); colon != std::string::npos && colon > 0; colon = text.rfind(':', colon - 1)) {
     const std::filesystem::path container = text.substr(0, colon);
-    if (std::filesystem::exists(container, ec)) return {container, text.substr(colon + 1)};
-    if (colon == 0) break;
+    if (is_container(container)) return {container, text.substr(colon + 1)};
   }
   return {path, {}};
+}
+
+}  // namespace
+
+std::pair<std::filesystem::path, std::string> split_container_path(const std::filesystem::path& path) {
+  std::error_code ec;
+  if (std::filesystem::exists(path, ec)) return {path, {}};
+  return split_at_container(path, [&](const std::filesystem::path& container) { return std::filesystem::exists(container, ec); });
 }
 
 std::unique_ptr<VolumeSource> open_volume(const std::filesystem::path& given_path, const ReadOptions& given_options) {
@@ -144,13 +154,10 @@ Volume read_volume(const std::filesystem::path& path, const ReadOptions& options
 
 std::pair<std::filesystem::path, std::string> split_output_container(const std::filesystem::path& path) {
   if (format_by_extension(path)) return {path, {}};
-  const std::string text = path.string();
-  for (std::size_t colon = text.rfind(':'); colon != std::string::npos && colon > 0; colon = text.rfind(':', colon - 1)) {
-    const std::filesystem::path container = text.substr(0, colon);
+  return split_at_container(path, [](const std::filesystem::path& container) {
     const VolumeFormat* format = format_by_extension(container);
-    if (format && format->capabilities.datasets) return {container, text.substr(colon + 1)};
-  }
-  return {path, {}};
+    return format && format->capabilities.datasets;
+  });
 }
 
 std::unique_ptr<VolumeWriter> create_volume_writer(const std::filesystem::path& given_path, const VolumeInfo& info,

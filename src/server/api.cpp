@@ -9,6 +9,7 @@
 #include "server/api_detail.hpp"
 #include "server/static_files.hpp"
 #include "strata/core/error.hpp"
+#include "strata/io/formats.hpp"
 #include "strata/mixture/encoded_labels.hpp"
 #include "strata/store/container.hpp"
 
@@ -100,14 +101,11 @@ render::SessionOptions session_options(const ApiOptions& o, std::size_t strata_f
   return s;
 }
 
-// A dataset's name in links: the file name without its extension(s) (".strata", ".nii.gz"),
+// A dataset's name in links: the file name without its format's extension (".strata", ".nii.gz"),
 // characters other than letters, digits, '.', '_' and '-' replaced by '_', then "-2", "-3", ...
 // appended while another dataset has it.
 std::string dataset_name(const std::filesystem::path& file, const std::vector<std::unique_ptr<Dataset>>& taken) {
-  std::filesystem::path stem = file.filename();
-  do stem = stem.stem();
-  while (stem.has_extension() && (stem.extension() == ".nii" || stem.extension() == ".ome"));
-  std::string base = stem.string();
+  std::string base = io::name_without_extension(file);
   for (char& c : base)
     if (!std::isalnum(static_cast<unsigned char>(c)) && c != '.' && c != '_' && c != '-') c = '_';
   if (base.empty() || base == "." || base == "..") base = "dataset";

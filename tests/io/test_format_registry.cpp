@@ -350,5 +350,14 @@ TEST(IoFormatRegistry, EveryExtensionIsSpelledOnceInTheSources) {
   }
 }
 
+TEST(IoFormatRegistry, NameWithoutExtensionDropsTheLongestFormatExtension) {
+  EXPECT_EQ(name_without_extension("/data/ch2better.nii.gz"), "ch2better");
+  EXPECT_EQ(name_without_extension("scan.v2.NRRD"), "scan.v2");
+  EXPECT_EQ(name_without_extension("cells.strata"), "cells");
+  EXPECT_EQ(name_without_extension("brain.ome.zarr"), "brain");
+  EXPECT_EQ(name_without_extension("notes.txt"), "notes.txt");
+  EXPECT_EQ(name_without_extension(".nrrd"), "");
+}
+
 }  // namespace
 }  // namespace strata::io

@@ -6,8 +6,8 @@ import { applyHash, datasetsFromHash, defaultState, encodeState, parseBox, parse
 import { evaluate, presetPoints, tfFromString, tfToString } from '../../web/transfer-function.js';
 import { hashLabelColor, hexToRgb, rgbToHex } from '../../web/colors.js';
 
-const scalar = { id: 0, kind: 'scalar', dims: [64, 48, 32], spacing: [1, 1, 2], rank: 8, value_range: [-10, 90] };
-const labels = { id: 1, kind: 'labels', dims: [64, 48, 32], spacing: [1, 1, 2], rank: 0 };
+const scalar = { id: 0, slug: 'ct', kind: 'scalar', dims: [64, 48, 32], spacing: [1, 1, 2], rank: 8, value_range: [-10, 90] };
+const labels = { id: 1, slug: 'atlas', kind: 'labels', dims: [64, 48, 32], spacing: [1, 1, 2], rank: 0 };
 
 function edited() {
   const state = defaultState(scalar, labels);
@@ -43,7 +43,8 @@ test('a state survives the round trip through the URL hash', () => {
   const state = edited();
   const hash = encodeState(state);
   const fields = parseHash(`#${hash}`);
-  assert.deepEqual(datasetsFromHash(fields), { scalar: 0, labels: 1 });
+  assert.deepEqual(datasetsFromHash(fields), { scalar: 'ct', labels: 'atlas' });
+  assert.match(hash, /v=ct&l=atlas/);
   const restored = applyHash(defaultState(scalar, labels), fields, scalar);
   assert.deepEqual(restored, state);
 });
@@ -68,8 +69,8 @@ test('the cursor is clamped into the volume', () => {
 });
 
 test('"none" datasets and a camera without distance', () => {
-  const fields = parseHash('#v=none&l=1&cam=10,95');
-  assert.deepEqual(datasetsFromHash(fields), { scalar: null, labels: 1 });
+  const fields = parseHash('#v=none&l=atlas&cam=10,95');
+  assert.deepEqual(datasetsFromHash(fields), { scalar: null, labels: 'atlas' });
   const state = applyHash(defaultState(null, labels), fields, labels);
   assert.deepEqual(state.camera, { az: 10, el: 90, dist: null, target: null });
   assert.equal(state.source3d, 'labels');
@@ -105,7 +106,7 @@ test('hash colours are deterministic, saturated and distinct for neighbours', ()
 });
 
 test('a malformed escape or an impossible box in a hand-edited link falls back to the defaults', () => {
-  const fields = parseHash('#v=0&l=1&cam=%E0&rank=3&box=0,0,0,99,10,10');
+  const fields = parseHash('#v=ct&l=atlas&cam=%E0&rank=3&box=0,0,0,99,10,10');
   assert.equal(fields.cam, undefined);
   const state = applyHash(defaultState(scalar, labels), fields, scalar);
   assert.equal(state.rank, 3);

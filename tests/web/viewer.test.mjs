@@ -400,6 +400,16 @@ test('on a ta-global file the error control picks ranks per brick and coarsens t
   await page.waitForURL(/fs=0\.2/, { timeout: 5000 });
 });
 
+test('a link to a dataset the server does not have says so and opens nothing', async () => {
+  const url = new URL(page.url());
+  await page.goto(`${url.origin}${url.pathname}#v=no-such-volume&l=none`);
+  await page.reload();
+  await page.waitForFunction(() => document.getElementById('status-message')?.textContent.includes('not served here'),
+    null, { timeout: 10000 });
+  assert.match(await page.locator('#status-message').textContent(), /"no-such-volume" is not served here/);
+  assert.equal(await page.locator('#scalar-select').inputValue(), 'none');
+});
+
 test('the page raised no errors', () => {
   assert.deepEqual(pageErrors, []);
 });

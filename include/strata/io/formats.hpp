@@ -157,6 +157,10 @@ const VolumeFormat* find_format(std::string_view name);
 /// @brief The format whose extension `path`'s file name ends with (case-insensitive, the
 /// longest match); nullptr when none does. Looks at the name only.
 const VolumeFormat* format_by_extension(const std::filesystem::path& path);
+/// @brief `path`'s file name without the extension of its format (the longest registered one,
+/// or `.strata`): "ch2" for "ch2.nii.gz", "cells" for "cells.strata"; the whole name when none
+/// matches.
+std::string name_without_extension(const std::filesystem::path& path);
 /// @brief The format of the volume to read at `path`: by the extension of its name (for an
 /// existing folder, among the formats that take folders); else, for a folder, the format that
 /// takes it (VolumeFormat::sniff_directory); else, for an existing file, the first format whose
