@@ -75,6 +75,19 @@ if [ ! -f tests/web/node_modules/.package-lock.json ] ||
   fi
 fi
 
+# Neuroglancer and vite for the Neuroglancer acceptance test, from tests/ng/package-lock.json
+# (same rule), and its bundle (tests/ng/dist).
+if [ ! -f tests/ng/node_modules/.package-lock.json ] ||
+   [ tests/ng/package-lock.json -nt tests/ng/node_modules/.package-lock.json ]; then
+  if command -v npm >/dev/null; then
+    echo "setup: installing the Neuroglancer test's npm packages (tests/ng)"
+    npm ci --prefix tests/ng --no-audit --no-fund --loglevel=error
+    npm run --prefix tests/ng --silent build
+  else
+    echo "setup: npm not found; the Neuroglancer test (ctest -R WebNeuroglancer) will be skipped" >&2
+  fi
+fi
+
 if [ ! -f build/release/build.ninja ]; then
   cmake --preset release
 fi
