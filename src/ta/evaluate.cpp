@@ -89,7 +89,8 @@ StorageReport storage_report(const TaVolume& volume) {
       ++r.constant_per_level[e.key.level];
       continue;
     }
-    add_payload(e.kind, c.payload(e), volume, scratch, r);
+    const io::SharedBytes payload = c.payload(e);
+    add_payload(e.kind, payload, volume, scratch, r);
   }
   std::uint64_t sections = 0;
   if (volume.global()) {
