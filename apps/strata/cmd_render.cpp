@@ -15,6 +15,7 @@
 #include "report.hpp"
 #include "strata/core/error.hpp"
 #include "strata/io/file_names.hpp"
+#include "strata/io/http_source.hpp"
 #include "strata/render/camera.hpp"
 #include "strata/render/image.hpp"
 #include "strata/render/render_session.hpp"
@@ -222,7 +223,11 @@ void run_render(const RenderArgs& a, const GlobalOptions&) {
     frames.push_back(std::move(s));
   }
   const nlohmann::json sum = render::frame_summary(frames);
-  if (!a.stats.empty()) write_json_file(a.stats, {{"input", a.input}, {"summary", sum}, {"frames", frames}});
+  if (!a.stats.empty()) {
+    nlohmann::json stats{{"input", a.input}, {"summary", sum}, {"frames", frames}};
+    if (const auto transfer = io::transfer_stats_of(a.input)) stats["transfer"] = transfer_json(*transfer);
+    write_json_file(a.stats, stats);
+  }
   outputs.commit();
   if (a.orbit > 0) print_summary("all frames", sum);
   if (sum.contains("after_first")) print_summary("after the first", sum["after_first"]);
