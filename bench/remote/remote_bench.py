@@ -5,7 +5,7 @@ tests/support/range_server.py (no injected latency: the figures are the protocol
 
   bench/remote/remote_bench.py build/release/strata --size 512 --work /tmp/remote-bench [--rounds 3]
 
-Generates prisms of SIZE^3 (u8) and compresses them with the default settings (once, kept in
+Generates u8 prisms of SIZE^3 and compresses them with the default settings (once, kept in
 --work), then prints one JSON object.
 """
 import argparse
@@ -55,7 +55,8 @@ def main():
     work.mkdir(parents=True, exist_ok=True)
     local = work / f"prisms{a.size}.strata"
     if not local.exists():
-        run([a.strata, "--progress", "none", "generate", "prisms", "--size", str(a.size), "-o", str(work / "p.nrrd")])
+        run([a.strata, "--progress", "none", "generate", "prisms", "--size", str(a.size), "--dtype", "u8", "-o",
+             str(work / "p.nrrd")])
         run([a.strata, "--progress", "none", "compress", str(work / "p.nrrd"), "-o", str(local)])
     server = subprocess.Popen([sys.executable, str(SERVER), str(work)], stdout=subprocess.PIPE, text=True)
     try:

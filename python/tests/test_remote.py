@@ -27,7 +27,7 @@ BOX = np.s_[100:164, 70:134, 40:104]  # 64^3, not aligned to bricks
 def served(tmp_path_factory, cli):
     """(local path, base URL) of a compressed prisms volume, served until the module's tests end."""
     folder = tmp_path_factory.mktemp("remote")
-    cli("generate", "prisms", "--size", SIZE, "-o", folder / "p.nrrd")
+    cli("generate", "prisms", "--size", SIZE, "--dtype", "u8", "-o", folder / "p.nrrd")
     cli("compress", folder / "p.nrrd", "-o", folder / "p.strata", "--hooi", "0")
     server = subprocess.Popen([sys.executable, str(SERVER), str(folder)], stdout=subprocess.PIPE, text=True)
     try:
