@@ -29,6 +29,7 @@ PACKAGES=(
   python3-dask python3-xarray                 # opened .strata files as dask/xarray arrays (test_geometry.py)
   python3-aiohttp                             # zarr-python reading strata serve over HTTP (test_served_views.py)
   libhdf5-dev                                 # HDF5 files (src/io/hdf5.cpp), the C library
+  libcurl4-openssl-dev                        # .strata files read from http(s) URLs (src/io/http_source.cpp)
   python3-h5py                                # reference HDF5 reader and writer (python/tests/test_hdf5.py)
   chromium                                    # browser tests of the viewer (tests/web)
   libopenmpi-dev openmpi-bin                  # strata-mpi, distributed compression (ctest -L mpi)

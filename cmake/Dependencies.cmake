@@ -16,6 +16,9 @@ pkg_check_modules(BLOSC REQUIRED IMPORTED_TARGET blosc)  # Zarr chunks (io/zarr)
 pkg_check_modules(TURBOJPEG REQUIRED IMPORTED_TARGET libturbojpeg)  # JPEG frames of the viewer (render), precomputed jpeg chunks (io)
 # HDF5's C library, Debian's serial build (libhdf5-dev): the HDF5 reader and writer of io only.
 pkg_check_modules(HDF5 REQUIRED IMPORTED_TARGET hdf5-serial)
+# libcurl (Debian's OpenSSL flavour, libcurl4-openssl-dev): HTTP range requests for .strata files
+# read from http(s) URLs (src/io/http_source.cpp only).
+pkg_check_modules(CURL REQUIRED IMPORTED_TARGET libcurl)
 # Debian builds cpp-httplib as a library with OpenSSL, zlib and brotli support: its pkg-config
 # flags (-DCPPHTTPLIB_*_SUPPORT) must reach every file that includes httplib.h, or the class
 # layouts differ from the library's. Only the server module uses it.

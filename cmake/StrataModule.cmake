@@ -17,9 +17,10 @@ function(strata_add_module name deps)
   target_link_libraries(strata_${name} PUBLIC ${_dep_targets} strata_options OpenMP::OpenMP_CXX
                         Threads::Threads nlohmann_json::nlohmann_json fmt::fmt)
   if(name STREQUAL "io")
-    # turbojpeg: precomputed jpeg chunks; GDCM: DICOM series; zstd, blosc: Zarr chunks; HDF5
+    # turbojpeg: precomputed jpeg chunks; GDCM: DICOM series; zstd, blosc: Zarr chunks; HDF5;
+    # curl: .strata files read from http(s) URLs (io/http_source)
     target_link_libraries(strata_${name} PRIVATE ZLIB::ZLIB TIFF::TIFF PkgConfig::TURBOJPEG gdcmMSFF PkgConfig::ZSTD
-                                                 PkgConfig::BLOSC PkgConfig::HDF5)
+                                                 PkgConfig::BLOSC PkgConfig::HDF5 PkgConfig::CURL)
   endif()
   if(name MATCHES "^(tensor|ta|quant)$")
     target_link_libraries(strata_${name} PUBLIC Eigen3::Eigen)

@@ -100,9 +100,12 @@ void run_eval(const EvalArgs& args, const GlobalOptions&) {
   auto original = io::open_volume(args.original, read);
   if (args.rank < 0) throw UsageError("--rank", "must be positive, got " + std::to_string(args.rank));
   const int k = args.rank > 0 ? std::min(args.rank, volume.rank()) : volume.rank();
-  const nlohmann::json report = eval_json(volume, ta::storage_report(volume), ta::error_report(volume, *original, k, true));
+  nlohmann::json report = eval_json(volume, ta::storage_report(volume), ta::error_report(volume, *original, k, true));
+  const io::ByteSource& source = volume.container().source();
+  if (source.remote()) report["transfer"] = transfer_json(source.transfer_stats());
   if (args.json) std::printf("%s\n", report.dump(2).c_str());
   else print_report(report);
+  if (!args.json && report.contains("transfer")) print_transfer(report["transfer"]);
 }
 
 }  // namespace

@@ -277,9 +277,11 @@ void run_strata_info(const InfoArgs& args) {
   nlohmann::json report;
   if (store::is_volume_set(outer) && !args.raw.volume) report = volume_set_report(outer);
   else report = container_report([&] { return store::open_volume(args.file, args.raw.volume); });
+  if (outer.source().remote()) report["transfer"] = transfer_json(outer.source().transfer_stats());
   if (args.json) std::printf("%s\n", report.dump(2).c_str());
   else if (report.contains("volumes")) print_volume_set_report(report);
   else print_container_report(report);
+  if (!args.json && report.contains("transfer")) print_transfer(report["transfer"]);
 }
 
 void run_info(const InfoArgs& args, const GlobalOptions& global) {

@@ -13,6 +13,7 @@
 #include "report.hpp"
 #include "strata/core/error.hpp"
 #include "strata/core/extent.hpp"
+#include "strata/io/http_source.hpp"
 #include "strata/mixture/box_query.hpp"
 #include "strata/mixture/encoded_labels.hpp"
 #include "strata/store/volume_set.hpp"
@@ -78,6 +79,7 @@ void run_labels_query(const LabelsQueryArgs& args, const GlobalOptions&) {
       list.push_back({{"label", map.value(r.source)}, {"count", r.count}, {"sigma", r.sigma},
                       {"fraction", r.count / volume}});
     out["labels"] = std::move(list);
+    if (const auto transfer = io::transfer_stats_of(args.input)) out["transfer"] = transfer_json(*transfer);
     std::printf("%s\n", out.dump(2).c_str());
     return;
   }

@@ -15,6 +15,7 @@
 #include "report.hpp"
 #include "strata/core/error.hpp"
 #include "strata/io/file_names.hpp"
+#include "strata/io/http_source.hpp"
 #include "strata/render/camera.hpp"
 #include "strata/render/image.hpp"
 #include "strata/render/render_session.hpp"
@@ -222,7 +223,11 @@ void run_render(const RenderArgs& a, const GlobalOptions&) {
     frames.push_back(std::move(s));
   }
   const nlohmann::json sum = render::frame_summary(frames);
-  if (!a.stats.empty()) write_json_file(a.stats, {{"input", a.input}, {"summary", sum}, {"frames", frames}});
+  if (!a.stats.empty()) {
+    nlohmann::json stats{{"input", a.input}, {"summary", sum}, {"frames", frames}};
+    if (const auto transfer = io::transfer_stats_of(a.input)) stats["transfer"] = transfer_json(*transfer);
+    write_json_file(a.stats, stats);
+  }
   outputs.commit();
   if (a.orbit > 0) print_summary("all frames", sum);
   if (sum.contains("after_first")) print_summary("after the first", sum["after_first"]);
@@ -234,7 +239,13 @@ void register_render(CLI::App& app, const GlobalOptions& global) {
   auto a = std::make_shared<RenderArgs>();
   CLI::App* cmd = app.add_subcommand(
       "render", "Ray-cast a .strata file (TA or label volume), or a plain volume file loaded whole, to PNG");
-  cmd->add_option("input", a->input, "Input .strata file, or a raw/NRRD/NIfTI/TIFF volume (loaded whole)")->required()->check(CLI::ExistingFile);
+  // A local input must exist; a URL is checked when it is opened.
+  const CLI::Validator file_or_url([](std::string& s) { return io::is_url(s) ? std::string() : CLI::ExistingFile(s); },
+                                   "FILE|URL");
+  cmd->add_option("input", a->input,
+                  "Input .strata file (or its http(s) URL), or a raw/NRRD/NIfTI/TIFF volume (loaded whole)")
+      ->required()
+      ->check(file_or_url);
   cmd->add_option("-o,--output", a->output, "Output PNG (with --orbit: a folder of frame_NNNN.png)")->required();
   cmd->add_option("--size", a->size, "Image size WIDTHxHEIGHT")->capture_default_str();
   cmd->add_option("--azimuth", a->azimuth, "Degrees around the volume's z axis (finite, |A| <= 1e6)")->capture_default_str();

@@ -52,6 +52,17 @@ io::ReadOptions RawInputArgs::to_read_options() const {
   return o;
 }
 
+nlohmann::json transfer_json(const io::TransferStats& stats) {
+  return {{"bytes_fetched", stats.bytes_fetched}, {"requests", stats.requests}, {"retries", stats.retries},
+          {"cache_hits", stats.cache_hits}};
+}
+
+void print_transfer(const nlohmann::json& t) {
+  std::printf("fetched:     %s in %llu HTTP requests (%llu retried, %llu reads from the cache)\n",
+              human_bytes(t["bytes_fetched"].get<std::uint64_t>()).c_str(), t["requests"].get<unsigned long long>(),
+              t["retries"].get<unsigned long long>(), t["cache_hits"].get<unsigned long long>());
+}
+
 std::string human_bytes(std::uint64_t bytes) {
   const char* units[] = {"B", "KiB", "MiB", "GiB", "TiB"};
   double v = double(bytes);

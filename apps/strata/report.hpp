@@ -9,6 +9,7 @@
 
 #include <optional>
 
+#include "strata/io/byte_source.hpp"
 #include "strata/io/volume_io.hpp"
 
 namespace strata::cli {
@@ -30,6 +31,10 @@ struct RawInputArgs {
 void add_volume_option(CLI::App& cmd, std::optional<std::int64_t>& volume);
 
 std::string human_bytes(std::uint64_t bytes);
+// What reading a remote (http/https) file cost: {"bytes_fetched", "requests", "retries",
+// "cache_hits"}, the "transfer" member of --json/--stats reports; printed as one line.
+nlohmann::json transfer_json(const io::TransferStats& stats);
+void print_transfer(const nlohmann::json& transfer);
 // Writes `j` (indented when `indent` >= 0) through a temporary file and a rename.
 void write_json_file(const std::filesystem::path& path, const nlohmann::json& j, int indent = 2);
 // "512M", "2G", "64k" or plain bytes (binary multiples); throws Error naming `option`.

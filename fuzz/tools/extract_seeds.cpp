@@ -65,7 +65,10 @@ int main(int argc, char** argv) {
         write(out / "masked" / (stem + "-" + std::to_string(n++)), {rank, width}, payload);
       }
     }
-    if (reader.has_section("mixture_graph")) write(out / "mixture_graph" / stem, {}, reader.section("mixture_graph"));
+    if (reader.has_section("mixture_graph")) {
+      const auto graph = reader.section("mixture_graph");
+      write(out / "mixture_graph" / stem, {}, graph);
+    }
     const bool fixed = m.value("ids", std::string()) == "fixed";
     const bool zstd = m.value("ids_compression", std::string("none")) == "zstd";
     for (int l = 0; reader.has_section("ids_L" + std::to_string(l)); ++l) {

@@ -78,6 +78,19 @@ f[z0:z1, y0:y1, x0:x1] decodes level 0 at the stored rank in the source's sample
 f.level(l)[...] a coarser level (float32); f.read(box=..., level=..., rank=...) any box, level and
 reconstruction rank. Only the bricks a box touches are decoded.)");
   cls.def_property_readonly("path", [](const ScalarFile& f) { return f.get()->container().path().string(); })
+      .def_property_readonly(
+          "transfer",
+          [](const ScalarFile& f) {
+            const io::TransferStats s = f.get()->container().source().transfer_stats();
+            py::dict d;
+            d["bytes_fetched"] = s.bytes_fetched;
+            d["requests"] = s.requests;
+            d["retries"] = s.retries;
+            d["cache_hits"] = s.cache_hits;
+            return d;
+          },
+          "For a file opened from an http(s) URL, what reading it cost so far: bytes_fetched, requests, retries, "
+          "cache_hits (all 0 for a local file).")
       .def_readonly("codec", &ScalarFile::codec)
       .def_readonly("volume", &ScalarFile::member, "The member of a volume set opened (None: the file itself).")
       .def_property_readonly("shape", [](const ScalarFile& f) { return shape_of(f.get()->source_info().dims); })

@@ -20,7 +20,7 @@ BrickModel dequantize_payload(store::PayloadKind kind, std::span<const std::byte
 
 BrickModel fetch_model(const ta::TaVolume& volume, const store::BrickEntry& entry, ta::DecodeScratch& scratch,
                        std::uint64_t& bytes_read) {
-  const std::span<const std::byte> payload = volume.container().payload(entry);
+  const io::SharedBytes payload = volume.container().payload(entry);
   bytes_read += entry.size;
   const ta::BrickBases bases = volume.global() ? volume.brick_bases(entry.key) : ta::BrickBases{};
   return dequantize_payload(entry.kind, payload, volume.quant_scheme(), volume.geometry().layout().brick, scratch,

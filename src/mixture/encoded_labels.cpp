@@ -84,7 +84,8 @@ EncodedLabels::EncodedLabels(std::unique_ptr<store::ContainerReader> reader)
   ids_zstd_ = comp == "zstd";
 
   // Graph.
-  graph_ = read_graph_bitstream(reader_->section("mixture_graph"), file, &header_);
+  const io::SharedBytes graph = reader_->section("mixture_graph");
+  graph_ = read_graph_bitstream(graph, file, &header_);
   if (header_.resolution != dims)
     throw FormatError(file, "section mixture_graph", "resolution " + detail::extent_json(header_.resolution).dump() +
                                                          " does not match metadata.source.dims " + detail::extent_json(dims).dump());
@@ -129,7 +130,8 @@ EncodedLabels::EncodedLabels(std::unique_ptr<store::ContainerReader> reader)
       (level / "dims").fail("expected " + detail::extent_json(expect[l]).dump() + " for source.dims " + detail::extent_json(dims).dump() +
                             ", got " + store::json_excerpt(lv[l]["dims"]));
     const std::string sec = detail::level_section(int(l));
-    std::span<const std::byte> bytes = reader_->section(sec);
+    const io::SharedBytes stored = reader_->section(sec);
+    std::span<const std::byte> bytes = stored;
     if (lv[l].contains("ids_bytes") && store::json_unsigned(lv[l]["ids_bytes"], level / "ids_bytes") != bytes.size())
       (level / "ids_bytes").fail("says " + std::to_string(lv[l]["ids_bytes"].get<std::uint64_t>()) + " but section " + sec + " holds " +
                                  std::to_string(bytes.size()) + " bytes");

@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 
 #include "strata/core/error.hpp"
+#include "strata/io/byte_source.hpp"
 #include "strata/io/file_names.hpp"
 #include "strata/io/formats.hpp"
 #include "strata/server/api.hpp"
@@ -43,6 +44,10 @@ std::vector<fs::path> dataset_files(const std::vector<std::string>& arguments) {
   std::vector<fs::path> files;
   for (const std::string& argument : arguments) {
     const fs::path path(argument);
+    if (io::is_url(argument)) {  // a remote .strata file: opening it checks it
+      files.push_back(path);
+      continue;
+    }
     if (!fs::exists(path)) throw Error(argument + ": no such file or folder");
     if (!fs::is_directory(path)) {
       files.push_back(path);

@@ -306,40 +306,60 @@ std::uint64_t ContainerWriter::finish(nlohmann::json metadata) {
 // ---------------------------------------------------------------------------------------------
 // Reader
 
-std::span<const std::byte> ContainerReader::checked_range(std::uint64_t offset, std::uint64_t size,
-                                                          const std::string& what) const {
-  if (offset > bytes_.size() || size > bytes_.size() - offset)
-    throw FormatError(name_, what,
-                      fmt::format("range [{}, +{}) lies outside the {}-byte file (truncated?)", offset, size, bytes_.size()));
-  return {bytes_.data() + offset, std::size_t(size)};
+void ContainerReader::check_range(std::uint64_t offset, std::uint64_t size, const std::string& what) const {
+  if (offset > size_ || size > size_ - offset)
+    throw FormatError(name_, what, fmt::format("range [{}, +{}) lies outside the {}-byte file (truncated?)", offset, size, size_));
+}
+
+// Checked, then from the tail read while opening when it holds the range, else from the source.
+io::SharedBytes ContainerReader::read_range(std::uint64_t offset, std::uint64_t size, const std::string& what) const {
+  check_range(offset, size, what);
+  if (offset >= tail_offset_ && offset - tail_offset_ <= tail_.size() && size <= tail_.size() - (offset - tail_offset_))
+    return tail_.subrange(offset - tail_offset_, size);
+  return source_->read(offset, size);
 }
 
 ContainerReader::ContainerReader(const std::filesystem::path& path)
-    : path_(path), name_(path.string()), file_(std::make_shared<io::MappedFile>(path)) {
-  bytes_ = {file_->data(), std::size_t(file_->size())};
+    : path_(path), name_(path.string()), source_(io::open_byte_source(path)) {
   open();
 }
 
 ContainerReader::ContainerReader(const ContainerReader& outer, const std::string& section, std::string name)
-    : path_(outer.path_), name_(std::move(name)), file_(outer.file_) {
+    : path_(outer.path_), name_(std::move(name)) {
   const auto it = outer.sections_.find(section);
   if (it == outer.sections_.end()) throw FormatError(outer.name_, "sections", "no section named '" + section + "'");
   // The outer reader checked that the range lies inside the file; the member's own checksums
   // (header, metadata, index, every payload) protect its bytes, so the section's check value,
   // which would read every byte of the member, is checked only when the
   // outer reader's section() is asked for it.
-  bytes_ = outer.bytes_.subspan(it->second.offset, it->second.size);
+  source_ = io::byte_subrange(outer.source_, it->second.offset, it->second.size, name_);
   open();
+}
+
+// The writer puts the metadata and then the index at the end of the file (format.md), so one
+// read from the metadata to the end fetches both: a remote file opens in two requests (the
+// header's, this). A file laid out otherwise (or whose tail is longer than any index of `count`
+// entries could be) is read field by field.
+void ContainerReader::read_tail(std::uint64_t metadata_offset, std::uint64_t index_offset, std::uint64_t count) {
+  if (metadata_offset > size_ || index_offset > size_ || index_offset < metadata_offset) return;
+  if (index_offset - metadata_offset > metadata_size_ + kPayloadAlignment) return;
+  // A compressed index is at most its columns plus zstd's framing of incompressible data.
+  constexpr std::uint64_t kFrameSlack = 4096;
+  if (size_ - index_offset > saturating_mul(count, kIndexEntrySize) + kIndexSizeField + kFrameSlack) return;
+  tail_offset_ = metadata_offset;
+  tail_ = source_->read(metadata_offset, size_ - metadata_offset);
 }
 
 void ContainerReader::open() {
   const std::string& file = name_;
-  if (bytes_.size() < kMagic.size() || std::memcmp(bytes_.data(), kMagic.data(), kMagic.size()) != 0)
+  size_ = source_->size();
+  const io::SharedBytes head = source_->read(0, std::min<std::uint64_t>(size_, kHeaderSize));
+  if (head.size() < kMagic.size() || std::memcmp(head.data(), kMagic.data(), kMagic.size()) != 0)
     throw FormatError(file, "magic", "not a .strata file");
-  if (bytes_.size() < kHeaderSize)
+  if (head.size() < kHeaderSize)
     throw FormatError(file, "header",
-                      fmt::format("the file ends after {} bytes, inside the {}-byte header (truncated)", bytes_.size(), kHeaderSize));
-  const std::span<const std::byte> h(bytes_.data(), kHeaderSize);
+                      fmt::format("the file ends after {} bytes, inside the {}-byte header (truncated)", size_, kHeaderSize));
+  const std::span<const std::byte> h = head.span();
   if (load_field<std::uint32_t>(h, 60) != crc32c(h.data(), 60)) throw FormatError(file, "header", "checksum mismatch");
   const auto major = load_field<std::uint16_t>(h, 8);
   if (major != kFormatVersionMajor)
@@ -360,7 +380,10 @@ void ContainerReader::open() {
 
   metadata_size_ = load_field<std::uint64_t>(h, 40);
   metadata_crc_ = load_field<std::uint32_t>(h, 52);
-  auto meta = checked_range(load_field<std::uint64_t>(h, 32), metadata_size_, "metadata");
+  const auto metadata_offset = load_field<std::uint64_t>(h, 32), index_offset = load_field<std::uint64_t>(h, 16);
+  check_range(metadata_offset, metadata_size_, "metadata");
+  read_tail(metadata_offset, index_offset, load_field<std::uint64_t>(h, 24));
+  const io::SharedBytes meta = read_range(metadata_offset, metadata_size_, "metadata");
   if (crc32c(meta.data(), meta.size()) != metadata_crc_) throw FormatError(file, "metadata", "checksum mismatch");
   try {
     metadata_ = nlohmann::json::parse(reinterpret_cast<const char*>(meta.data()),
@@ -371,7 +394,7 @@ void ContainerReader::open() {
   if (!metadata_.is_object())
     throw FormatError(file, "metadata", "expected a JSON object, got " + std::string(metadata_.type_name()));
 
-  const auto index_offset = load_field<std::uint64_t>(h, 16), count = load_field<std::uint64_t>(h, 24);
+  const auto count = load_field<std::uint64_t>(h, 24);
   const auto index_crc = load_field<std::uint32_t>(h, 56);
   std::vector<BrickEntry> entries = index_compressed_ ? read_compressed_index(index_offset, count, index_crc)
                                                       : read_plain_index(index_offset, count, index_crc);
@@ -382,6 +405,7 @@ void ContainerReader::open() {
   }
   entries_ = std::move(entries);
   read_sections();
+  tail_ = {};  // payloads and sections are read from the source, with its cache
 }
 
 void ContainerReader::check_index_fits_memory(std::uint64_t count) const {
@@ -401,7 +425,7 @@ void ContainerReader::check_entry(const BrickEntry& e) const {
   const std::string file = name_;
   if (!known_kind(e.kind))
     throw FormatError(file, "index", fmt::format("{} has unknown payload kind {}", brick_name(e.key), int(e.kind)));
-  checked_range(e.offset, e.size, brick_name(e.key));
+  check_range(e.offset, e.size, brick_name(e.key));
   if (e.kind == PayloadKind::constant && e.size != 0)
     throw FormatError(file, brick_name(e.key),
                       fmt::format("a constant brick has no payload, but the index gives it {} bytes", e.size));
@@ -421,7 +445,7 @@ void ContainerReader::read_sections() {
     json_object(s, at);
     Section sec{json_unsigned(json_member(s, "offset", at), at / "offset"), json_unsigned(json_member(s, "size", at), at / "size"),
                 std::uint32_t(json_unsigned(json_member(s, "crc32c", at), at / "crc32c", UINT32_MAX))};
-    checked_range(sec.offset, sec.size, "section " + name);
+    check_range(sec.offset, sec.size, "section " + name);
     sections_[name] = sec;
   }
 }
@@ -430,10 +454,11 @@ ContainerReader::~ContainerReader() = default;
 
 // Format 1.0/1.1 (and 1.2 without flag bit 0): count entries of 64 bytes.
 std::vector<BrickEntry> ContainerReader::read_plain_index(std::uint64_t offset, std::uint64_t count, std::uint32_t crc) {
-  if (count > bytes_.size() / kIndexEntrySize) throw FormatError(name_, "index_count", "larger than the file");
+  if (count > size_ / kIndexEntrySize) throw FormatError(name_, "index_count", "larger than the file");
   check_index_fits_memory(count);
   index_size_ = count * kIndexEntrySize;
-  const auto index = checked_range(offset, index_size_, "index");
+  const io::SharedBytes bytes = read_range(offset, index_size_, "index");
+  const std::span<const std::byte> index = bytes.span();
   if (crc32c(index.data(), index.size()) != crc) throw FormatError(name_, "index", "checksum mismatch");
   std::vector<BrickEntry> entries;
   entries.reserve(count);
@@ -445,10 +470,13 @@ std::vector<BrickEntry> ContainerReader::read_plain_index(std::uint64_t offset, 
 // checked) here; kinds and keys are checked by the constructor, as for the plain index.
 std::vector<BrickEntry> ContainerReader::read_compressed_index(std::uint64_t offset, std::uint64_t count, std::uint32_t crc) {
   const std::string file = name_;
-  const auto frame_size = load_field<std::uint64_t>(checked_range(offset, kIndexSizeField, "index"), 0);
-  const auto frame = checked_range(offset + kIndexSizeField, frame_size, "index");
+  const io::SharedBytes size_field = read_range(offset, kIndexSizeField, "index");
+  const auto frame_size = load_field<std::uint64_t>(size_field.span(), 0);
+  check_range(offset + kIndexSizeField, frame_size, "index");
   index_size_ = kIndexSizeField + frame_size;
-  if (crc32c(bytes_.data() + offset, index_size_) != crc) throw FormatError(file, "index", "checksum mismatch");
+  const io::SharedBytes index = read_range(offset, index_size_, "index");
+  const std::span<const std::byte> frame = index.span().subspan(kIndexSizeField);
+  if (crc32c(index.data(), index.size()) != crc) throw FormatError(file, "index", "checksum mismatch");
   if (count > saturating_mul(frame_size, kZstdMaxExpansion) / kColumnBytesPerEntry)
     throw FormatError(file, "index_count",
                       fmt::format("{} entries need {} bytes of columns each, more than a {}-byte zstd frame can "
@@ -487,12 +515,11 @@ std::vector<BrickEntry> ContainerReader::read_compressed_index(std::uint64_t off
     if (e.size == 0) continue;  // offset 0, crc32c of nothing: 0
     // `end` lies inside the file (the previous range was checked) and the gap is bounded by the
     // file size, so a hostile gap cannot wrap the offset around to an earlier position.
-    if (gaps[payload] > bytes_.size())
-      throw FormatError(file, brick_name(e.key),
-                        fmt::format("offset gap {} lies outside the {}-byte file", gaps[payload], bytes_.size()));
+    if (gaps[payload] > size_)
+      throw FormatError(file, brick_name(e.key), fmt::format("offset gap {} lies outside the {}-byte file", gaps[payload], size_));
     e.offset = packed_offset(end, e.kind) + gaps[payload];
     e.crc32c = crcs[payload++];
-    checked_range(e.offset, e.size, brick_name(e.key));
+    check_range(e.offset, e.size, brick_name(e.key));
     end = e.offset + e.size;
   }
   return entries;
@@ -503,8 +530,8 @@ const BrickEntry* ContainerReader::find(const BrickKey& key) const {
   return it == lookup_.end() ? nullptr : &entries_[it->second];
 }
 
-std::span<const std::byte> ContainerReader::payload(const BrickEntry& e) const {
-  auto bytes = checked_range(e.offset, e.size, brick_name(e.key));
+io::SharedBytes ContainerReader::payload(const BrickEntry& e) const {
+  io::SharedBytes bytes = read_range(e.offset, e.size, brick_name(e.key));
   std::uint32_t check = crc32c(bytes.data(), bytes.size());
   if (minor_ >= kBoundChecksumsMinor) check = payload_check_value(check, e.size, e.key, e.kind, metadata_crc_);
   if (check != e.crc32c)
@@ -516,12 +543,21 @@ std::span<const std::byte> ContainerReader::payload(const BrickEntry& e) const {
   return bytes;
 }
 
+void ContainerReader::prefetch(std::span<const BrickEntry* const> entries) const {
+  if (!source_->remote()) return;
+  std::vector<io::ByteRange> ranges;
+  ranges.reserve(entries.size());
+  for (const BrickEntry* e : entries)
+    if (e && e->size != 0) ranges.push_back({e->offset, e->size});
+  source_->prefetch(ranges);
+}
+
 bool ContainerReader::has_section(const std::string& name) const { return sections_.count(name) != 0; }
 
-std::span<const std::byte> ContainerReader::section(const std::string& name) const {
+io::SharedBytes ContainerReader::section(const std::string& name) const {
   auto it = sections_.find(name);
   if (it == sections_.end()) throw FormatError(name_, "sections", "no section named '" + name + "'");
-  auto bytes = checked_range(it->second.offset, it->second.size, "section " + name);
+  io::SharedBytes bytes = read_range(it->second.offset, it->second.size, "section " + name);
   const bool bound = minor_ >= kBoundChecksumsMinor;
   if ((bound ? section_check_value(bytes, name) : crc32c(bytes.data(), bytes.size())) != it->second.crc32c)
     throw FormatError(name_, "section " + name,
@@ -531,9 +567,10 @@ std::span<const std::byte> ContainerReader::section(const std::string& name) con
   return bytes;
 }
 
-std::uint64_t ContainerReader::file_size() const { return bytes_.size(); }
+std::uint64_t ContainerReader::file_size() const { return size_; }
 
 bool is_strata_file(const std::filesystem::path& path) {
+  if (io::is_url(path.string())) return true;
   std::ifstream in(path, std::ios::binary);
   std::array<char, 8> head{};
   return in.read(head.data(), head.size()) && std::memcmp(head.data(), kMagic.data(), kMagic.size()) == 0;

@@ -70,6 +70,16 @@ void add_payload(store::PayloadKind kind, std::span<const std::byte> stored, con
   r.brick_header_bytes += stored.size() - core - factors;
 }
 
+// A remote file's payloads are fetched this many bricks at a time, in few requests, rather than
+// with one request each.
+constexpr std::size_t kPrefetchBricks = 4096;
+
+void prefetch_from(const store::ContainerReader& c, std::size_t first) {
+  std::vector<const store::BrickEntry*> batch;
+  for (std::size_t i = first; i < std::min(c.bricks().size(), first + kPrefetchBricks); ++i) batch.push_back(&c.bricks()[i]);
+  c.prefetch(batch);
+}
+
 }  // namespace
 
 StorageReport storage_report(const TaVolume& volume) {
@@ -81,7 +91,9 @@ StorageReport storage_report(const TaVolume& volume) {
   r.payload_bytes_per_level.assign(r.bricks_per_level.size(), 0);
   DecodeScratch scratch;
   std::uint64_t payload_total = 0;
-  for (const auto& e : c.bricks()) {
+  for (std::size_t i = 0; i < c.bricks().size(); ++i) {
+    const store::BrickEntry& e = c.bricks()[i];
+    if (i % kPrefetchBricks == 0) prefetch_from(c, i);
     ++r.bricks_per_level.at(e.key.level);
     payload_total += e.size;
     r.payload_bytes_per_level[e.key.level] += e.size;
@@ -89,7 +101,8 @@ StorageReport storage_report(const TaVolume& volume) {
       ++r.constant_per_level[e.key.level];
       continue;
     }
-    add_payload(e.kind, c.payload(e), volume, scratch, r);
+    const io::SharedBytes payload = c.payload(e);
+    add_payload(e.kind, payload, volume, scratch, r);
   }
   std::uint64_t sections = 0;
   if (volume.global()) {

@@ -32,6 +32,18 @@ std::string kind_list(const std::vector<store::PayloadKind>& kinds) {
 
 std::string extent_text(const Extent& e) { return fmt::format("[{}, {}, {}]", e.x, e.y, e.z); }
 
+// A remote file fetches the payloads of the n bricks from `lo` of `level` in a few coalesced
+// requests before the decoding threads ask for them one by one (decode_brick reports missing
+// bricks).
+void prefetch_bricks(const store::ContainerReader& container, int level, const Extent& lo, const Extent& n) {
+  if (!container.source().remote()) return;
+  std::vector<const store::BrickEntry*> entries;
+  for (std::int64_t i = 0; i < n.voxel_count(); ++i)
+    entries.push_back(container.find({std::uint8_t(level), std::int32_t(lo.x + i % n.x), std::int32_t(lo.y + (i / n.x) % n.y),
+                                      std::int32_t(lo.z + i / (n.x * n.y))}));
+  container.prefetch(entries);
+}
+
 }  // namespace
 
 TaVolume::TaVolume(const std::filesystem::path& path) : TaVolume(std::make_unique<store::ContainerReader>(path)) {}
@@ -169,8 +181,9 @@ void TaVolume::read_global(const store::MetadataField& meta) {
     ladder_.push_back(int(store::json_integer(ladder[i], (g / "ladder")[i], 1, lowest)));
     if (i > 0 && ladder_[i] <= ladder_[i - 1]) ((g / "ladder")[i]).fail("ranks must increase");
   }
-  bases_ = std::make_unique<GlobalBases>(GlobalBases::deserialize(
-      container_->section("global_bases"), *geometry_, {int(ranks[0]), int(ranks[1]), int(ranks[2])}, file));
+  const io::SharedBytes bases = container_->section("global_bases");
+  bases_ = std::make_unique<GlobalBases>(
+      GlobalBases::deserialize(bases, *geometry_, {int(ranks[0]), int(ranks[1]), int(ranks[2])}, file));
   const auto table = container_->section("feature_scale");
   const std::uint64_t rows = std::uint64_t(geometry_->total_bricks());
   if (table.size() != rows * ladder_.size() * sizeof(float))
@@ -243,7 +256,7 @@ const store::BrickEntry& TaVolume::entry(const store::BrickKey& key) const {
 void TaVolume::decode_brick(const store::BrickKey& key, int k, std::span<float> out, tensor::BrickReconstructor& reconstructor,
                             DecodeScratch& scratch) const {
   const store::BrickEntry& e = entry(key);
-  const std::span<const std::byte> payload = container_->payload(e);  // its errors name the file and the brick
+  const io::SharedBytes payload = container_->payload(e);  // its errors name the file and the brick
   const std::string file = container_->name();
   try {
     const BrickBases bases = bases_ ? brick_bases(key) : BrickBases{};
@@ -286,6 +299,7 @@ Volume TaVolume::decode_box(int level, const Box& box, int k) const {
   const Extent hi_brick{(box.hi.x - 1) / c + 1, (box.hi.y - 1) / c + 1, (box.hi.z - 1) / c + 1};
   const Extent n{hi_brick.x - lo_brick.x, hi_brick.y - lo_brick.y, hi_brick.z - lo_brick.z};
   auto view = out.view<float>();
+  prefetch_bricks(*container_, level, lo_brick, n);
   std::exception_ptr failure;
 #pragma omp parallel num_threads(thread_count())
   {

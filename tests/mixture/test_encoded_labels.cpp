@@ -306,7 +306,8 @@ TEST(MixtureEncodedLabels, OutOfRangeIdsAreRejected) {
                                                                                   : std::uint32_t(e.graph().node_count()));
           out.add_section(name, FixedRateIds(ids, d).serialize());
         } else {
-          out.add_section(name, in.section(name));
+          const io::SharedBytes bytes = in.section(name);
+          out.add_section(name, bytes);
         }
       }
       out.finish(meta);

@@ -36,7 +36,10 @@ class TaRobustness : public ::testing::Test {
     store::ContainerReader in(good());
     store::ContainerWriter w(out);
     for (const auto& e : in.bricks())
-      if (!keep || keep(e)) w.add_brick(e, in.payload(e));
+      if (!keep || keep(e)) {
+        const io::SharedBytes payload = in.payload(e);
+        w.add_brick(e, payload);
+      }
     nlohmann::json m = in.metadata();
     m.erase("sections");
     edit(m);

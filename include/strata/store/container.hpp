@@ -18,6 +18,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include "strata/io/byte_source.hpp"
 #include "strata/io/files.hpp"
 #include "strata/store/payload_kinds.hpp"
 
@@ -106,13 +107,16 @@ class ContainerWriter {
   std::vector<std::pair<std::string, Section>> sections_;
 };
 
-// Memory-maps a container and validates header, metadata and index: the metadata must be a JSON
+// Opens a container through an io::ByteSource (a memory-mapped local file, or an http(s) URL read
+// with range requests) and validates header, metadata and index: the metadata must be a JSON
 // object whose "sections" entries are well-formed and inside the file; index entries must have a
 // known kind, a unique key and a range inside the file, and constant bricks no payload bytes.
-// Payload checksums are verified on every payload() call; a mismatch raises a FormatError
-// naming the brick.
+// Opening reads the header, the metadata and the index only (the last two with one read, as the
+// writer puts them together at the tail). Payload checksums are verified on every payload()
+// call; a mismatch raises a FormatError naming the brick.
 class ContainerReader {
  public:
+  /// @brief Opens `path`, a local file or an `http://`/`https://` URL (io::open_byte_source).
   explicit ContainerReader(const std::filesystem::path& path);
   /// @brief Opens the container stored in section `section` of `outer` (a member of a volume
   /// set, store/volume_set.hpp), sharing its mapping; offsets are relative to the section's
@@ -123,7 +127,7 @@ class ContainerReader {
   ContainerReader(const ContainerReader& outer, const std::string& section, std::string name);
   ~ContainerReader();
 
-  /// @brief The file on disk (for a member of a volume set, the set's file).
+  /// @brief The file on disk or the URL (for a member of a volume set, the set's file).
   const std::filesystem::path& path() const { return path_; }
   /// @brief How messages name this container: the path, or "<path> (volume N)" for a member of
   /// a volume set.
@@ -131,9 +135,16 @@ class ContainerReader {
   const nlohmann::json& metadata() const { return metadata_; }
   const std::vector<BrickEntry>& bricks() const { return entries_; }
   const BrickEntry* find(const BrickKey& key) const;  // nullptr when absent
-  std::span<const std::byte> payload(const BrickEntry& entry) const;
+  /// @brief The brick's payload bytes, checksum verified (a local file's are not copied).
+  io::SharedBytes payload(const BrickEntry& entry) const;
+  /// @brief A hint that the payloads of `entries` will be read soon: a remote file fetches them
+  /// in as few requests as is cheap; a local one does nothing.
+  void prefetch(std::span<const BrickEntry* const> entries) const;
   bool has_section(const std::string& name) const;
-  std::span<const std::byte> section(const std::string& name) const;
+  /// @brief The section's bytes, checksum verified.
+  io::SharedBytes section(const std::string& name) const;
+  /// @brief Where the bytes come from (its transfer_stats() count a remote file's requests).
+  const io::ByteSource& source() const { return *source_; }
   /// @brief Bytes of this container: the file, or the member's section.
   std::uint64_t file_size() const;
   std::uint64_t metadata_bytes() const { return metadata_size_; }
@@ -146,7 +157,9 @@ class ContainerReader {
   std::uint16_t version_minor() const { return minor_; }
 
  private:
-  std::span<const std::byte> checked_range(std::uint64_t offset, std::uint64_t size, const std::string& what) const;
+  void check_range(std::uint64_t offset, std::uint64_t size, const std::string& what) const;
+  io::SharedBytes read_range(std::uint64_t offset, std::uint64_t size, const std::string& what) const;
+  void read_tail(std::uint64_t metadata_offset, std::uint64_t index_offset, std::uint64_t count);
   void read_sections();
   void check_entry(const BrickEntry& e) const;
   void check_index_fits_memory(std::uint64_t count) const;
@@ -155,8 +168,10 @@ class ContainerReader {
   void open();
   std::filesystem::path path_;
   std::string name_;
-  std::shared_ptr<io::MappedFile> file_;
-  std::span<const std::byte> bytes_;  // the whole file, or a volume set member's section
+  std::shared_ptr<const io::ByteSource> source_;  // the whole file, or a volume set member's section
+  std::uint64_t size_ = 0;                         // source_->size()
+  io::SharedBytes tail_;  // metadata and index, read at once while opening; released after
+  std::uint64_t tail_offset_ = 0;
   nlohmann::json metadata_;
   std::uint64_t metadata_size_ = 0;
   std::uint64_t index_size_ = 0;
@@ -168,7 +183,8 @@ class ContainerReader {
   std::unordered_map<std::string, Section> sections_;
 };
 
-// True when the file starts with the .strata magic (cheap; for format dispatch in the CLI).
+// True when the file starts with the .strata magic (cheap; for format dispatch in the CLI). A
+// URL is always taken for one (only .strata files are read remotely; opening checks the magic).
 bool is_strata_file(const std::filesystem::path& path);
 
 }  // namespace strata::store
