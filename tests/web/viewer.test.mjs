@@ -402,8 +402,9 @@ test('on a ta-global file the error control picks ranks per brick and coarsens t
 
 test('a link to a dataset the server does not have says so and opens nothing', async () => {
   const url = new URL(page.url());
+  // A fresh load (not a hash change, which the page would answer by rewriting the hash).
+  await page.goto('about:blank');
   await page.goto(`${url.origin}${url.pathname}#v=no-such-volume&l=none`);
-  await page.reload();
   await page.waitForFunction(() => document.getElementById('status-message')?.textContent.includes('not served here'),
     null, { timeout: 10000 });
   assert.match(await page.locator('#status-message').textContent(), /"no-such-volume" is not served here/);
