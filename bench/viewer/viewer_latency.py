@@ -62,7 +62,7 @@ class Server:
             if not line:
                 break
             lines.append(line)
-            m = re.search(r"(http://[0-9.]+:[0-9]+)", line)
+            m = re.search(r"Serving on (http://[0-9.]+:[0-9]+)", line)
             if m:
                 self.base = m.group(1)
                 break

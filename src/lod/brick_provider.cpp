@@ -81,9 +81,20 @@ bool BrickProvider::stand_in(const CutBrick& brick, int rank, ResidentBrick& out
   return false;
 }
 
+void BrickProvider::submit(const std::vector<LoadRequest>& requests) {
+  // A remote file's payloads are fetched together first: a few coalesced range requests instead
+  // of one round trip per brick on the loader threads (a 20 ms link made a first exact frame of
+  // ~700 bricks take 13 s). Local files: ContainerReader::prefetch does nothing.
+  std::vector<const store::BrickEntry*> entries;
+  entries.reserve(requests.size());
+  for (const LoadRequest& r : requests) entries.push_back(&volume_.entry(r.key.brick));
+  volume_.container().prefetch(entries);
+  loader_.submit(requests);
+}
+
 void BrickProvider::resolve_exact(const Selection& cut, const std::vector<std::size_t>& missing, int k,
                                   std::vector<LoadRequest> requests, FrameBricks& frame) {
-  loader_.submit(requests);
+  submit(requests);
   loader_.drain(reconstructor_, scratch_);
   loader_.wait_idle();
   for (std::size_t i : missing) {
@@ -128,7 +139,7 @@ FrameBricks BrickProvider::acquire(const Selection& cut, int rank, bool exact) {
       if (stand_in(cut.bricks[i], brick_rank(cut.bricks[i], k), r, requests) && shown.insert(r.key).second)
         frame.bricks.push_back(std::move(r));
     }
-    loader_.submit(requests);
+    submit(requests);
   }
   st.resident = frame.bricks.size();
   st.bytes_read = bytes_read_.exchange(0);
@@ -145,7 +156,7 @@ void BrickProvider::prefetch(const Selection& cut, int rank) {
     const int rank = brick_rank(b, k);
     if (b.entry->kind != store::PayloadKind::constant && !cache_.find(b.key, rank)) requests.push_back({{b.key, rank}, b.depth});
   }
-  loader_.submit(requests);
+  submit(requests);
 }
 
 void BrickProvider::wait_idle() { loader_.wait_idle(); }

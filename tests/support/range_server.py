@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """A small HTTP server with Range support for the remote-file tests (python/tests/test_remote.py,
 tests/io/test_http_source.cpp). Serves the files of one folder on 127.0.0.1 at a free port,
-prints "PORT <n>" on stdout once it listens, and runs until killed.
+prints "PORT <n>" on stdout once it listens, and runs until killed. An optional second argument
+delays every answer by that many milliseconds (a link's round trip, for benchmarks).
 
 The first path component chooses how it behaves, so one server covers every case:
   /ok/NAME        ranges answered with 206 and Content-Range (a range past the end is clipped)
@@ -21,9 +22,11 @@ import socket
 import struct
 import sys
 import threading
+import time
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 
 ROOT = sys.argv[1] if len(sys.argv) > 1 else "."
+DELAY_S = float(sys.argv[2]) / 1000 if len(sys.argv) > 2 else 0.0
 LOCK = threading.Lock()
 STATS = {"requests": 0, "bytes": 0}
 FAILED_ONCE = set()  # the (path, Range) pairs /flaky has refused
@@ -79,6 +82,8 @@ class Handler(BaseHTTPRequestHandler):
                 STATS.update(requests=0, bytes=0)
             return self.reply(200, b"{}", counted=False)
         count(requests=1)
+        if DELAY_S:
+            time.sleep(DELAY_S)
         parts = self.path.lstrip("/").split("/", 1)
         if len(parts) != 2 or parts[0] not in ("ok", "norange", "truncate", "reset", "flaky"):
             return self.reply(404, b"not found")

@@ -58,6 +58,8 @@ class BrickProvider {
   const ModelCache& models() const { return models_; }
 
  private:
+  // Queues `requests` on the loader, their payloads fetched first for a remote file.
+  void submit(const std::vector<LoadRequest>& requests);
   BrickSamples decode(const RankedKey& key, tensor::BrickReconstructor& reconstructor, ta::DecodeScratch& scratch);
   ResidentBrick constant_brick(const store::BrickEntry& entry, int rank) const;
   // The nearest resident stand-in for a missing brick, if any; queues missing ancestors so the
