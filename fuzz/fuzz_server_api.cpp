@@ -1,7 +1,8 @@
 // The viewer's HTTP API (server::Api, docs/viewer.md) called directly, without sockets: the
 // router, every parameter parser and the endpoints behind them (datasets, render, slice, value,
-// palette, query, static files), over three tiny datasets from fuzz/data: a TA-compressed
-// scalar volume (id 0), its label volume (id 1) and a plain NRRD volume (id 2).
+// palette, query, static files, the precomputed and OME-Zarr chunked views), over three tiny
+// datasets from fuzz/data: a TA-compressed scalar volume (id 0, slug "scalar"), its label
+// volume (id 1, "labels") and a plain NRRD volume (id 2, "plain").
 //
 // Input: the request line "METHOD TARGET" (or just TARGET, a GET), a newline, then the body.
 // The target is split and percent-decoded as the HTTP layer does (make_request). Api::handle
