@@ -5,6 +5,7 @@
 #include <unordered_set>
 
 #include "strata/core/error.hpp"
+#include "lod/payload_prefetcher.hpp"
 #include "strata/lod/brick_decode.hpp"
 
 namespace strata::lod {
@@ -26,7 +27,11 @@ BrickProvider::BrickProvider(const ta::TaVolume& volume, const ProviderOptions& 
       cache_(options.cache_bytes),
       models_(options.model_cache_bytes),
       loader_([this](const LoadRequest& r, tensor::BrickReconstructor& rec, ta::DecodeScratch& s) { decode(r.key, rec, s); },
-              options.loader_threads) {}
+              options.loader_threads) {
+  if (volume.container().source().remote()) prefetcher_ = std::make_unique<PayloadPrefetcher>(volume.container());
+}
+
+BrickProvider::~BrickProvider() = default;
 
 int BrickProvider::clamp_rank(int k) const { return std::clamp(k, 1, volume_.rank()); }
 
@@ -81,20 +86,26 @@ bool BrickProvider::stand_in(const CutBrick& brick, int rank, ResidentBrick& out
   return false;
 }
 
-void BrickProvider::submit(const std::vector<LoadRequest>& requests) {
+void BrickProvider::submit(const std::vector<LoadRequest>& requests, bool wait_for_bytes) {
   // A remote file's payloads are fetched together first: a few coalesced range requests instead
   // of one round trip per brick on the loader threads (a 20 ms link made a first exact frame of
-  // ~700 bricks take 13 s). Local files: ContainerReader::prefetch does nothing.
-  std::vector<const store::BrickEntry*> entries;
-  entries.reserve(requests.size());
-  for (const LoadRequest& r : requests) entries.push_back(&volume_.entry(r.key.brick));
-  volume_.container().prefetch(entries);
+  // ~700 bricks take 13 s). An exact frame waits for them; a progressive one hands them to the
+  // prefetcher's thread and draws at once. Local files fetch nothing.
+  if (volume_.container().source().remote()) {
+    std::vector<const store::BrickEntry*> entries;
+    entries.reserve(requests.size());
+    for (const LoadRequest& r : requests) entries.push_back(&volume_.entry(r.key.brick));
+    if (wait_for_bytes)
+      volume_.container().prefetch(entries);
+    else
+      prefetcher_->post(std::move(entries));
+  }
   loader_.submit(requests);
 }
 
 void BrickProvider::resolve_exact(const Selection& cut, const std::vector<std::size_t>& missing, int k,
                                   std::vector<LoadRequest> requests, FrameBricks& frame) {
-  submit(requests);
+  submit(requests, true);
   loader_.drain(reconstructor_, scratch_);
   loader_.wait_idle();
   for (std::size_t i : missing) {
@@ -139,7 +150,7 @@ FrameBricks BrickProvider::acquire(const Selection& cut, int rank, bool exact) {
       if (stand_in(cut.bricks[i], brick_rank(cut.bricks[i], k), r, requests) && shown.insert(r.key).second)
         frame.bricks.push_back(std::move(r));
     }
-    submit(requests);
+    submit(requests, false);
   }
   st.resident = frame.bricks.size();
   st.bytes_read = bytes_read_.exchange(0);
@@ -156,7 +167,7 @@ void BrickProvider::prefetch(const Selection& cut, int rank) {
     const int rank = brick_rank(b, k);
     if (b.entry->kind != store::PayloadKind::constant && !cache_.find(b.key, rank)) requests.push_back({{b.key, rank}, b.depth});
   }
-  submit(requests);
+  submit(requests, false);
 }
 
 void BrickProvider::wait_idle() { loader_.wait_idle(); }

@@ -10,6 +10,7 @@
 /// are resident; the sampler should prefer the finest brick that covers a point.
 #include <atomic>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "strata/lod/brick_cache.hpp"
@@ -20,6 +21,8 @@
 #include "strata/ta/ta_volume.hpp"
 
 namespace strata::lod {
+
+class PayloadPrefetcher;  // src/lod/payload_prefetcher.hpp
 
 /// @brief Cache budgets and loader threads of a BrickProvider.
 struct ProviderOptions {
@@ -33,6 +36,7 @@ class BrickProvider {
  public:
   /// @brief `volume` must outlive the provider.
   explicit BrickProvider(const ta::TaVolume& volume, const ProviderOptions& options = {});
+  ~BrickProvider();
   BrickProvider(const BrickProvider&) = delete;
   BrickProvider& operator=(const BrickProvider&) = delete;
 
@@ -58,8 +62,9 @@ class BrickProvider {
   const ModelCache& models() const { return models_; }
 
  private:
-  // Queues `requests` on the loader, their payloads fetched first for a remote file.
-  void submit(const std::vector<LoadRequest>& requests);
+  // Queues `requests` on the loader; a remote file's payloads are fetched in bulk first, waited
+  // for or in the background (src/lod/payload_prefetcher.hpp).
+  void submit(const std::vector<LoadRequest>& requests, bool wait_for_bytes);
   BrickSamples decode(const RankedKey& key, tensor::BrickReconstructor& reconstructor, ta::DecodeScratch& scratch);
   ResidentBrick constant_brick(const store::BrickEntry& entry, int rank) const;
   // The nearest resident stand-in for a missing brick, if any; queues missing ancestors so the
@@ -74,6 +79,7 @@ class BrickProvider {
   std::atomic<std::uint64_t> bytes_read_{0}, decode_ns_{0};  // since the last acquire
   tensor::BrickReconstructor reconstructor_;  // the calling thread's, for exact frames
   ta::DecodeScratch scratch_;
+  std::unique_ptr<PayloadPrefetcher> prefetcher_;  // remote files only
   BrickLoader loader_;  // last: its threads stop before the caches go
 };
 
