@@ -33,6 +33,20 @@ def test_coarse_levels_match_labels_decode(tmp_path, cli, label_file, lab):
     np.testing.assert_array_equal(lab.read(np.s_[1:4, 2:7, 0:5], level=2), dominant[1:4, 2:7, 0:5])
 
 
+def test_every_level_into_an_ome_zarr_and_a_precomputed_pyramid(tmp_path, cli, label_file, lab):
+    zarr = pytest.importorskip("zarr")
+    cli("labels", "decode", label_file, "-o", tmp_path / "cells.ome.zarr")
+    cli("labels", "decode", label_file, "-o", tmp_path / "cells.precomputed")
+    image = zarr.open(str(tmp_path / "cells.ome.zarr"), mode="r")
+    assert len(image.attrs["multiscales"][0]["datasets"]) == lab.levels
+    info = json.loads((tmp_path / "cells.precomputed" / "info").read_text())
+    assert info["type"] == "segmentation" and len(info["scales"]) == lab.levels
+    for level in range(lab.levels):
+        expected = lab.level(level)[...]  # level 0 exact, then the dominant label
+        np.testing.assert_array_equal(image[str(level)][...], expected)
+        np.testing.assert_array_equal(strata.read(tmp_path / "cells.precomputed", level=level), expected)
+
+
 @pytest.mark.parametrize("method", ["hybrid", "footprint", "naive", "coarse"])
 @pytest.mark.parametrize("box", ["0,0,0:32,28,24", "3,5,2:29,17,21", "7,1,11:8,27,12"])
 def test_queries_equal_the_cli(cli, label_file, lab, method, box):
