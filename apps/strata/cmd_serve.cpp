@@ -6,8 +6,10 @@
 #include <string>
 #include <vector>
 
+#include "cli_checks.hpp"
 #include "commands.hpp"
 #include "report.hpp"
+#include "strata/core/error.hpp"
 #include "strata/server/api.hpp"
 #include "strata/server/http_server.hpp"
 
@@ -33,7 +35,16 @@ void run_serve(const ServeArgs& a, const GlobalOptions&) {
   options.volume = a.volume;
   options.cors_origin = a.cors;
   std::printf("Opening %zu dataset%s\n", files.size(), files.size() == 1 ? "" : "s");
-  server::Api api(files, options);
+  const auto api_or_usage_error = [&] {
+    try {
+      return std::make_unique<server::Api>(files, options);
+    } catch (const ParameterError& e) {
+      if (e.parameter() == "ApiOptions::cors_origin") throw UsageError("--cors", e.problem());
+      throw;
+    }
+  };
+  const std::unique_ptr<server::Api> api_owner = api_or_usage_error();
+  server::Api& api = *api_owner;
   for (const std::string& line : api.summary()) std::printf("  %s\n", line.c_str());
   server::ServerOptions http;
   http.host = a.host;

@@ -83,6 +83,25 @@ struct Api::Impl {
 
 namespace {
 
+// `*` or an origin as browsers send it: http(s)://host[:port], no path and nothing a header line
+// could be broken with (the value goes into every response as Access-Control-Allow-Origin).
+void check_cors_origin(const std::string& origin) {
+  if (origin.empty() || origin == "*") return;
+  const std::size_t scheme = origin.starts_with("https://") ? 8 : origin.starts_with("http://") ? 7 : 0;
+  const std::string_view host = std::string_view(origin).substr(scheme);
+  const bool host_ok = !host.empty() && host.size() <= 253 && std::all_of(host.begin(), host.end(), [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '-' || c == ':' || c == '[' || c == ']';
+  });
+  if (scheme == 0 || !host_ok) {
+    std::string shown = origin.size() > 80 ? origin.substr(0, 80) + "..." : origin;
+    for (char& c : shown)
+      if (std::iscntrl(static_cast<unsigned char>(c))) c = '?';  // no line breaks in the message
+    throw ParameterError("ApiOptions::cors_origin",
+                         fmt::format("expected * or an origin such as https://host:8443 (scheme, host, optional port; "
+                                     "no path), got \"{}\"", shown));
+  }
+}
+
 render::SessionOptions session_options(const ApiOptions& o, std::size_t strata_files) {
   const std::uint64_t share = o.cache_bytes / std::max<std::size_t>(1, strata_files);
   // A share must hold a useful cut of 32^3 bricks (128 KiB each), not just one brick.
@@ -133,6 +152,7 @@ std::string size_text(const nlohmann::json& d) {
 Api::Impl::Impl(const std::vector<std::filesystem::path>& files, const ApiOptions& o)
     : options(o), queue(o.queue_capacity) {
   if (files.empty()) throw ParameterError("files", "no volumes to serve");
+  check_cors_origin(o.cors_origin);
   const std::size_t strata_files =
       std::size_t(std::count_if(files.begin(), files.end(), [](const auto& f) { return store::is_strata_file(f); }));
   const render::SessionOptions session = session_options(o, strata_files);

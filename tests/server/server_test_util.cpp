@@ -71,6 +71,8 @@ Volume ServerData::dominant_labels(int level) const {
   return mixture::EncodedLabels(dir_ / "cells.strata").dominant_labels(level);
 }
 
+Api* SharedApiTest::api_ = nullptr;
+
 std::unique_ptr<Api> make_api(ApiOptions options) { return std::make_unique<Api>(ServerData::get().files(), options); }
 
 HttpResponse get(Api& api, const std::string& target) { return api.handle(make_request("GET", target)); }

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
 #include "strata/core/volume.hpp"
@@ -43,6 +44,22 @@ class ServerData {
 
 // An Api over ServerData's files (fresh caches).
 std::unique_ptr<Api> make_api(ApiOptions options = {});
+
+// A test suite sharing one Api over ServerData's files (made before its first test, removed after
+// its last), so the caches warm up once per suite.
+class SharedApiTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() { api_ = make_api().release(); }
+  static void TearDownTestSuite() {
+    delete api_;
+    api_ = nullptr;
+  }
+  Api& api() { return *api_; }
+  const ServerData& data() { return ServerData::get(); }
+
+ private:
+  static Api* api_;
+};
 
 HttpResponse get(Api& api, const std::string& target);
 HttpResponse post(Api& api, const std::string& target, const std::string& body);

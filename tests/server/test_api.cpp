@@ -39,16 +39,8 @@ std::size_t lit_pixels(const render::Image& image) {
                                    [](const render::Rgba8& p) { return (p.r | p.g | p.b) != 0; }));
 }
 
-class ServerApi : public ::testing::Test {
+class ServerApi : public SharedApiTest {
  protected:
-  static void SetUpTestSuite() { api_ = make_api().release(); }
-  static void TearDownTestSuite() {
-    delete api_;
-    api_ = nullptr;
-  }
-  Api& api() { return *api_; }
-  const ServerData& data() { return ServerData::get(); }
-
   // Expects 400 with a JSON error naming `parameter`.
   void expect_bad(const std::string& target, const std::string& parameter) {
     const HttpResponse r = get(api(), target);
@@ -59,11 +51,7 @@ class ServerApi : public ::testing::Test {
     EXPECT_FALSE(j.value("error", "").empty()) << target;
     EXPECT_EQ(r.content_type, "application/json");
   }
-
-  static Api* api_;
 };
-
-Api* ServerApi::api_ = nullptr;
 
 TEST_F(ServerApi, DatasetsDescribeEveryFileInOrder) {
   const HttpResponse r = get(api(), "/api/datasets");

@@ -90,20 +90,10 @@ void expect_same(const Volume& got, const Volume& expected, const std::string& w
       << what << ": first difference at byte " << (differs.first - got.bytes()) << " of " << got.byte_size();
 }
 
-class ServerChunks : public ::testing::Test {
+class ServerChunks : public SharedApiTest {
  protected:
-  static void SetUpTestSuite() { api_ = make_api().release(); }
-  static void TearDownTestSuite() {
-    delete api_;
-    api_ = nullptr;
-  }
-  Api& api() { return *api_; }
-  const ServerData& data() { return ServerData::get(); }
-  static Api* api_;
   test::TempDir dir_;
 };
-
-Api* ServerChunks::api_ = nullptr;
 
 TEST_F(ServerChunks, DatasetsAreListedWithStableNames) {
   const nlohmann::json list = json_of(ok(api(), "/api/datasets"));
@@ -180,6 +170,20 @@ TEST(ServerChunksCors, OffUnlessAnOriginIsGiven) {
   const HttpResponse preflight = open->handle(make_request("OPTIONS", "/api/datasets/0/palette"));
   EXPECT_EQ(preflight.status, 204);
   EXPECT_TRUE(preflight.header("Access-Control-Allow-Methods"));
+}
+
+TEST(ServerChunksCors, OriginsThatAreNotOriginsAreRefused) {
+  for (const std::string origin : {"*", "http://127.0.0.1:8080", "https://[::1]:9000", "https://example.org"}) {
+    ApiOptions options;
+    options.cors_origin = origin;
+    EXPECT_NO_THROW(make_api(options)) << origin;
+  }
+  for (const std::string& origin : std::vector<std::string>{"example.org", "https://a.org/path", "https://a.org\r\nSet-Cookie: x=1",
+                                   "http://", "ftp://a.org", "https://a b.org", std::string(300, 'a')}) {
+    ApiOptions options;
+    options.cors_origin = origin;
+    EXPECT_EQ(test::parameter_of([&] { make_api(options); }), "ApiOptions::cors_origin") << origin;
+  }
 }
 
 }  // namespace
