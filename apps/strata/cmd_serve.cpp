@@ -25,6 +25,7 @@ struct ServeArgs {
   std::size_t queue = 4;
   std::optional<std::int64_t> volume;
   std::string cors;
+  int precomputed_jpeg = 0;
 };
 
 void run_serve(const ServeArgs& a, const GlobalOptions&) {
@@ -34,6 +35,7 @@ void run_serve(const ServeArgs& a, const GlobalOptions&) {
   options.queue_capacity = a.queue;
   options.volume = a.volume;
   options.cors_origin = a.cors;
+  options.precomputed_jpeg_quality = a.precomputed_jpeg;
   std::printf("Opening %zu dataset%s\n", files.size(), files.size() == 1 ? "" : "s");
   const auto api_or_usage_error = [&] {
     try {
@@ -86,6 +88,10 @@ void register_serve(CLI::App& app, const GlobalOptions& global) {
   cmd->add_option("--cors", a->cors,
                   "Let pages of this origin (https://host:port, or *) read the server from another site, e.g. a "
                   "Neuroglancer client served elsewhere (off by default)");
+  cmd->add_option("--precomputed-jpeg", a->precomputed_jpeg,
+                  "Serve 8-bit images in the Neuroglancer precomputed view as JPEG chunks of this quality (1-100): "
+                  "lossy, several times fewer bytes to send (default: raw)")
+      ->check(CLI::Range(1, 100));
   add_volume_option(*cmd, a->volume);
   cmd->callback([a, &global] { run_serve(*a, global); });
 }

@@ -76,3 +76,31 @@ def test_precomputed_info_and_a_chunk_over_http(server, label_raw):
     assert outside.value.code == 404
     image = json.load(urllib.request.urlopen(f"{server}/precomputed/scalar/info"))
     assert image["type"] == "image" and image["scales"][0]["encoding"] == "raw"
+
+
+def test_convert_reads_its_own_served_ome_zarr_back(server, scalar_file, label_file, label_raw, cli, tmp_path):
+    """`strata convert URL out` reads the served OME-Zarr over HTTP with its geometry: every level
+    of the scalar file equals `decompress --level L` (in the source type), the labels' level 0
+    their source ids."""
+    levels = len(json.load(urllib.request.urlopen(f"{server}/zarr/scalar/.zattrs"))["multiscales"][0]["datasets"])
+    assert levels >= 2
+    for level in range(levels):
+        cli("convert", f"{server}/zarr/scalar", tmp_path / f"served{level}.nrrd", "--level", level)
+        cli("decompress", scalar_file, "--level", level, "-o", tmp_path / f"local{level}.nrrd")
+        served, local = strata.read(tmp_path / f"served{level}.nrrd"), strata.read(tmp_path / f"local{level}.nrrd")
+        # Coarser levels decompress to float; the views hold them in the source type, rounded.
+        limits = np.iinfo(served.dtype)
+        np.testing.assert_array_equal(served, np.clip(np.rint(local), limits.min, limits.max).astype(served.dtype))
+    local_info = json.loads(cli("info", tmp_path / "local0.nrrd", "--json"))
+    served_info = json.loads(cli("info", f"{server}/zarr/scalar", "--json"))
+    assert served_info["format"] == "zarr"
+    assert served_info["spacing"] == local_info["spacing"]
+    cli("convert", f"{server}/zarr/labels/", tmp_path / "labels.nrrd")
+    source = np.fromfile(label_raw, dtype=np.uint32)
+    np.testing.assert_array_equal(strata.read(tmp_path / "labels.nrrd").ravel(), source)
+
+
+def test_convert_names_the_url_when_the_served_image_is_missing(server, cli, tmp_path):
+    error = cli("convert", f"{server}/zarr/no-such-dataset", tmp_path / "x.nrrd", expect_error=True)
+    assert f"{server}/zarr/no-such-dataset" in error
+    assert "Traceback" not in error and "terminate" not in error

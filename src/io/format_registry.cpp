@@ -10,6 +10,7 @@
 #include "io/builtin_formats.hpp"
 #include "io/io_detail.hpp"
 #include "strata/core/text.hpp"
+#include "strata/io/byte_source.hpp"
 #include "strata/io/file_names.hpp"
 
 namespace strata::io {
@@ -135,6 +136,30 @@ const VolumeFormat* by_content(const fs::path& path) {
   return nullptr;
 }
 
+// `url`'s path without its query or fragment (a presigned URL's signature is not a name).
+fs::path url_name(const std::string& url) { return fs::path(url.substr(0, url.find_first_of("?#"))); }
+
+// The format of a volume on a web server: the extension of a format that reads URLs, else the
+// first whose sniff_url takes it.
+const VolumeFormat* remote_format(const std::string& url) {
+  const fs::path name = url_name(url);
+  for (const VolumeFormat* f : formats())
+    if (f->sniff_url && by_extension(name, false) == f) return f;
+  if (detail::ascii_lower(name.filename().string()).ends_with(kStrataExtension)) return nullptr;
+  for (const VolumeFormat* f : formats())
+    if (f->sniff_url && f->sniff_url(url)) return f;
+  return nullptr;
+}
+
+[[noreturn]] void throw_not_remote(const std::string& url) {
+  std::vector<std::string> names;
+  for (const VolumeFormat* f : formats())
+    if (f->sniff_url) names.push_back(f->title);
+  throw Error(fmt::format("{}: not a volume that can be read from a web server (expected {}; a remote {} file is read "
+                          "by the commands that take .strata files)",
+                          url, joined_list(names, "or"), kStrataExtension));
+}
+
 [[noreturn]] void throw_unknown(const fs::path& path) {
   throw Error(fmt::format("{}: unknown volume format (expected {})", path.string(), known_extensions_text()));
 }
@@ -199,7 +224,13 @@ std::string name_without_extension(const fs::path& path) {
   return name.substr(0, name.size() - std::min(cut, name.size()));
 }
 
+bool is_remote_volume(const std::string& url) { return remote_format(url) != nullptr; }
+
 const VolumeFormat& detect_format(const fs::path& path) {
+  if (is_url(path.string())) {
+    if (const VolumeFormat* f = remote_format(path.string())) return *f;
+    throw_not_remote(path.string());
+  }
   const bool folder = is_folder(path);
   if (const VolumeFormat* f = by_extension(path, folder)) return *f;
   if (folder) {

@@ -37,8 +37,10 @@ struct Response {
   std::optional<ByteRange> content_range;  // from Content-Range: bytes first-last/total
   std::optional<std::uint64_t> total;
   std::vector<std::byte> body;
-  std::uint64_t expected = 0;  // the bytes asked for: a longer body is cut off
-  bool ignored_range = false;  // a 200 answer, aborted at its first bytes
+  std::uint64_t expected = 0;  // the bytes asked for (whole: at most): a longer body is cut off
+  bool whole = false;          // a plain GET of a whole object, not a range request
+  bool ignored_range = false;  // a 200 answer to a range request, aborted at its first bytes
+  bool too_large = false;      // a whole object longer than `expected`, aborted
 };
 
 // "Content-Range: bytes 0-65535/1234567" (any case, any spacing after the colon).
@@ -71,6 +73,16 @@ std::size_t on_header(char* data, std::size_t size, std::size_t count, void* use
 std::size_t on_body(char* data, std::size_t size, std::size_t count, void* user) {
   auto& r = *static_cast<Response*>(user);
   const std::size_t n = size * count;
+  const auto* bytes = reinterpret_cast<const std::byte*>(data);
+  if (r.whole) {
+    if (r.status != 200) return n;  // an error page: the status says it all
+    if (r.body.size() + n > r.expected) {
+      r.too_large = true;
+      return 0;
+    }
+    r.body.insert(r.body.end(), bytes, bytes + n);
+    return n;
+  }
   // A 200 answer is the whole file: stop it at its first bytes rather than download it.
   if (r.status == 200) {
     r.ignored_range = true;
@@ -78,7 +90,6 @@ std::size_t on_body(char* data, std::size_t size, std::size_t count, void* user)
   }
   if (r.status != 206) return n;                 // an error page: the status says it all
   if (r.body.size() + n > r.expected) return 0;  // more than asked for: refuse the rest
-  const auto* bytes = reinterpret_cast<const std::byte*>(data);
   r.body.insert(r.body.end(), bytes, bytes + n);
   return n;
 }
@@ -155,6 +166,41 @@ class HandlePool {
   std::mutex mutex_;
   std::vector<CURL*> free_;
 };
+
+// Sends one GET of `url` (of `range` when given) on a pooled handle and fills `r` with the answer.
+void perform(HandlePool& handles, const std::string& url, const ByteRange* range, const HttpOptions& options,
+             Response& r) {
+  const std::string bytes = range ? fmt::format("{}-{}", range->offset, range->offset + range->size - 1) : "";
+  char error[CURL_ERROR_SIZE] = {};
+  CURL* h = handles.take();
+  curl_easy_reset(h);
+  curl_easy_setopt(h, CURLOPT_URL, url.c_str());
+  if (range) curl_easy_setopt(h, CURLOPT_RANGE, bytes.c_str());
+  curl_easy_setopt(h, CURLOPT_NOSIGNAL, 1L);  // threads: no SIGALRM for timeouts
+  curl_easy_setopt(h, CURLOPT_FOLLOWLOCATION, 1L);
+  curl_easy_setopt(h, CURLOPT_MAXREDIRS, kMaxRedirects);
+  curl_easy_setopt(h, CURLOPT_CONNECTTIMEOUT_MS, long(options.connect_timeout_ms));
+  curl_easy_setopt(h, CURLOPT_LOW_SPEED_LIMIT, 1L);
+  curl_easy_setopt(h, CURLOPT_LOW_SPEED_TIME, long(options.stall_timeout_s));
+  curl_easy_setopt(h, CURLOPT_HEADERFUNCTION, on_header);
+  curl_easy_setopt(h, CURLOPT_HEADERDATA, &r);
+  curl_easy_setopt(h, CURLOPT_WRITEFUNCTION, on_body);
+  curl_easy_setopt(h, CURLOPT_WRITEDATA, &r);
+  curl_easy_setopt(h, CURLOPT_ERRORBUFFER, error);
+  curl_easy_setopt(h, CURLOPT_USERAGENT, "strata");
+  r.code = curl_easy_perform(h);
+  long status = 0;
+  if (curl_easy_getinfo(h, CURLINFO_RESPONSE_CODE, &status) == CURLE_OK && status != 0) r.status = status;
+  curl_easy_setopt(h, CURLOPT_ERRORBUFFER, nullptr);
+  handles.give_back(h);
+  r.curl_error = error[0] ? error : curl_easy_strerror(r.code);
+}
+
+// Waits before retry `attempt` (2, 3, ...): backoff_ms, doubling, at most kMaxBackoffMs.
+void wait_before_retry(const HttpOptions& options, int attempt) {
+  const int wait = std::min(kMaxBackoffMs, options.backoff_ms << std::min(attempt - 2, 16));
+  std::this_thread::sleep_for(std::chrono::milliseconds(wait));
+}
 
 class HttpSource final : public ByteSource {
  public:
@@ -256,8 +302,7 @@ class HttpSource final : public ByteSource {
     for (int attempt = 1; attempt <= options_.attempts; ++attempt) {
       if (attempt > 1) {
         ++stats_.retries;
-        const int wait = std::min(kMaxBackoffMs, options_.backoff_ms << std::min(attempt - 2, 16));
-        std::this_thread::sleep_for(std::chrono::milliseconds(wait));
+        wait_before_retry(options_, attempt);
       }
       Response r = request(range);
       if (auto problem = transient_problem(r, range)) {
@@ -274,30 +319,7 @@ class HttpSource final : public ByteSource {
     Response r;
     r.expected = range.size;
     r.body.reserve(std::size_t(std::min<std::uint64_t>(range.size, 64ull << 20)));
-    const std::string bytes = fmt::format("{}-{}", range.offset, range.offset + range.size - 1);
-    char error[CURL_ERROR_SIZE] = {};
-    CURL* h = handles_.take();
-    curl_easy_reset(h);
-    curl_easy_setopt(h, CURLOPT_URL, url_.c_str());
-    curl_easy_setopt(h, CURLOPT_RANGE, bytes.c_str());
-    curl_easy_setopt(h, CURLOPT_NOSIGNAL, 1L);  // threads: no SIGALRM for timeouts
-    curl_easy_setopt(h, CURLOPT_FOLLOWLOCATION, 1L);
-    curl_easy_setopt(h, CURLOPT_MAXREDIRS, kMaxRedirects);
-    curl_easy_setopt(h, CURLOPT_CONNECTTIMEOUT_MS, long(options_.connect_timeout_ms));
-    curl_easy_setopt(h, CURLOPT_LOW_SPEED_LIMIT, 1L);
-    curl_easy_setopt(h, CURLOPT_LOW_SPEED_TIME, long(options_.stall_timeout_s));
-    curl_easy_setopt(h, CURLOPT_HEADERFUNCTION, on_header);
-    curl_easy_setopt(h, CURLOPT_HEADERDATA, &r);
-    curl_easy_setopt(h, CURLOPT_WRITEFUNCTION, on_body);
-    curl_easy_setopt(h, CURLOPT_WRITEDATA, &r);
-    curl_easy_setopt(h, CURLOPT_ERRORBUFFER, error);
-    curl_easy_setopt(h, CURLOPT_USERAGENT, "strata");
-    r.code = curl_easy_perform(h);
-    long status = 0;
-    if (curl_easy_getinfo(h, CURLINFO_RESPONSE_CODE, &status) == CURLE_OK && status != 0) r.status = status;
-    curl_easy_setopt(h, CURLOPT_ERRORBUFFER, nullptr);
-    handles_.give_back(h);
-    r.curl_error = error[0] ? error : curl_easy_strerror(r.code);
+    perform(handles_, url_, &range, options_, r);
     ++stats_.requests;
     stats_.bytes_fetched += r.body.size();
     return r;
@@ -365,6 +387,44 @@ std::shared_ptr<const ByteSource> open_http_source(const std::string& url, const
   if (options.attempts < 1)
     throw ParameterError("attempts", fmt::format("must be at least 1, got {}", options.attempts));
   return std::make_shared<HttpSource>(url, options);
+}
+
+namespace {
+
+// Whole objects share one pool of handles (and so their kept-alive connections).
+HandlePool& object_handles() {
+  static HandlePool pool;
+  return pool;
+}
+
+}  // namespace
+
+std::optional<std::vector<std::byte>> fetch_http_object(const std::string& url, const HttpOptions& options,
+                                                        std::uint64_t max_bytes) {
+  init_curl();
+  std::string last_problem;
+  for (int attempt = 1; attempt <= std::max(1, options.attempts); ++attempt) {
+    if (attempt > 1) wait_before_retry(options, attempt);
+    Response r;
+    r.whole = true;
+    r.expected = max_bytes;
+    perform(object_handles(), url, nullptr, options, r);
+    if (r.too_large)
+      throw Error(fmt::format("{}: the object is larger than {} bytes, the most read whole", url, max_bytes));
+    if (r.code != CURLE_OK) {
+      if (!transient_curl_error(r.code)) throw Error(fmt::format("{}: {}", url, r.curl_error));
+      last_problem = r.curl_error;
+      continue;
+    }
+    if (transient_status(r.status)) {
+      last_problem = fmt::format("HTTP {}", r.status);
+      continue;
+    }
+    if (r.status == 404 || r.status == 410) return std::nullopt;
+    if (r.status != 200) throw Error(fmt::format("{}: HTTP {}", url, status_text(r.status)));
+    return std::move(r.body);
+  }
+  throw Error(fmt::format("{}: {} (failed {} times; giving up)", url, last_problem, options.attempts));
 }
 
 namespace {

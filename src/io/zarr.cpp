@@ -47,6 +47,15 @@ bool looks_like_zarr(const fs::path& dir) {
   return is_file(dir / ".zarray") || is_file(dir / ".zgroup") || is_file(dir / "zarr.json") || is_file(dir / ".zattrs");
 }
 
+// The same question of a store on a web server: one request when it is an OME-Zarr v2 image.
+// No for a URL with a query (a presigned object: keys cannot be appended to it). A server that
+// cannot be reached, or refuses (403), is an Error naming the URL of the key asked for.
+bool url_is_zarr(const std::string& url) {
+  if (url.find_first_of("?#") != std::string::npos) return false;
+  const auto store = open_zarr_store(url);
+  return store->exists(".zattrs") || store->exists("zarr.json") || store->exists(".zarray") || store->exists(".zgroup");
+}
+
 enum class NodeKind { array, group };
 
 struct Node {
@@ -292,6 +301,10 @@ Opened open_node(const fs::path& path, const ReadOptions& options) {
   if (options.level.value_or(0) != 0)
     throw ParameterError("ReadOptions::level", fmt::format("{}: not a multiscale image (no OME-Zarr multiscales)", file));
   if (node.kind == NodeKind::array) return open_plain_array(at, options);
+  if (!at.store->listable())
+    throw FormatError(file, "dataset",
+                      "a group without OME-Zarr multiscales, on a web server that cannot list it: name the array "
+                      "with --dataset");
   const std::vector<std::string> arrays = child_arrays(at);
   if (arrays.size() == 1) return open_plain_array({at.store, at.key(arrays[0])}, options);
   throw FormatError(file, "dataset",
@@ -324,6 +337,7 @@ VolumeFormat zarr_format() {
       .extensions = {".zarr", ".ome.zarr", ".zarr.zip", ".ome.zarr.zip"},
       .directory = "a Zarr store (.zarray, .zgroup, .zattrs or zarr.json)",
       .sniff_directory = looks_like_zarr,
+      .sniff_url = url_is_zarr,
       .open = open_zarr,
       .create_writer = create_zarr_writer,
       .capabilities = {.streaming = true, .multi_volume = true, .spatial_metadata = true, .datasets = true,
@@ -331,8 +345,8 @@ VolumeFormat zarr_format() {
       .write_dtypes = DTypeSet::all(),
       .read_notes = "Zarr v2 and v3 (regular chunks; C or F order, transpose; compressors gzip, zlib, zstd, blosc "
                     "with lz4/zstd/zlib/blosclz and shuffle/bitshuffle; crc32c; fill values; missing chunks; either "
-                    "byte order; v3 sharding_indexed, inner chunks read by range); folders or zip stores (stored or "
-                    "deflated members, zip64); OME-Zarr 0.4/0.5 multiscales: --level, axes units, scale and translation; t/c axes "
+                    "byte order; v3 sharding_indexed, inner chunks read by range); folders, zip stores (stored or "
+                    "deflated members, zip64) or http(s) URLs (e.g. `strata serve`'s /zarr/<name>); OME-Zarr 0.4/0.5 multiscales: --level, axes units, scale and translation; t/c axes "
                     "as --volume; --dataset for an array in a group; chunks decoded as boxes need them",
       .write_notes = "OME-Zarr 0.4 (Zarr v2, 64^3 chunks, blosc-zstd or uncompressed, \"/\" keys) with scale, "
                      "translation and unit; direction cosines are not written (NGFF has none); every level of a "

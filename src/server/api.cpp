@@ -191,7 +191,7 @@ HttpResponse Api::Impl::chunked_view(std::string_view path, const HttpRequest& r
   if (r.method != "GET" && r.method != "HEAD") return method_not_allowed("GET", "chunked views");
   detail::Params(r, {});
   const std::string_view file = rest.substr(slash + 1);
-  return precomputed ? detail::precomputed_file(*d, file, options.volume) : detail::zarr_file(*d, file, options.volume);
+  return precomputed ? detail::precomputed_file(*d, file, options) : detail::zarr_file(*d, file, options);
 }
 
 HttpResponse Api::Impl::list_datasets() const {

@@ -49,7 +49,7 @@ std::vector<VolumeInfo> level_infos(const ChunkViews& v, std::optional<DType> dt
   return infos;
 }
 
-std::shared_ptr<const ChunkViews> build_views(Dataset& d, std::optional<std::int64_t> volume) {
+std::shared_ptr<const ChunkViews> build_views(Dataset& d, const ApiOptions& options) {
   auto v = std::make_shared<ChunkViews>();
   switch (d.session->kind()) {
     case render::DatasetKind::plain:
@@ -57,7 +57,7 @@ std::shared_ptr<const ChunkViews> build_views(Dataset& d, std::optional<std::int
                                    d.name);
       return v;
     case render::DatasetKind::scalar: {
-      v->ta = std::make_unique<ta::TaVolume>(store::open_volume(d.path, volume));
+      v->ta = std::make_unique<ta::TaVolume>(store::open_volume(d.path, options.volume));
       const DType dtype = v->ta->source_info().dtype;
       for (int l = 0; l < v->ta->geometry().level_count(); ++l)
         v->levels.push_back(std::make_unique<ta::LevelSource>(*v->ta, l, v->ta->rank(), dtype, d.path));
@@ -78,7 +78,8 @@ std::shared_ptr<const ChunkViews> build_views(Dataset& d, std::optional<std::int
     v->zarr_unavailable = e.what();
   }
   try {
-    v->precomputed.emplace(level_infos(*v, v->precomputed_dtype), d.name);
+    v->precomputed.emplace(level_infos(*v, v->precomputed_dtype), d.name,
+                           io::PrecomputedEncoding{.jpeg_quality = options.precomputed_jpeg_quality});
   } catch (const Error& e) {
     v->precomputed_unavailable = e.what();
   }
@@ -105,13 +106,13 @@ std::optional<std::int64_t> chunk_number(std::string_view text) {
 
 }  // namespace
 
-const ChunkViews& Dataset::chunk_views(std::optional<std::int64_t> volume) {
-  std::call_once(views_once_, [&] { views_ = build_views(*this, volume); });
+const ChunkViews& Dataset::chunk_views(const ApiOptions& options) {
+  std::call_once(views_once_, [&] { views_ = build_views(*this, options); });
   return *views_;
 }
 
-HttpResponse precomputed_file(Dataset& d, std::string_view rest, std::optional<std::int64_t> volume) {
-  const ChunkViews& v = d.chunk_views(volume);
+HttpResponse precomputed_file(Dataset& d, std::string_view rest, const ApiOptions& options) {
+  const ChunkViews& v = d.chunk_views(options);
   if (!v.unavailable.empty()) throw ApiError(404, "", v.unavailable);
   if (!v.precomputed) throw ApiError(404, "", v.precomputed_unavailable);
   if (rest == "info") return json_response(v.precomputed->info());
@@ -124,8 +125,8 @@ HttpResponse precomputed_file(Dataset& d, std::string_view rest, std::optional<s
   return chunk_response(v.precomputed->encode(*chunk, samples));
 }
 
-HttpResponse zarr_file(Dataset& d, std::string_view rest, std::optional<std::int64_t> volume) {
-  const ChunkViews& v = d.chunk_views(volume);
+HttpResponse zarr_file(Dataset& d, std::string_view rest, const ApiOptions& options) {
+  const ChunkViews& v = d.chunk_views(options);
   if (!v.unavailable.empty()) throw ApiError(404, "", v.unavailable);
   if (!v.zarr) throw ApiError(404, "", v.zarr_unavailable);
   if (rest == ".zgroup") return json_response(v.zarr->group());

@@ -14,6 +14,7 @@
 #include "server/params.hpp"
 #include "strata/mixture/box_query.hpp"
 #include "strata/render/render_session.hpp"
+#include "strata/server/api.hpp"
 #include "strata/server/http_message.hpp"
 #include "strata/server/render_queue.hpp"
 
@@ -35,7 +36,7 @@ struct Dataset {
   const mixture::BoxQuery& box_query();
   // Its levels as precomputed and OME-Zarr volumes (api_chunks.cpp), built on first use;
   // `volume` picks the member of a volume set, as the session did.
-  const ChunkViews& chunk_views(std::optional<std::int64_t> volume);
+  const ChunkViews& chunk_views(const ApiOptions& options);
 
  private:
   std::once_flag query_once_;
@@ -60,8 +61,8 @@ HttpResponse voxel_value(Dataset& d, const HttpRequest& r);
 HttpResponse set_palette(Dataset& d, const HttpRequest& r);
 HttpResponse query_box(Dataset& d, const HttpRequest& r);
 // GET /precomputed/<name>/info and /precomputed/<name>/<key>/<chunk>: `rest` follows the name.
-HttpResponse precomputed_file(Dataset& d, std::string_view rest, std::optional<std::int64_t> volume);
+HttpResponse precomputed_file(Dataset& d, std::string_view rest, const ApiOptions& options);
 // GET /zarr/<name>/.zgroup, .zattrs, <level>/.zarray, <level>/<z>/<y>/<x>: `rest` follows the name.
-HttpResponse zarr_file(Dataset& d, std::string_view rest, std::optional<std::int64_t> volume);
+HttpResponse zarr_file(Dataset& d, std::string_view rest, const ApiOptions& options);
 
 }  // namespace strata::server::detail

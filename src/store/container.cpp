@@ -11,6 +11,7 @@
 #include "strata/core/bytes.hpp"
 #include "strata/core/error.hpp"
 #include "strata/core/memory.hpp"
+#include "strata/io/formats.hpp"
 #include "strata/store/byte_planes.hpp"
 #include "strata/store/crc32c.hpp"
 #include "strata/store/metadata_json.hpp"
@@ -570,7 +571,7 @@ io::SharedBytes ContainerReader::section(const std::string& name) const {
 std::uint64_t ContainerReader::file_size() const { return size_; }
 
 bool is_strata_file(const std::filesystem::path& path) {
-  if (io::is_url(path.string())) return true;
+  if (io::is_url(path.string())) return !io::is_remote_volume(path.string());
   std::ifstream in(path, std::ios::binary);
   std::array<char, 8> head{};
   return in.read(head.data(), head.size()) && std::memcmp(head.data(), kMagic.data(), kMagic.size()) == 0;

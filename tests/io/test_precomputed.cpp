@@ -5,6 +5,7 @@
 // are refused naming the file and field.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstring>
 #include <fstream>
 #include <map>
@@ -192,6 +193,64 @@ TEST(IoPrecomputed, EveryScaleOfAPyramidReadsBackByLevel) {
   level1.level = 1;
   expect_same(open_volume(path, level1)->read_all(), coarse);
   EXPECT_EQ(open_volume(path, level1)->info().geometry.origin, (Vector3{16, 16, 16}));
+}
+
+// A smooth 8-bit image (what JPEG is for), 2 x 1 x 1 chunks with clipped edges.
+Volume smooth_u8(Extent dims) {
+  Volume v(dims, DType::u8, Spacing{4, 4, 40});
+  auto s = v.view<std::uint8_t>();
+  for (std::int64_t z = 0; z < dims.z; ++z)
+    for (std::int64_t y = 0; y < dims.y; ++y)
+      for (std::int64_t x = 0; x < dims.x; ++x)
+        s(x, y, z) = std::uint8_t(128 + 90 * std::sin(0.11 * double(x) + 0.05 * double(z)) * std::cos(0.07 * double(y)));
+  return v;
+}
+
+double rms_error(const Volume& a, const Volume& b) {
+  double sum = 0;
+  const auto sa = a.samples<std::uint8_t>(), sb = b.samples<std::uint8_t>();
+  for (std::size_t i = 0; i < sa.size(); ++i) sum += (double(sa[i]) - double(sb[i])) * (double(sa[i]) - double(sb[i]));
+  return std::sqrt(sum / double(sa.size()));
+}
+
+TEST(IoPrecomputed, JpegChunksAreForU8ImagesAndFollowTheQuality) {
+  TempDir dir;
+  const Volume image = smooth_u8({70, 40, 20});
+  const auto source = memory_source(image);
+  double errors[2];
+  std::uintmax_t chunk_bytes[2];
+  const int qualities[2] = {95, 20};
+  for (int i = 0; i < 2; ++i) {
+    const fs::path path = dir / ("q" + std::to_string(qualities[i]) + ".precomputed");
+    PrecomputedPyramidWriter writer(path, {image.info()}, PrecomputedEncoding{.jpeg_quality = qualities[i]});
+    writer.level(0).write_slab(image);
+    writer.finish();
+    const nlohmann::json info = info_of(path);
+    ASSERT_EQ(info["scales"][0]["encoding"], "jpeg");
+    const std::string key = info["scales"][0]["key"];
+    chunk_bytes[i] = fs::file_size(path / key / "0-64_0-40_0-20");
+    errors[i] = rms_error(read_volume(path), image);
+
+    // The served view encodes the same bytes the writer stored.
+    const PrecomputedView view({image.info()}, "view", PrecomputedEncoding{.jpeg_quality = qualities[i]});
+    EXPECT_EQ(view.info()["scales"][0]["encoding"], "jpeg");
+    const auto chunk = view.chunk(key, "64-70_0-40_0-20");
+    ASSERT_TRUE(chunk);
+    EXPECT_EQ(view.encode(*chunk, image.crop(chunk->box)), test::io::read_bytes(path / key / "64-70_0-40_0-20"));
+  }
+  // JPEG's quantization at quality 95 (steps of 1-5 grey levels) leaves an RMS error of about a
+  // grey level on a smooth image; quality 20 (steps of 20-100) several times more.
+  EXPECT_LT(errors[0], 1.5);
+  EXPECT_GT(errors[1], 2 * errors[0]);
+  EXPECT_LT(chunk_bytes[1], chunk_bytes[0]);
+  EXPECT_LT(chunk_bytes[0], std::uintmax_t(64 * 40 * 20));  // smaller than the raw chunk
+
+  // Other sample types stay raw; segmentations stay compressed_segmentation.
+  const PrecomputedView u16({random_volume({8, 8, 8}, DType::u16, 1).info()}, "u16", {.jpeg_quality = 90});
+  EXPECT_EQ(u16.info()["scales"][0]["encoding"], "raw");
+  const PrecomputedView u32({label_volume({8, 8, 8}, DType::u32, 0, 1).info()}, "u32", {.jpeg_quality = 90});
+  EXPECT_EQ(u32.info()["scales"][0]["encoding"], "compressed_segmentation");
+  EXPECT_THROW(PrecomputedView({image.info()}, "q101", {.jpeg_quality = 101}), ParameterError);
 }
 
 TEST(IoPrecomputed, AnUnfinishedWriterLeavesNothing) {

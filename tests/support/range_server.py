@@ -12,7 +12,8 @@ The first path component chooses how it behaves, so one server covers every case
   /flaky/NAME     the first request for each range answered 503, repeats as /ok
   /__stats        JSON {"requests": n, "bytes": body bytes sent} since the last /__clear
   /__clear        zeroes the counters
-Anything else, or a missing file: 404.
+NAME may name a file in a subfolder (a Zarr store's keys). Anything else, a missing file or a
+path with "..": 404.
 """
 
 import json
@@ -89,7 +90,7 @@ class Handler(BaseHTTPRequestHandler):
             return self.reply(404, b"not found")
         mode, name = parts
         path = os.path.join(ROOT, name)
-        if "/" in name or not os.path.isfile(path):
+        if ".." in name.split("/") or not os.path.isfile(path):
             return self.reply(404, b"not found")
         size = os.path.getsize(path) // (2 if mode == "truncate" else 1)
         if mode == "flaky":

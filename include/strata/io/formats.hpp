@@ -123,6 +123,10 @@ struct VolumeFormat {
   /// no extension of a folder format goes to the first format whose predicate accepts it, else
   /// to the first folder format without a predicate.
   PathPredicate sniff_directory{};
+  /// Optional: whether an http:// or https:// URL is a volume of this format. Only formats
+  /// with it read from web servers; a URL whose name ends with one of their extensions is
+  /// theirs without asking.
+  std::function<bool(const std::string& url)> sniff_url{};
   /// Optional: whether a file opens with default ReadOptions (raw: only beside its JSON
   /// sidecar). `strata serve` lists a folder's files of the format only when it holds. Unset:
   /// every file of the format does.
@@ -164,10 +168,14 @@ std::string name_without_extension(const std::filesystem::path& path);
 /// @brief The format of the volume to read at `path`: by the extension of its name (for an
 /// existing folder, among the formats that take folders); else, for a folder, the format that
 /// takes it (VolumeFormat::sniff_directory); else, for an existing file, the first format whose
-/// sniffer recognises its first bytes. Throws Error naming the path and listing the registered
+/// sniffer recognises its first bytes. An http(s) URL goes to the formats that read from web
+/// servers (VolumeFormat::sniff_url), by extension, then by asking the server. Throws Error naming the path and listing the registered
 /// extensions (known_extensions_text) when none fits, and saying what the file is when it is a
 /// .strata container.
 const VolumeFormat& detect_format(const std::filesystem::path& path);
+/// @brief Whether a format that reads from web servers takes the http(s) URL `url` (by the
+/// extension of its name, else by VolumeFormat::sniff_url, which may ask the server).
+bool is_remote_volume(const std::string& url);
 /// @brief The format to write `path` in: the format called `name` when it is not empty (else
 /// ParameterError("WriteOptions::format") listing the names), otherwise by the extension or
 /// the folder as detect_format, never by content (an existing output is replaced, whatever it

@@ -11,6 +11,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "strata/io/byte_source.hpp"
 
@@ -39,6 +40,13 @@ struct HttpOptions {
 /// request and reads the file's size from the answer's Content-Range. Throws Error naming the
 /// URL when the server refuses, ignores ranges or gives no size.
 std::shared_ptr<const ByteSource> open_http_source(const std::string& url, const HttpOptions& options);
+
+/// @brief The whole object at `url`, fetched with one plain GET (retried like a range request
+/// while failures look transient), or nothing when the server answers 404 or 410: how Zarr keys
+/// on a web server are read, where a missing chunk is the fill value. Throws Error naming the URL
+/// on any other answer, and when the object is longer than `max_bytes`.
+std::optional<std::vector<std::byte>> fetch_http_object(const std::string& url, const HttpOptions& options,
+                                                        std::uint64_t max_bytes);
 
 /// @brief The source of `url` while some caller holds it open, else a new one (options from
 /// the environment): commands open a file more than once (`info` checks it with its codec's

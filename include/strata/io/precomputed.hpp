@@ -5,7 +5,7 @@
 ///
 /// Every scale is unsharded with 64^3 chunks; uint32 and uint64 volumes are written as
 /// `segmentation` with the `compressed_segmentation` encoding (8^3 blocks), every other sample
-/// type as `image` with the `raw` encoding. Resolutions are stored in nanometres (converted from
+/// type as `image` with the `raw` encoding (uint8 images as `jpeg` when PrecomputedEncoding asks). Resolutions are stored in nanometres (converted from
 /// the geometry's unit; spacing without a unit is taken as nm) and the origin as the scale's
 /// `voxel_offset` (origin / resolution, rounded). The format has no direction cosines: they are
 /// not written.
@@ -24,6 +24,14 @@
 
 namespace strata::io {
 
+/// @brief How image scales are encoded; segmentations are always compressed_segmentation.
+struct PrecomputedEncoding {
+  /// 1..100: uint8 images as `jpeg` chunks of this quality (lossy and several times smaller, what
+  /// Neuroglancer's EM volumes use); 0: `raw`. Other sample types stay `raw`: the format's jpeg
+  /// holds 8-bit samples only. Another value is a ParameterError.
+  int jpeg_quality = 0;
+};
+
 /// @brief Streams the scales of a precomputed volume to `<folder>.tmp`, renamed to `folder` by
 /// finish(). Each scale takes its slabs in z order through level(i), scales in any order or
 /// interleaved; each holds one chunk row (64 slices) of samples at a time. Destroying the writer
@@ -33,7 +41,8 @@ class PrecomputedPyramidWriter {
   /// @brief `levels[0]` is the finest scale; all must share one dtype, which must be one the
   /// format stores (u8, i8, u16, i16, u32, i32, u64, f32), else Error naming the folder. An
   /// existing `folder` is replaced only when it is a precomputed volume (has an `info` file).
-  PrecomputedPyramidWriter(std::filesystem::path folder, std::vector<VolumeInfo> levels);
+  PrecomputedPyramidWriter(std::filesystem::path folder, std::vector<VolumeInfo> levels,
+                           const PrecomputedEncoding& encoding = {});
   ~PrecomputedPyramidWriter();
   PrecomputedPyramidWriter(const PrecomputedPyramidWriter&) = delete;
   PrecomputedPyramidWriter& operator=(const PrecomputedPyramidWriter&) = delete;
@@ -65,7 +74,7 @@ class PrecomputedView {
     Box box;
   };
   /// @brief Throws Error naming `name` as PrecomputedPyramidWriter does for `levels`.
-  PrecomputedView(std::vector<VolumeInfo> levels, const std::string& name);
+  PrecomputedView(std::vector<VolumeInfo> levels, const std::string& name, const PrecomputedEncoding& encoding = {});
   ~PrecomputedView();
   /// @brief The `info` JSON.
   const nlohmann::json& info() const { return info_; }
@@ -74,7 +83,7 @@ class PrecomputedView {
   /// scale). Nothing for anything else (unknown key, misaligned, outside, malformed).
   std::optional<Chunk> chunk(std::string_view key, std::string_view name) const;
   /// @brief The stored bytes of a chunk from its voxels (`samples`: the chunk's box, the
-  /// level's dtype): raw, or compressed_segmentation for u32/u64. Throws Error when the
+  /// level's dtype): raw (or jpeg), or compressed_segmentation for u32/u64. Throws Error when the
   /// samples do not fit the chunk.
   std::vector<std::byte> encode(const Chunk& chunk, const Volume& samples) const;
 

@@ -44,6 +44,9 @@ struct ApiOptions {
   /// (`--cors`): sent as Access-Control-Allow-Origin on every response. Empty: no CORS headers,
   /// so browsers keep other sites' pages out.
   std::string cors_origin;
+  /// 1..100: uint8 images in the precomputed view as `jpeg` chunks of this quality
+  /// (`--precomputed-jpeg`); 0: `raw`. Other sample types and segmentations keep their encoding.
+  int precomputed_jpeg_quality = 0;
 };
 
 class Api {

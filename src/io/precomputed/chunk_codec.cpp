@@ -54,6 +54,23 @@ Bytes decode_jpeg(const Bytes& encoded, const Extent& extent, const VolumeDescri
   return out;
 }
 
+// A grayscale image `extent.x` wide and `extent.y * extent.z` high: the rows, concatenated, are
+// the voxels x fastest, as decode_jpeg reads them (and Neuroglancer).
+Bytes encode_jpeg(const std::byte* samples, const Extent& extent, int quality) {
+  const std::unique_ptr<void, int (*)(tjhandle)> jpeg(tjInitCompress(), tjDestroy);
+  if (!jpeg) throw Error("cannot start the JPEG encoder");
+  unsigned char* out = nullptr;
+  unsigned long size = 0;
+  const int width = int(extent.x), height = int(extent.y * extent.z);
+  const int rc = tjCompress2(jpeg.get(), reinterpret_cast<const unsigned char*>(samples), width, 0, height, TJPF_GRAY,
+                             &out, &size, TJSAMP_GRAY, quality, TJFLAG_ACCURATEDCT);
+  const std::unique_ptr<unsigned char, void (*)(unsigned char*)> owned(out, tjFree);
+  if (rc != 0)
+    throw Error(fmt::format("cannot encode a {} chunk as JPEG: {}", extent.to_string(), tjGetErrorStr2(jpeg.get())));
+  const auto* first = reinterpret_cast<const std::byte*>(out);
+  return Bytes(first, first + size);
+}
+
 }  // namespace
 
 std::uint64_t max_encoded_chunk_bytes(const Extent& extent, const VolumeDescription& d) {
@@ -78,6 +95,10 @@ Bytes decode_chunk(const Bytes& encoded, const Extent& extent, const Scale& scal
 Bytes encode_chunk(const std::byte* samples, const Extent& extent, const Scale& scale, DType dtype) {
   if (scale.encoding == ChunkEncoding::compressed_segmentation)
     return encode_compressed_segmentation(samples, extent, scale.block, dtype);
+  if (scale.encoding == ChunkEncoding::jpeg) {
+    if (dtype != DType::u8) throw Error(fmt::format("jpeg chunks hold u8 samples, not {}", dtype_name(dtype)));
+    return encode_jpeg(samples, extent, scale.jpeg_quality);
+  }
   return Bytes(samples, samples + voxels_of(extent) * dtype_size(dtype));
 }
 

@@ -19,7 +19,8 @@ std::vector<std::byte> decode_chunk(const std::vector<std::byte>& encoded, const
                                     const VolumeDescription& description, std::int64_t channel,
                                     const std::string& file);
 
-// The one-channel encoding (raw or compressed_segmentation) of `extent` voxels of `dtype`.
+// The one-channel encoding (raw, jpeg at the scale's jpeg_quality for u8, or
+// compressed_segmentation) of `extent` voxels of `dtype`.
 std::vector<std::byte> encode_chunk(const std::byte* samples, const Extent& extent, const Scale& scale, DType dtype);
 
 }  // namespace strata::io::detail::precomputed

@@ -37,6 +37,7 @@ struct Scale {
   ChunkEncoding encoding = ChunkEncoding::raw;
   Extent block{8, 8, 8};  // compressed_segmentation_block_size
   std::optional<ShardingSpec> sharding;
+  int jpeg_quality = 0;  // what the writer encodes jpeg chunks at (not in the info file)
 };
 
 struct VolumeDescription {

@@ -20,7 +20,7 @@ std::int64_t chunks_along(std::int64_t size, std::int64_t chunk) { return (size 
 
 }  // namespace
 
-Scale written_scale(const VolumeInfo& info, std::size_t level) {
+Scale written_scale(const VolumeInfo& info, std::size_t level, const PrecomputedEncoding& encoding) {
   Scale s;
   const double nm = nanometres_per_unit(info.geometry.unit);
   s.resolution = {info.spacing.x * nm, info.spacing.y * nm, info.spacing.z * nm};
@@ -30,14 +30,21 @@ Scale written_scale(const VolumeInfo& info, std::size_t level) {
   s.size = info.dims;
   s.chunk = {kWrittenChunkEdge, kWrittenChunkEdge, kWrittenChunkEdge};
   const bool labels = info.dtype == DType::u32 || info.dtype == DType::u64;
-  s.encoding = labels ? ChunkEncoding::compressed_segmentation : ChunkEncoding::raw;
+  s.encoding = labels                                                 ? ChunkEncoding::compressed_segmentation
+               : info.dtype == DType::u8 && encoding.jpeg_quality > 0 ? ChunkEncoding::jpeg
+                                                                      : ChunkEncoding::raw;
+  s.jpeg_quality = encoding.jpeg_quality;
   s.block = {kWrittenBlockEdge, kWrittenBlockEdge, kWrittenBlockEdge};
   s.key = fmt::format("{}_{}_{}", s.resolution[0], s.resolution[1], s.resolution[2]);
   if (level > 0) s.key = fmt::format("s{}_{}", level, s.key);  // distinct even when resolutions repeat
   return s;
 }
 
-VolumeDescription written_description(const std::vector<VolumeInfo>& levels, const std::string& name) {
+VolumeDescription written_description(const std::vector<VolumeInfo>& levels, const std::string& name,
+                                      const PrecomputedEncoding& encoding) {
+  if (encoding.jpeg_quality < 0 || encoding.jpeg_quality > 100)
+    throw ParameterError("PrecomputedEncoding::jpeg_quality",
+                         fmt::format("expected 0 (raw) or a JPEG quality 1..100, got {}", encoding.jpeg_quality));
   if (levels.empty()) throw Error(fmt::format("{}: a precomputed volume needs at least one scale", name));
   const DType dtype = levels[0].dtype;
   if (!data_type_name(dtype))
@@ -47,7 +54,7 @@ VolumeDescription written_description(const std::vector<VolumeInfo>& levels, con
   for (std::size_t i = 0; i < levels.size(); ++i) {
     if (levels[i].dtype != dtype)
       throw Error(fmt::format("{}: scale {} is {}, scale 0 {}", name, i, dtype_name(levels[i].dtype), dtype_name(dtype)));
-    d.scales.push_back(written_scale(levels[i], i));
+    d.scales.push_back(written_scale(levels[i], i, encoding));
   }
   return d;
 }

@@ -40,8 +40,9 @@ std::optional<std::array<std::int64_t, 6>> parse_chunk_numbers(std::string_view 
 
 }  // namespace
 
-PrecomputedView::PrecomputedView(std::vector<VolumeInfo> levels, const std::string& name)
-    : scales_(std::make_unique<const Scales>(Scales{written_description(levels, name)})),
+PrecomputedView::PrecomputedView(std::vector<VolumeInfo> levels, const std::string& name,
+                                 const PrecomputedEncoding& encoding)
+    : scales_(std::make_unique<const Scales>(Scales{written_description(levels, name, encoding)})),
       info_(info_json(scales_->description)) {}
 
 PrecomputedView::~PrecomputedView() = default;

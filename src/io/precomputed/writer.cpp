@@ -91,12 +91,13 @@ struct PrecomputedPyramidWriter::Impl {
   bool finished = false;
 };
 
-PrecomputedPyramidWriter::PrecomputedPyramidWriter(fs::path folder, std::vector<VolumeInfo> levels)
+PrecomputedPyramidWriter::PrecomputedPyramidWriter(fs::path folder, std::vector<VolumeInfo> levels,
+                                                   const PrecomputedEncoding& encoding)
     : impl_(std::make_unique<Impl>()) {
   Impl& m = *impl_;
   m.folder = std::move(folder);
   m.temporary = fs::path(m.folder.string() + std::string(kTemporarySuffix));
-  m.description = written_description(levels, m.folder.string());
+  m.description = written_description(levels, m.folder.string(), encoding);
   std::error_code ec;
   if (fs::exists(m.folder, ec) && !fs::exists(m.folder / "info", ec))
     throw Error(fmt::format("{}: exists and is not a precomputed volume; not replaced", m.folder.string()));

@@ -9,9 +9,11 @@
 #include <fmt/format.h>
 
 #include "io/io_detail.hpp"
+#include "io/zarr/http_store.hpp"
 #include "io/zarr/zip_store.hpp"
 #include "strata/core/checked.hpp"
 #include "strata/core/error.hpp"
+#include "strata/io/byte_source.hpp"
 
 namespace strata::io::detail {
 
@@ -78,6 +80,7 @@ std::string join_key(const std::string& prefix, const std::string& name) {
 bool is_zip_store_name(const fs::path& path) { return ascii_lower(path.filename().string()).ends_with(".zip"); }
 
 std::shared_ptr<const ZarrStore> open_zarr_store(const fs::path& path) {
+  if (is_url(path.string())) return open_http_store(path.string());
   std::error_code ec;
   if (fs::is_directory(path, ec)) return std::make_shared<FolderStore>(path);
   if (fs::is_regular_file(path, ec)) return open_zip_store(path);

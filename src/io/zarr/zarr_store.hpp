@@ -23,8 +23,10 @@ class ZarrStore {
                                       const std::string& field) const = 0;
   // The names of the nodes directly below `prefix` (a key, "" for the root), sorted.
   virtual std::vector<std::string> children(const std::string& prefix) const = 0;
-  // How messages name `key` (a file path, or "store.zarr.zip:/key").
+  // How messages name `key` (a file path, "store.zarr.zip:/key", or a URL).
   virtual std::string name(const std::string& key) const = 0;
+  // Whether children() lists the store (not over HTTP, which has no listing).
+  virtual bool listable() const { return true; }
 
   bool exists(const std::string& key) const { return size(key).has_value(); }
 };
@@ -32,7 +34,7 @@ class ZarrStore {
 // "a/b" + "c" -> "a/b/c"; "" + "c" -> "c".
 std::string join_key(const std::string& prefix, const std::string& name);
 
-// The store at `path`: a folder, or a zip file for any other regular file.
+// The store at `path`: an http(s) URL, a folder, or a zip file for any other regular file.
 std::shared_ptr<const ZarrStore> open_zarr_store(const std::filesystem::path& path);
 
 // Whether `path` names a zip store by its extension (.zip: .zarr.zip, .ome.zarr.zip).
