@@ -7,8 +7,13 @@
 #include <fstream>
 #include <string>
 #include <thread>
+#include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "cli/cli_test_util.hpp"
+#include "store/forge.hpp"
+#include "strata/store/zstd_frame.hpp"
 #include "support/test_support.hpp"
 
 using strata::test::run_command;
@@ -24,6 +29,11 @@ namespace fs = std::filesystem;
 bool has(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
 
 std::uintmax_t size_of(const fs::path& p) { return fs::file_size(p); }
+
+void write_text(const fs::path& path, const std::string& text) {
+  std::ofstream out(path, std::ios::binary);
+  out << text;
+}
 
 // Small inputs made once: a scalar NRRD and its .strata, a label NRRD and its encoding.
 class HostileCli : public ::testing::Test {
@@ -49,6 +59,12 @@ class HostileCli : public ::testing::Test {
     std::string out;
     EXPECT_EQ(run_command(strata_cmd(args), &out), code) << args << "\n" << out;
     EXPECT_TRUE(has(out, "error: " + flag)) << args << "\n" << out;
+    return out;
+  }
+  // Runs `args`, expects exit `code`; returns the output.
+  static std::string run(const std::string& args, int code) {
+    std::string out;
+    EXPECT_EQ(run_command(strata_cmd(args), &out), code) << args << "\n" << out;
     return out;
   }
 
@@ -208,6 +224,68 @@ TEST_F(HostileCli, CompressHelpListsTheRegisteredCodecs) {
   EXPECT_TRUE(has(out, "ta-bricked:")) << out;
   EXPECT_TRUE(has(out, "ta-global:")) << out;
   EXPECT_TRUE(has(out, "error-target")) << out;
+}
+
+// The JSON library's text ("parse error at line 1, column 3: syntax error while parsing value -
+// invalid literal; last read: '<bytes of the file>'") is replaced by the file, the field, the
+// position and what was expected; no byte of the input is echoed.
+TEST_F(HostileCli, JsonErrorsAreInStrataWordsAndEchoNoInputBytes) {
+  const std::string secret = "SECRETBYTES";
+  const auto expect_strata_words = [&](const std::string& out, const std::string& file_name) {
+    EXPECT_TRUE(has(out, file_name)) << out;
+    EXPECT_TRUE(has(out, "invalid JSON")) << out;
+    EXPECT_TRUE(has(out, "expected")) << out;
+    for (const char* library : {"parse error", "syntax error while parsing", "last read", "json.exception",
+                                "number overflow parsing", secret.c_str()})
+      EXPECT_FALSE(has(out, library)) << library << "\n" << out;
+  };
+  // A raw file's sidecar.
+  write_text(file("s.raw"), std::string(8, 'x'));
+  write_text(file("s.raw.json"), "{\"dims\": [2, 2, 2], \"dtype\": " + secret + "}");
+  std::string out = run("info " + q("s.raw"), 1);
+  expect_strata_words(out, "s.raw.json");
+  EXPECT_TRUE(has(out, "line 1, column")) << out;
+  // A number beyond a double's range: the library quoted the token.
+  write_text(file("s.raw.json"), "{\"dims\": [2, 2, 2], \"dtype\": \"u8\", \"spacing\": [1e999" + secret + "]}");
+  out = run("info " + q("s.raw"), 1);
+  expect_strata_words(out, "s.raw.json");
+  // A transfer function and a colour map.
+  write_text(file("tf.json"), "{\"points\": [" + secret + "]}");
+  expect_strata_words(run("render " + q("p.strata") + " -o " + q("t.png") + " --size 8x8 --tf " + q("tf.json"), 1),
+                      "tf.json");
+  write_text(file("colors.json"), "{\"3\": [1e999, 0, 0, 1]}");
+  expect_strata_words(
+      run("labels palette " + q("v.strata") + " --colors " + q("colors.json") + " -o " + q("pal.json"), 1),
+      "colors.json");
+  // A .strata file whose metadata is not JSON (checksums recomputed, as a forger would).
+  fs::copy_file(file("p.strata"), file("m.strata"), fs::copy_options::overwrite_existing);
+  strata::test::forge::replace_metadata_text(file("m.strata"), "{\"codec\": " + secret + "}");
+  out = run("info " + q("m.strata"), 1);
+  expect_strata_words(out, "m.strata");
+  EXPECT_TRUE(has(out, "metadata")) << out;
+}
+
+// A damaged zstd chunk of a Zarr array: zstd's own "Data corruption detected" became
+// "<file>: <chunk>: damaged zstd data: ...".
+TEST_F(HostileCli, ZstdErrorsAreInStrataWords) {
+  const fs::path zarr = file("z.zarr");
+  fs::create_directories(zarr);
+  write_text(zarr / ".zarray", R"({"zarr_format": 2, "shape": [16, 16, 16], "chunks": [16, 16, 16], "dtype": "<u2",
+    "compressor": {"id": "zstd", "level": 3}, "fill_value": 0, "order": "C", "filters": null})");
+  // Samples with structure (literals and matches), so the frame holds entropy-coded blocks.
+  std::vector<std::uint16_t> samples(16 * 16 * 16);
+  for (std::size_t i = 0; i < samples.size(); ++i) samples[i] = std::uint16_t((i * i) % 977 + (i / 7) % 13);
+  std::vector<std::byte> frame = strata::store::zstd_compress(std::as_bytes(std::span(samples)), 3);
+  ASSERT_GT(frame.size(), 64u);
+  // Bytes in the middle of the compressed blocks overwritten.
+  for (std::size_t i = frame.size() / 3; i < frame.size() / 3 + 24; ++i) frame[i] = std::byte(0xA5);
+  strata::test::forge::write_file(zarr / "0.0.0", frame);
+  const std::string out = run("info " + shell_quoted(zarr), 1);
+  EXPECT_TRUE(has(out, "z.zarr")) << out;
+  EXPECT_TRUE(has(out, "damaged zstd data")) << out;
+  for (const char* library : {"Data corruption detected", "Corrupted block detected", "Src size is incorrect",
+                              "Destination buffer is too small", "Unknown frame descriptor"})
+    EXPECT_FALSE(has(out, library)) << library << "\n" << out;
 }
 
 }  // namespace
