@@ -239,9 +239,17 @@ void register_render(CLI::App& app, const GlobalOptions& global) {
   auto a = std::make_shared<RenderArgs>();
   CLI::App* cmd = app.add_subcommand(
       "render", "Ray-cast a .strata file (TA or label volume), or a plain volume file loaded whole, to PNG");
-  // A local input must exist; a URL is checked when it is opened.
-  const CLI::Validator file_or_url([](std::string& s) { return io::is_url(s) ? std::string() : CLI::ExistingFile(s); },
-                                   "FILE|URL");
+  // A local input must exist; a URL is checked when it is opened. (Strata's words, not CLI11's
+  // "File is actually a directory".)
+  const CLI::Validator file_or_url(
+      [](std::string& s) -> std::string {
+        std::error_code ec;
+        const fs::file_status status = fs::status(s, ec);
+        if (io::is_url(s) || (fs::exists(status) && !fs::is_directory(status))) return {};
+        return "'" + s + "' " + (fs::is_directory(status) ? "is a folder" : "does not exist") +
+               ", expected a .strata file, a volume file or an http(s) URL";
+      },
+      "FILE|URL");
   cmd->add_option("input", a->input,
                   "Input .strata file (or its http(s) URL), or a raw/NRRD/NIfTI/TIFF volume (loaded whole)")
       ->required()

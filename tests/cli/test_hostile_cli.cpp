@@ -288,4 +288,17 @@ TEST_F(HostileCli, ZstdErrorsAreInStrataWords) {
     EXPECT_FALSE(has(out, library)) << library << "\n" << out;
 }
 
+// CLI11's "File is actually a directory: <path>" and "File does not exist: <path>" for render's
+// input became Strata's words.
+TEST_F(HostileCli, RenderInputErrorsAreInStrataWords) {
+  fs::create_directories(file("folder"));
+  std::string out = run("render " + q("folder") + " -o " + q("f.png"), 2);
+  EXPECT_TRUE(has(out, "error: input: '")) << out;
+  EXPECT_TRUE(has(out, "folder' is a folder, expected a .strata file, a volume file or an http(s) URL")) << out;
+  EXPECT_FALSE(has(out, "File is actually a directory")) << out;
+  out = run("render " + q("missing.strata") + " -o " + q("f.png"), 2);
+  EXPECT_TRUE(has(out, "missing.strata' does not exist, expected a .strata file")) << out;
+  EXPECT_FALSE(has(out, "File does not exist")) << out;
+}
+
 }  // namespace
