@@ -226,6 +226,35 @@ TEST_F(HostileCli, CompressHelpListsTheRegisteredCodecs) {
   EXPECT_TRUE(has(out, "error-target")) << out;
 }
 
+// `labels query --top -1` wrapped to 2^64-1 and listed every label.
+TEST_F(HostileCli, LabelsQueryRefusesANegativeTop) {
+  const std::string out = run("labels query " + q("v.strata") + " --top -1", 2);
+  EXPECT_TRUE(has(out, "error: --top: expected a non-negative integer, got '-1'")) << out;
+  const std::string two = run("labels query " + q("v.strata") + " --top 2 --json", 0);
+  EXPECT_EQ(nlohmann::json::parse(two)["labels"].size(), 2u) << two;
+}
+
+// A seed of 2^64 or more was saturated to 2^64-1 without a word; "010" was read as octal 8.
+TEST_F(HostileCli, SeedsBeyond64BitsAreRefusedAndDecimalIsDecimal) {
+  for (const std::string seed : {"18446744073709551616", "99999999999999999999999"}) {
+    std::string out = run("generate sphere --size 8 --seed " + seed + " -o " + q("s.nrrd"), 2);
+    EXPECT_TRUE(has(out, "error: --seed: expected an integer in [0, 2^64-1], got '" + seed + "'")) << out;
+    out = run("labels calibrate " + q("v.strata") + " --boxes 1 --seed " + seed, 2);
+    EXPECT_TRUE(has(out, "error: --seed: expected an integer in [0, 2^64-1]")) << out;
+  }
+  EXPECT_FALSE(fs::exists(file("s.nrrd")));
+  run("generate prisms --size 12 --seed 18446744073709551615 -o " + q("max.nrrd"), 0);
+  // --seed 010 is ten, as --seed 10.
+  run("generate prisms --size 12 --seed 010 -o " + q("s010.nrrd"), 0);
+  run("generate prisms --size 12 --seed 10 -o " + q("s10.nrrd"), 0);
+  EXPECT_EQ(strata::test::forge::file_bytes(file("s010.nrrd")), strata::test::forge::file_bytes(file("s10.nrrd")));
+  // The other integer flags keep their types' ranges too.
+  std::string out = run("generate voronoi --size 8 --count 9223372036854775808 -o " + q("s.nrrd"), 2);
+  EXPECT_TRUE(has(out, "error: --count: expected an integer in [0, 2^63-1]")) << out;
+  out = run("--threads 2147483648 info " + q("p.nrrd"), 2);
+  EXPECT_TRUE(has(out, "error: --threads: expected an integer in [0, 2147483647]")) << out;
+}
+
 // The JSON library's text ("parse error at line 1, column 3: syntax error while parsing value -
 // invalid literal; last read: '<bytes of the file>'") is replaced by the file, the field, the
 // position and what was expected; no byte of the input is echoed.
