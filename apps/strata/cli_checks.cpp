@@ -10,6 +10,8 @@
 
 #include <fmt/format.h>
 
+#include "strata/ta/ta_volume.hpp"
+
 namespace strata::cli {
 
 namespace fs = std::filesystem;
@@ -84,6 +86,11 @@ void check_option_values(CLI::App& app) {
         [base, expected](std::string& text) { return value_problem(base, expected, text); }, "", ""));
   }
   for (CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) check_option_values(*sub);
+}
+
+int check_rank_flag(int requested, int stored, const std::string& file) {
+  if (requested < 0) as_usage_error([&] { ta::reconstruction_rank(requested, stored, file); });
+  return ta::reconstruction_rank(requested, stored, file);
 }
 
 void check_finite_range(double value, double lo, double hi, const std::string& flag, std::string_view unit) {

@@ -43,6 +43,11 @@ void naming_files(const std::vector<std::string>& files, const std::function<voi
 // error names the flag and what it expects. Call once every option is added.
 void check_option_values(CLI::App& app);
 
+// --rank of decompress, eval and render, for a file that stores rank `stored` (0: none): the
+// library's one rule (ta::reconstruction_rank; 0 = the stored rank). A negative rank is a usage
+// error (exit 2), one the file does not store an error naming the file (exit 1).
+int check_rank_flag(int requested, int stored, const std::string& file);
+
 // Throws UsageError(flag) unless `value` is finite and lies in [lo, hi].
 void check_finite_range(double value, double lo, double hi, const std::string& flag, std::string_view unit = "");
 

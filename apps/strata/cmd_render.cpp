@@ -192,6 +192,7 @@ void run_render(const RenderArgs& a, const GlobalOptions&) {
   const render::SessionOptions options = session_options(a);
   check_outputs(a);
   render::RenderSession session(a.input, options);
+  check_rank_flag(a.rank, session.stored_rank(), a.input);
   if (settings.label_lighting == render::LabelLightingChoice::normals &&
       !session.has_normals())
     throw UsageError("--lighting", a.input + " has no normals graph: normals lighting needs a label file encoded with "
@@ -264,7 +265,8 @@ void register_render(CLI::App& app, const GlobalOptions& global) {
   cmd->add_flag("--ortho", a->ortho, "Orthographic projection");
   cmd->add_option("--tf", a->tf, "Transfer function: a preset (grayscale, ct, bone, mri, fire) or a JSON file")
       ->capture_default_str();
-  cmd->add_option("--rank", a->rank, "Reconstruction rank K (0 = the stored rank): the feature-scale slider")
+  cmd->add_option("--rank", a->rank,
+                  "Reconstruction rank K, 1..the stored rank (0 = the stored rank): the feature-scale slider")
       ->capture_default_str();
   cmd->add_option("--lod", a->lod, "Refine bricks while a voxel covers more than this many pixels (0 < L <= 64)")
       ->capture_default_str();

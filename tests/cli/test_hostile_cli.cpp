@@ -255,6 +255,28 @@ TEST_F(HostileCli, SeedsBeyond64BitsAreRefusedAndDecimalIsDecimal) {
   EXPECT_TRUE(has(out, "error: --threads: expected an integer in [0, 2147483647]")) << out;
 }
 
+// decompress refused --rank 99 while render and eval clamped it to the stored rank: all three now
+// use the library's one rule, with the same message.
+TEST_F(HostileCli, RankAboveTheStoredRankIsRefusedByEveryCommand) {
+  const std::string expected = "error: --rank: expected 1..8 (the stored rank of ";
+  const std::vector<std::string> commands{"decompress " + q("p.strata") + " -o " + q("rank.nrrd"),
+                                          "eval " + q("p.nrrd") + " " + q("p.strata"),
+                                          "render " + q("p.strata") + " -o " + q("rank.png") + " --size 16x16"};
+  for (const std::string& command : commands) {
+    const std::string out = run(command + " --rank 99", 1);
+    EXPECT_TRUE(has(out, expected)) << command << "\n" << out;
+    EXPECT_TRUE(has(out, "p.strata) or 0 for the stored rank, got 99")) << command << "\n" << out;
+    // A negative rank is a usage error everywhere.
+    EXPECT_TRUE(has(run(command + " --rank -2", 2), "error: --rank: ")) << command;
+    run(command + " --rank 8", 0);
+  }
+  // A label file stores no rank: render refuses one rather than ignoring it.
+  const std::string out = run("render " + q("v.strata") + " -o " + q("rank-labels.png") + " --size 16x16 --rank 3", 1);
+  EXPECT_TRUE(has(out, "error: --rank: ")) << out;
+  EXPECT_TRUE(has(out, "stores no Tucker rank")) << out;
+  EXPECT_FALSE(fs::exists(file("rank-labels.png")));
+}
+
 // The JSON library's text ("parse error at line 1, column 3: syntax error while parsing value -
 // invalid literal; last read: '<bytes of the file>'") is replaced by the file, the field, the
 // position and what was expected; no byte of the input is echoed.
