@@ -180,7 +180,7 @@ int run(int argc, char** argv, int rank) {
       ->check(CLI::IsMember({"auto", "bar", "json", "none"}));
   app.add_option("--threads", threads,
                  "Worker threads per rank (default: the hardware threads of the node divided by its ranks)")
-      ->check(cli::kNonNegativeInteger);
+      ->check(cli::non_negative_integer<int>());
   auto compress_args = std::make_shared<cli::CompressArgs>();
   CLI::App* compress = app.add_subcommand(
       "compress", "Compress a volume into a bricked tensor-approximation octree (.strata) across the MPI ranks; the "
@@ -194,6 +194,7 @@ int run(int argc, char** argv, int rank) {
       "encode", "Encode a label volume as a Mixture Graph (.strata) across the MPI ranks: each reads and encodes its "
                 "slices, rank 0 merges the parts and factorises; the file equals `strata labels encode`'s");
   cli::add_labels_encode_flags(*encode, *label_args);
+  cli::check_option_values(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::Success& e) {

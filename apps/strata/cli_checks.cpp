@@ -5,9 +5,12 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdlib>
 #include <system_error>
 
 #include <fmt/format.h>
+
+#include "strata/ta/ta_volume.hpp"
 
 namespace strata::cli {
 
@@ -36,6 +39,58 @@ void naming_files(const std::vector<std::string>& files, const std::function<voi
     if (named || files.empty()) throw;
     throw Error(files.front() + ": " + std::string(message));
   }
+}
+
+namespace {
+
+// What an option of CLI11's type name `type` ("INT", "FLOAT", "TEXT:{auto,bar}") takes.
+std::string expected_value(const std::string& type) {
+  const std::string base = type.substr(0, type.find(':'));
+  if (base == "INT") return "an integer";
+  if (base == "UINT") return "a non-negative integer";
+  if (base == "FLOAT") return "a number";
+  const std::size_t set = type.find('{');
+  if (set != std::string::npos) return "one of " + type.substr(set);
+  return "a value";
+}
+
+// Why `text` is no value of an option of CLI11's base type name `base` ("" when it is one);
+// integers are rewritten without leading zeros.
+std::string value_problem(const std::string& base, const std::string& expected, std::string& text) {
+  if (text.empty()) return "expected " + expected + ", got an empty value";
+  const std::string got = "expected " + expected + ", got '" + text + "'";
+  if (base == "INT" || base == "UINT") {
+    const bool sign = base == "INT" && (text[0] == '-' || text[0] == '+');
+    const std::string digits = text.substr(sign ? 1 : 0);
+    if (digits.empty() || digits.find_first_not_of("0123456789") != std::string::npos) return got;
+    // Decimal, as written: CLI11 would read "010" as octal 8 and "0x10" as 16.
+    text = std::string(sign && text[0] == '-' ? "-" : "") +
+           digits.substr(std::min(digits.find_first_not_of('0'), digits.size() - 1));
+  } else if (base == "FLOAT") {
+    char* end = nullptr;
+    (void)std::strtod(text.c_str(), &end);
+    if (end != text.c_str() + text.size()) return got;
+  }
+  return {};
+}
+
+}  // namespace
+
+void check_option_values(CLI::App& app) {
+  for (CLI::Option* option : app.get_options()) {
+    if (option->get_type_size_max() == 0) continue;  // a flag: it takes no value
+    const std::string type = option->get_type_name();
+    const std::string base = type.substr(0, type.find(':')), expected = expected_value(type);
+    // First among the option's checks, so every option says the same about an empty value.
+    option->transform(CLI::Validator(
+        [base, expected](std::string& text) { return value_problem(base, expected, text); }, "", ""));
+  }
+  for (CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) check_option_values(*sub);
+}
+
+int check_rank_flag(int requested, int stored, const std::string& file) {
+  if (requested < 0) as_usage_error([&] { ta::reconstruction_rank(requested, stored, file); });
+  return ta::reconstruction_rank(requested, stored, file);
 }
 
 void check_finite_range(double value, double lo, double hi, const std::string& flag, std::string_view unit) {

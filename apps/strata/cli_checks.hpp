@@ -2,6 +2,8 @@
 // Checks a subcommand makes before any work starts: flag values it can never accept (a usage
 // error, exit 2) and its outputs (never one of its inputs, the extension of what it writes, a
 // place it can write to), plus the set of outputs a run removes again when it fails.
+#include <CLI/CLI.hpp>
+
 #include <filesystem>
 #include <functional>
 #include <initializer_list>
@@ -33,6 +35,18 @@ void as_usage_error(const std::function<void()>& check);
 // Runs `run`; an Error it throws (not a ParameterError) whose message names none of `files` and
 // no flag is rethrown as "<files[0]>: <message>", so the user learns which file it is about.
 void naming_files(const std::vector<std::string>& files, const std::function<void()>& run);
+
+// The one check of every option of `app` and of its subcommands (all, recursively) that takes a
+// value, before the option's own checks: an empty value is refused ("--psnr ''", "--rank="),
+// which CLI11 would read as "not given" (an optional) or as 0 and go on; an integer option takes
+// decimal digits only (CLI11 would read "010" as octal 8), a number option a number. The usage
+// error names the flag and what it expects. Call once every option is added.
+void check_option_values(CLI::App& app);
+
+// --rank of decompress, eval and render, for a file that stores rank `stored` (0: none): the
+// library's one rule (ta::reconstruction_rank; 0 = the stored rank). A negative rank is a usage
+// error (exit 2), one the file does not store an error naming the file (exit 1).
+int check_rank_flag(int requested, int stored, const std::string& file);
 
 // Throws UsageError(flag) unless `value` is finite and lies in [lo, hi].
 void check_finite_range(double value, double lo, double hi, const std::string& flag, std::string_view unit = "");

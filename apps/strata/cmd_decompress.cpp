@@ -60,10 +60,7 @@ void run_decompress(const DecompressArgs& args, const GlobalOptions&) {
   volume.check_level(args.level);
   const Extent dims = volume.geometry().level(args.level).dims;
   const Box box = args.box.empty() ? Box::whole(dims) : parse_box(args.box);
-  if (args.rank < 0) throw UsageError("--rank", "must be positive, got " + std::to_string(args.rank));
-  const int k = args.rank > 0 ? args.rank : volume.rank();
-  if (k > volume.rank())
-    throw Error("--rank: " + std::to_string(k) + " exceeds the stored rank " + std::to_string(volume.rank()));
+  const int k = check_rank_flag(args.rank, volume.rank(), args.input);
   if (writes_pyramid(args)) return write_pyramid(volume, k, args);
   Volume decoded = to_output_type(volume.decode_box(args.level, box, k), volume, args);
   decoded.set_geometry(volume.level_geometry(args.level, box));
@@ -81,7 +78,7 @@ void register_decompress(CLI::App& app, const GlobalOptions& global) {
                   ".precomputed) receives every level unless --level or --box picks one")
       ->required();
   cmd->add_option("--level", args->level, "Octree level (0 = full resolution)")->capture_default_str();
-  cmd->add_option("--rank", args->rank, "Reconstruction rank K (default: the stored rank)");
+  cmd->add_option("--rank", args->rank, "Reconstruction rank K, 1..the stored rank (default: the stored rank)");
   cmd->add_option("--box", args->box, "Sub-box x0,y0,z0:x1,y1,z1 in level coordinates (half-open)");
   cmd->add_flag("--float", args->keep_float, "Write f32 samples instead of the source type");
   add_volume_option(*cmd, args->volume);

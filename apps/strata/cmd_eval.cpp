@@ -95,11 +95,10 @@ void print_report(const nlohmann::json& r) {
 void run_eval(const EvalArgs& args, const GlobalOptions&) {
   // --volume picks the same volume of both: a time point of a series and its member of the set.
   ta::TaVolume volume(store::open_volume(args.compressed, args.volume));
+  const int k = check_rank_flag(args.rank, volume.rank(), args.compressed);
   io::ReadOptions read;
   read.volume = args.volume;
   auto original = io::open_volume(args.original, read);
-  if (args.rank < 0) throw UsageError("--rank", "must be positive, got " + std::to_string(args.rank));
-  const int k = args.rank > 0 ? std::min(args.rank, volume.rank()) : volume.rank();
   nlohmann::json report = eval_json(volume, ta::storage_report(volume), ta::error_report(volume, *original, k, true));
   const io::ByteSource& source = volume.container().source();
   if (source.remote()) report["transfer"] = transfer_json(source.transfer_stats());
@@ -116,7 +115,7 @@ void register_eval(CLI::App& app, const GlobalOptions& global) {
       app.add_subcommand("eval", "Bits per voxel and reconstruction error of a .strata file against its original");
   cmd->add_option("original", args->original, "The original volume")->required();
   cmd->add_option("compressed", args->compressed, "The .strata file")->required();
-  cmd->add_option("--rank", args->rank, "Reconstruction rank K (default: the stored rank)");
+  cmd->add_option("--rank", args->rank, "Reconstruction rank K, 1..the stored rank (default: the stored rank)");
   cmd->add_flag("--json", args->json, "Print JSON");
   add_volume_option(*cmd, args->volume);
   cmd->callback([args, &global] { run_eval(*args, global); });

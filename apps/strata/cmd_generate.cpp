@@ -40,10 +40,10 @@ void register_generate(CLI::App& app, const GlobalOptions& global) {
                   "X or X,Y,Z voxels: any depth Z (streamed); one X*Y slice may hold at most 256 MiB of samples, and "
                   "prisms, fibres and voronoi at most 2 GiB of objects placed up front")
       ->capture_default_str();
-  cmd->add_option("--seed", args->seed, "Random seed")->capture_default_str()->check(kNonNegativeInteger);
+  cmd->add_option("--seed", args->seed, "Random seed")->capture_default_str()->check(non_negative_integer<std::uint64_t>());
   cmd->add_option("--count", args->count, "Number of blobs / cells / fibres / superpixels per section (0 = the kind's default; at most the "
                   "voxels, of a section for superpixels)")
-      ->check(kNonNegativeInteger);
+      ->check(non_negative_integer<std::int64_t>());
   cmd->add_option("--dtype", args->dtype, "Sample type of the output (default: the kind's own, e.g. u16 for prisms)");
   cmd->add_option("-o,--output", args->output, "Output volume file")->required();
   cmd->callback([args, &global] { run_generate(*args, global); });

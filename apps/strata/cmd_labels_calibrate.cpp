@@ -76,7 +76,7 @@ void register_labels_calibrate(CLI::App& labels, const GlobalOptions& global) {
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
   cmd->add_option("--boxes", args->boxes, "Random boxes per size (each is also counted exactly)")->capture_default_str()->check(CLI::Range(1, 10000));
-  cmd->add_option("--seed", args->seed, "Seed of the box positions")->capture_default_str()->check(kNonNegativeInteger);
+  cmd->add_option("--seed", args->seed, "Seed of the box positions")->capture_default_str()->check(non_negative_integer<std::uint64_t>());
   cmd->add_option("--method", args->method, "Estimating method: hybrid, footprint or coarse")
       ->capture_default_str()
       ->check(CLI::IsMember({"hybrid", "footprint", "coarse"}));

@@ -2,6 +2,7 @@
 // label through the Mixture Graph (paper §3.4), giving the pre-filtered colour of every node.
 #include <optional>
 #include <array>
+#include <cmath>
 #include <chrono>
 #include <cstdio>
 #include <nlohmann/json.hpp>
@@ -31,6 +32,7 @@ std::array<float, 4> parse_rgba(const nlohmann::json& j, const std::string& file
   for (std::size_t i = 0; i < 4; ++i) {
     if (!j[i].is_number()) throw FormatError(file, key, "expected four numbers");
     c[i] = j[i].get<float>();
+    if (!std::isfinite(c[i])) throw FormatError(file, key, "expected four finite numbers (a value beyond float's range)");
   }
   return c;
 }

@@ -113,7 +113,8 @@ void register_labels_query(CLI::App& labels, const GlobalOptions& global) {
       ->capture_default_str()
       ->check(CLI::Range(std::uint64_t(1), std::uint64_t(1) << 40));
   cmd->add_flag("--naive", args->naive, "Exact count by scanning level 0 (same as --method naive; uses --threads)");
-  cmd->add_option("--top", args->top, "Only the N labels with the largest counts (default: all, by label value)");
+  cmd->add_option("--top", args->top, "Only the N labels with the largest counts (default: all, by label value)")
+      ->check(non_negative_integer<std::size_t>());
   cmd->add_flag("--json", args->json, "Print JSON");
   add_volume_option(*cmd, args->volume);
   cmd->callback([args, &global] { naming_files({args->input}, [&] { run_labels_query(*args, global); }); });

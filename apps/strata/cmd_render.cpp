@@ -192,6 +192,7 @@ void run_render(const RenderArgs& a, const GlobalOptions&) {
   const render::SessionOptions options = session_options(a);
   check_outputs(a);
   render::RenderSession session(a.input, options);
+  check_rank_flag(a.rank, session.stored_rank(), a.input);
   if (settings.label_lighting == render::LabelLightingChoice::normals &&
       !session.has_normals())
     throw UsageError("--lighting", a.input + " has no normals graph: normals lighting needs a label file encoded with "
@@ -239,9 +240,17 @@ void register_render(CLI::App& app, const GlobalOptions& global) {
   auto a = std::make_shared<RenderArgs>();
   CLI::App* cmd = app.add_subcommand(
       "render", "Ray-cast a .strata file (TA or label volume), or a plain volume file loaded whole, to PNG");
-  // A local input must exist; a URL is checked when it is opened.
-  const CLI::Validator file_or_url([](std::string& s) { return io::is_url(s) ? std::string() : CLI::ExistingFile(s); },
-                                   "FILE|URL");
+  // A local input must exist; a URL is checked when it is opened. (Strata's words, not CLI11's
+  // "File is actually a directory".)
+  const CLI::Validator file_or_url(
+      [](std::string& s) -> std::string {
+        std::error_code ec;
+        const fs::file_status status = fs::status(s, ec);
+        if (io::is_url(s) || (fs::exists(status) && !fs::is_directory(status))) return {};
+        return "'" + s + "' " + (fs::is_directory(status) ? "is a folder" : "does not exist") +
+               ", expected a .strata file, a volume file or an http(s) URL";
+      },
+      "FILE|URL");
   cmd->add_option("input", a->input,
                   "Input .strata file (or its http(s) URL), or a raw/NRRD/NIfTI/TIFF volume (loaded whole)")
       ->required()
@@ -256,7 +265,8 @@ void register_render(CLI::App& app, const GlobalOptions& global) {
   cmd->add_flag("--ortho", a->ortho, "Orthographic projection");
   cmd->add_option("--tf", a->tf, "Transfer function: a preset (grayscale, ct, bone, mri, fire) or a JSON file")
       ->capture_default_str();
-  cmd->add_option("--rank", a->rank, "Reconstruction rank K (0 = the stored rank): the feature-scale slider")
+  cmd->add_option("--rank", a->rank,
+                  "Reconstruction rank K, 1..the stored rank (0 = the stored rank): the feature-scale slider")
       ->capture_default_str();
   cmd->add_option("--lod", a->lod, "Refine bricks while a voxel covers more than this many pixels (0 < L <= 64)")
       ->capture_default_str();

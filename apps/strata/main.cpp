@@ -59,7 +59,7 @@ int main(int argc, char** argv) {
                  "Worker threads (default: all hardware threads; at most " +
                      std::to_string(kMaxThreadsPerHardwareThread) + " x the hardware threads, here " +
                      std::to_string(max_thread_count()) + ")")
-      ->check(cli::kNonNegativeInteger);
+      ->check(cli::non_negative_integer<int>());
   app.add_option("--progress", global.progress, "Progress display: auto (bar on a terminal), bar, json, none")
       ->check(CLI::IsMember({"auto", "bar", "json", "none"}));
   app.add_option("--isa", global.isa,
@@ -83,6 +83,7 @@ int main(int argc, char** argv) {
   cli::register_render(app, global);
   cli::register_serve(app, global);
   cli::register_demo(app, global);
+  cli::check_option_values(app);
 
   try {
     app.parse(argc, argv);

@@ -61,6 +61,7 @@ constexpr ParameterFlag kParameterFlags[] = {
     {"level", "--level"},
     {"volume", "--volume"},
     {"preset_or_path", "--tf"},
+    {"rank", "--rank"},
     {"progress_mode", "--progress"},
 };
 

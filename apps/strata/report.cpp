@@ -22,7 +22,7 @@ void RawInputArgs::add_to(CLI::App& cmd) {
                  "the array of a Zarr group");
   cmd.add_option("--level", level, "Resolution level of a multiscale input (OME-Zarr, Neuroglancer precomputed), "
                                    "0 = finest (default)")
-      ->check(kNonNegativeInteger);
+      ->check(non_negative_integer<std::int64_t>());
 }
 
 void add_volume_option(CLI::App& cmd, std::optional<std::int64_t>& volume) {
@@ -30,7 +30,7 @@ void add_volume_option(CLI::App& cmd, std::optional<std::int64_t>& volume) {
                  "Which 3D volume of a file that holds several, from 0: a time point or component (NIfTI dim[4..7], "
                  "a NRRD fourth axis: interleaved components first or a series last, told apart by `kinds`; a TIFF "
                  "channel; a member of a .strata volume set)")
-      ->check(kNonNegativeInteger);
+      ->check(non_negative_integer<std::int64_t>());
 }
 
 io::ReadOptions RawInputArgs::to_read_options() const {

@@ -7,6 +7,7 @@
 
 #include "bindings.hpp"
 #include "strata/core/error.hpp"
+#include "strata/io/files.hpp"
 
 namespace strata::python {
 
@@ -30,13 +31,45 @@ std::optional<DType> sample_type(const py::array& a) {
   return found;
 }
 
-std::int64_t to_index(py::handle obj, const char* what) {
-  if (!py::isinstance<py::int_>(obj) && !py::hasattr(obj, "__index__"))
-    throw py::type_error(fmt::format("{}: expected integers, got {}", what, std::string(py::str(obj.get_type()))));
-  return py::cast<std::int64_t>(py::reinterpret_steal<py::object>(PyNumber_Index(obj.ptr())));
+// "(2048, 2048, 2048) uint16"
+std::string shape_and_type(const py::array& a) {
+  std::string shape;
+  for (py::ssize_t i = 0; i < a.ndim(); ++i) shape += (i ? ", " : "") + std::to_string(a.shape(i));
+  return "(" + shape + ") " + std::string(py::str(a.dtype()));
+}
+
+// A numpy call `copy` that returns a copy of `a`; numpy's MemoryError (the copy could not be
+// allocated) is raised again as a MemoryError that says which argument and how much memory.
+template <class Copy>
+py::array copied(const py::array& a, const char* what, const char* purpose, Copy&& copy) {
+  try {
+    return py::reinterpret_borrow<py::array>(copy());
+  } catch (py::error_already_set& e) {
+    if (!e.matches(PyExc_MemoryError)) throw;
+    const double gib = double(a.size()) * double(a.itemsize()) / double(1 << 30);
+    const std::string message = fmt::format(
+        "{}: the {} array needs a copy {} ({:.1f} GiB), which could not be allocated; pass a C-contiguous array of "
+        "native byte order, which is used without a copy",
+        what, shape_and_type(a), purpose, gib);
+    PyErr_SetString(PyExc_MemoryError, message.c_str());
+    throw py::error_already_set();
+  }
 }
 
 }  // namespace
+
+std::int64_t index_from_python(py::handle obj, const char* what) {
+  if (!py::isinstance<py::int_>(obj) && !py::hasattr(obj, "__index__"))
+    throw py::type_error(fmt::format("{}: expected integers, got {}", what, std::string(py::str(obj.get_type()))));
+  const auto index = py::reinterpret_steal<py::object>(PyNumber_Index(obj.ptr()));
+  if (!index) throw py::error_already_set();  // what its __index__ raised
+  int overflow = 0;
+  const long long value = PyLong_AsLongLongAndOverflow(index.ptr(), &overflow);
+  if (overflow != 0)
+    throw py::value_error(fmt::format("{}: expected integers in [-2^63, 2^63-1], got {}", what, std::string(py::repr(obj))));
+  if (value == -1 && PyErr_Occurred()) throw py::error_already_set();
+  return value;
+}
 
 py::dtype numpy_dtype(DType t) {
   return visit_dtype(t, [](auto v) { return py::dtype::of<decltype(v)>(); });
@@ -69,18 +102,20 @@ py::array volume_array(py::handle obj, const char* what) {
   if (a.ndim() != 3)
     throw py::value_error(fmt::format("{}: expected a 3-D array of shape (z, y, x), got {} dimension{}", what, a.ndim(),
                                       a.ndim() == 1 ? "" : "s"));
-  if (!sample_type(a)) {
-    // The same type in the other byte order is converted; anything else is refused.
-    py::dtype native = a.dtype().attr("newbyteorder")("=");
-    dtype_from_python(native, what);  // throws type_error for unsupported types
-    a = a.attr("astype")(native);
-  }
   for (int i = 0; i < 3; ++i)
     if (a.shape(i) < 1)
       throw py::value_error(fmt::format("{}: every dimension needs at least one voxel, got shape ({}, {}, {})", what,
                                         a.shape(0), a.shape(1), a.shape(2)));
-  // A strided view (a[::2], a.T) becomes a contiguous copy; a contiguous array is used as is.
-  return py::array::ensure(a, py::array::c_style);
+  if (!sample_type(a)) {
+    // The same type in the other byte order is converted; anything else is refused.
+    const py::dtype native = a.dtype().attr("newbyteorder")("=");
+    dtype_from_python(native, what);  // throws type_error for unsupported types
+    a = copied(a, what, "in native byte order", [&] { return a.attr("astype")(native); });
+  }
+  // A strided view (a[::2], a.T, zero or negative strides) becomes a contiguous copy, which may
+  // not fit in memory; a contiguous array is used as is.
+  if (a.flags() & py::array::c_style) return a;
+  return copied(a, what, "in C order", [&] { return py::module_::import("numpy").attr("ascontiguousarray")(a); });
 }
 
 VolumeInfo array_info(const py::array& array, const Spacing& spacing) {
@@ -176,8 +211,8 @@ Box box_from_python(py::handle obj, const Extent& dims) {
       } else {
         if (!py::isinstance<py::sequence>(item) || py::isinstance<py::str>(item) || py::len(item) != 2)
           throw py::type_error("box: each axis is a slice or a (lo, hi) pair, got " + std::string(py::repr(item)));
-        lo[axis] = to_index(item[py::int_(0)], "box");
-        hi[axis] = to_index(item[py::int_(1)], "box");
+        lo[axis] = index_from_python(item[py::int_(0)], "box");
+        hi[axis] = index_from_python(item[py::int_(1)], "box");
       }
     }
     box = {{lo[2], lo[1], lo[0]}, {hi[2], hi[1], hi[0]}};
@@ -193,9 +228,26 @@ py::object json_to_python(const nlohmann::json& j) {
   return py::module_::import("json").attr("loads")(j.dump());
 }
 
-nlohmann::json json_from_python(py::handle obj) {
-  const std::string text = py::cast<std::string>(py::module_::import("json").attr("dumps")(obj));
-  return nlohmann::json::parse(text);
+nlohmann::json json_from_python(py::handle obj, const char* what) {
+  std::string text;
+  try {
+    // allow_nan=False: NaN and infinities have no JSON form (json.dumps would write NaN).
+    text = py::cast<std::string>(py::module_::import("json").attr("dumps")(obj, py::arg("allow_nan") = false));
+  } catch (py::error_already_set& e) {
+    if (e.matches(PyExc_ValueError))
+      throw py::value_error(fmt::format("{}: expected finite numbers (NaN and infinities have no JSON form) and no "
+                                        "list or dict that holds itself",
+                                        what));
+    if (e.matches(PyExc_TypeError))
+      throw py::type_error(fmt::format("{}: expected JSON data (dicts, lists, str, numbers, bools, None): {}", what,
+                                       std::string(py::str(e.value()))));
+    throw;
+  }
+  try {
+    return nlohmann::json::parse(text);
+  } catch (const nlohmann::json::exception& e) {
+    throw py::value_error(fmt::format("{}: not readable as JSON: {}", what, io::json_error_reason(e)));
+  }
 }
 
 std::filesystem::path path_from_python(py::handle obj, const char* what) {
@@ -215,7 +267,7 @@ io::ReadOptions read_options(py::handle shape, py::handle dtype, py::handle spac
     if (!py::isinstance<py::sequence>(shape) || py::len(shape) != 3)
       throw py::type_error("shape: expected (z, y, x), got " + std::string(py::repr(shape)));
     const auto s = py::reinterpret_borrow<py::sequence>(shape);
-    o.raw_dims = Extent{to_index(s[2], "shape"), to_index(s[1], "shape"), to_index(s[0], "shape")};
+    o.raw_dims = Extent{index_from_python(s[2], "shape"), index_from_python(s[1], "shape"), index_from_python(s[0], "shape")};
   }
   if (!dtype.is_none()) o.raw_dtype = dtype_from_python(dtype, "dtype");
   if (!spacing.is_none()) o.raw_spacing = spacing_from_python(spacing, "spacing");

@@ -83,7 +83,13 @@ Box box_from_python(py::handle obj, const Extent& dims);
 /// @brief Python objects from JSON (through the json module, so numbers and nesting are exact).
 py::object json_to_python(const nlohmann::json& j);
 /// @brief JSON from a Python object (dict, list, numbers, strings) through the json module.
-nlohmann::json json_from_python(py::handle obj);
+/// Throws py::value_error naming `what` for NaN, infinities and self-containing objects,
+/// py::type_error for objects JSON has no form for.
+nlohmann::json json_from_python(py::handle obj, const char* what);
+
+/// @brief An integer argument (int or an object with __index__, such as numpy.int64) as int64.
+/// Throws py::type_error naming `what` for other objects, py::value_error outside the int64 range.
+std::int64_t index_from_python(py::handle obj, const char* what);
 
 /// @brief Raw-file reading options from keyword arguments: shape (z, y, x), dtype, spacing
 /// (z, y, x), big_endian, volume (None or an index). Raw files without a JSON sidecar need

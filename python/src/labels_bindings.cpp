@@ -1,6 +1,7 @@
 // LabelFile: a Mixture Graph label volume (mixture::EncodedLabels) read box by box, its box
 // histogram queries (mixture::BoxQuery), label fractions and palettes (mixture::propagate_palette).
 #include <array>
+#include <cmath>
 #include <string>
 
 #include <fmt/format.h>
@@ -50,6 +51,11 @@ std::array<float, 4> rgba_from_python(py::handle obj, const std::string& key) {
     c.clear();
   }
   if (c.size() != 4) throw py::value_error("colors[" + key + "]: expected (r, g, b, a), got " + std::string(py::repr(obj)));
+  // NaN would spread through every node the label reaches; a double beyond float is infinite.
+  for (const float v : c)
+    if (!std::isfinite(v))
+      throw py::value_error("colors[" + key + "]: expected four finite numbers (r, g, b, a), got " +
+                            std::string(py::repr(obj)));
   return {c[0], c[1], c[2], c[3]};
 }
 
@@ -70,7 +76,7 @@ std::vector<float> source_colors(const mixture::LabelMap& map, const py::dict& c
     }
     if (!py::isinstance<py::int_>(key) && !py::hasattr(key, "__index__"))
       throw py::type_error("colors: keys are label values (integers) or \"default\", got " + std::string(py::repr(key)));
-    const auto label = py::cast<std::int64_t>(key);
+    const std::int64_t label = index_from_python(key, "colors: label");
     const auto c = rgba_from_python(value, std::to_string(label));
     if (const auto id = map.id_of(label)) std::copy(c.begin(), c.end(), src.begin() + 4 * *id);
   }

@@ -3,6 +3,7 @@
 // them; docs/python.md is the user's guide.
 #include <filesystem>
 #include <new>
+#include <stdexcept>
 #include <string>
 
 #include "bindings.hpp"
@@ -40,6 +41,8 @@ void register_errors(py::module_& m) {
   py::register_exception_translator([](std::exception_ptr p) {
     try {
       if (p) std::rethrow_exception(p);
+    } catch (const OutOfMemoryError& e) {
+      PyErr_SetString(PyExc_MemoryError, e.what());
     } catch (const ParameterError& e) {
       PyErr_SetString(g_parameter_error, e.what());
     } catch (const FormatError& e) {
@@ -50,6 +53,22 @@ void register_errors(py::module_& m) {
       // As the CLI words it: the path, then what the system said.
       const std::string path = e.path1().empty() ? std::string("a file") : e.path1().string();
       PyErr_SetString(g_error, (path + ": " + e.code().message()).c_str());
+    } catch (const std::bad_alloc&) {
+      // Not "std::bad_alloc": what ran out, and what to change.
+      PyErr_SetString(PyExc_MemoryError, "strata: out of memory: the call needed more memory than this process may "
+                                         "allocate; read a smaller box or a coarser level, or use a smaller volume");
+    } catch (const std::length_error&) {
+      PyErr_SetString(PyExc_MemoryError, "strata: the call needs a buffer larger than this machine can address; read a "
+                                         "smaller box or a coarser level, or use a smaller volume");
+    } catch (const py::cast_error&) {
+      // pybind11's "Unable to cast Python instance to C++ type" names no argument; each binding
+      // checks its arguments' types itself, so this is only a safety net.
+      PyErr_SetString(PyExc_TypeError, "strata: an argument has a type this function cannot take; help() on the "
+                                       "function lists what each argument expects");
+    } catch (const nlohmann::json::exception& e) {
+      PyErr_SetString(g_error, ("strata: a JSON value was not what was expected (JSON library error " +
+                                std::to_string(e.id) + ")")
+                                   .c_str());
     }
   });
 }
@@ -65,7 +84,8 @@ PYBIND11_MODULE(_strata, m) {
   m.def("threads", &strata::thread_count, "The worker threads the library's parallel loops use.");
   m.def(
       "set_threads", [](int n) { strata::set_thread_count(n); }, py::arg("n"),
-      "Sets the worker threads (n <= 0: all hardware threads), like `strata --threads N`.");
+      "Sets the worker threads (n = 0: all hardware threads), like `strata --threads N`; a negative n or more than "
+      "4 x the hardware threads raises strata.ParameterError (a ValueError).");
   register_volume_io(m);
   register_compress(m);
   register_strata_file(m);

@@ -44,7 +44,7 @@ std::pair<std::filesystem::path, std::optional<std::int64_t>> render_source(py::
 }
 
 render::LabelColorMap label_colors(py::handle colors) {
-  if (py::isinstance<py::dict>(colors)) return render::LabelColorMap::from_json(json_from_python(colors), "colors");
+  if (py::isinstance<py::dict>(colors)) return render::LabelColorMap::from_json(json_from_python(colors, "colors"), "colors");
   return render::LabelColorMap::load(path_from_python(colors, "colors"));
 }
 
@@ -52,7 +52,7 @@ std::shared_ptr<const render::TransferFunction> transfer_function(py::handle tf)
   if (tf.is_none()) return nullptr;  // the session's default, the "ct" preset
   if (py::isinstance<py::dict>(tf))
     return std::make_shared<const render::TransferFunction>(
-        render::TransferFunction::from_json(json_from_python(tf), "tf"));
+        render::TransferFunction::from_json(json_from_python(tf, "tf"), "tf"));
   return std::make_shared<const render::TransferFunction>(
       render::TransferFunction::from_argument(path_from_python(tf, "tf").string()));
 }

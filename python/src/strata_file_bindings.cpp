@@ -21,14 +21,9 @@ py::object metadata_of(const store::ContainerReader& container) { return json_to
 
 namespace {
 
-// The reconstruction rank K of a read: None or 0 is the stored rank; otherwise 1..stored, as
-// `strata decompress --rank` accepts it.
-int read_rank(const ta::TaVolume& v, std::optional<int> rank) {
-  if (!rank || *rank == 0) return v.rank();
-  if (*rank < 0 || *rank > v.rank())
-    throw py::value_error(fmt::format("rank: must be 1..{} (the stored rank) or None, got {}", v.rank(), *rank));
-  return *rank;
-}
+// The reconstruction rank K of a read: None or 0 is the stored rank; otherwise 1..stored, the
+// rule of `strata decompress --rank` (ta::reconstruction_rank; strata.ParameterError otherwise).
+int read_rank(const ta::TaVolume& v, std::optional<int> rank) { return v.reconstruction_rank(rank.value_or(0)); }
 
 // The sample type a read returns, as `strata decompress` writes it: level 0 in the source's type
 // (rounded and clamped) unless as_float; coarser levels hold averages, so float32.

@@ -22,8 +22,14 @@ Geometry geometry_from_python(py::handle origin, const std::string& unit) {
       throw py::type_error("origin: expected (z, y, x), got " + std::string(py::repr(origin)));
     const auto o = py::reinterpret_borrow<py::sequence>(origin);
     for (int a = 0; a < 3; ++a) {
-      g.origin[std::size_t(2 - a)] = o[std::size_t(a)].cast<double>();
-      if (!std::isfinite(g.origin[std::size_t(2 - a)])) throw py::value_error("origin: expected finite numbers");
+      const py::object item = o[std::size_t(a)];
+      const bool number = py::isinstance<py::float_>(item) || py::isinstance<py::int_>(item) ||
+                          py::hasattr(item, "__float__");
+      if (!number || py::isinstance<py::str>(item))
+        throw py::type_error("origin: expected three numbers (z, y, x), got " + std::string(py::repr(origin)));
+      g.origin[std::size_t(2 - a)] = py::float_(item).cast<double>();
+      if (!std::isfinite(g.origin[std::size_t(2 - a)]))
+        throw py::value_error("origin: expected finite numbers (z, y, x), got " + std::string(py::repr(origin)));
     }
   }
   if (!unit.empty()) {

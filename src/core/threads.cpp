@@ -25,11 +25,14 @@ int thread_count() {
 }
 
 void set_thread_count(int n) {
+  if (n < 0)
+    throw ParameterError("n", "the thread count must be 0 (all hardware threads) or more, got " + std::to_string(n));
   if (n > max_thread_count())
-    throw Error("thread count: at most " + std::to_string(max_thread_count()) + " (" +
-                std::to_string(kMaxThreadsPerHardwareThread) + " x the " + std::to_string(hardware_threads()) +
-                " hardware threads of this machine), got " + std::to_string(n));
-  g_thread_count.store(n > 0 ? n : 0);
+    throw ParameterError("n", "the thread count may be at most " + std::to_string(max_thread_count()) + " (" +
+                                  std::to_string(kMaxThreadsPerHardwareThread) + " x the " +
+                                  std::to_string(hardware_threads()) + " hardware threads of this machine), got " +
+                                  std::to_string(n));
+  g_thread_count.store(n);
   omp_set_num_threads(thread_count());
 }
 

@@ -50,7 +50,7 @@ Volume::Volume(Extent dims, DType dtype, Spacing spacing) : info_{dims, dtype, s
   // A size that passed every header check can still exceed memory: say so instead of letting
   // std::bad_alloc reach the user without the volume it was for.
   const auto cannot_allocate = [&](const char* why) {
-    return Error("Volume: cannot allocate " + std::to_string(bytes) + " bytes for " + dims.to_string() + " " +
+    return OutOfMemoryError("Volume: cannot allocate " + std::to_string(bytes) + " bytes for " + dims.to_string() + " " +
                  std::string(dtype_name(dtype)) + " samples (" + why + ")");
   };
   try {

@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <vector>
@@ -179,13 +180,33 @@ void UnnamedTempFile::write(const void* data, std::size_t bytes) {
 // ---------------------------------------------------------------------------------------------
 // read_json_file
 
+// Strata's own words for a JSON library error: the library's text quotes the bytes it read last
+// ("last read: '...'"), which may be anything the file holds, so only the position and the kind
+// of problem are kept.
 std::string json_error_reason(const std::exception& error) {
-  std::string_view why = error.what();
-  if (why.starts_with("[json.exception.")) {
-    const auto end = why.find("] ");
-    if (end != std::string_view::npos) why.remove_prefix(end + 2);
+  const std::string_view text = error.what();
+  const auto has = [&](std::string_view part) { return text.find(part) != std::string_view::npos; };
+  if (const auto* range = dynamic_cast<const nlohmann::json::out_of_range*>(&error); range && range->id == 406)
+    return "a number is too large (expected numbers within the range of a 64-bit float, about 1.8e308)";
+  const auto* parse = dynamic_cast<const nlohmann::json::parse_error*>(&error);
+  if (!parse) {
+    const auto* json = dynamic_cast<const nlohmann::json::exception*>(&error);
+    return json ? fmt::format("not readable as JSON (JSON library error {})", json->id) : "not readable as JSON";
   }
-  return std::string(why);
+  std::string where = fmt::format("at byte {}", parse->byte);
+  unsigned long line = 0, column = 0;  // the library's "parse error at line L, column C: ..."
+  const std::size_t at = text.find("at line ");
+  if (at != std::string_view::npos && std::sscanf(text.data() + at, "at line %lu, column %lu", &line, &column) == 2)
+    where = fmt::format("at line {}, column {}", line, column);
+  if (has("empty input")) return "the text is empty, expected a JSON document";
+  if (has("unexpected end of input")) return "the text ends " + where + ", before the JSON document is complete";
+  if (has("invalid string"))
+    return "the string " + where + " is not valid (expected UTF-8 text with JSON escapes and no control characters)";
+  if (has("invalid number")) return "the number " + where + " is not a valid JSON number";
+  if (has("invalid literal"))
+    return "no JSON value starts " + where + " (expected an object, array, string, number, true, false or null)";
+  if (has("expected end of input")) return "more text follows the JSON document " + where;
+  return "a syntax error " + where + " (expected JSON: an object, array, string, number, true, false or null)";
 }
 
 nlohmann::json read_json_file(const std::filesystem::path& path, std::string_view field) {

@@ -13,6 +13,7 @@
 #include "strata/core/error.hpp"
 #include "strata/core/stopwatch.hpp"
 #include "strata/render/sampling_limits.hpp"
+#include "strata/ta/ta_volume.hpp"
 
 namespace strata::render {
 
@@ -143,6 +144,7 @@ void RenderSession::adapt_image_scale(double used_scale, double frame_ms) {
 
 Image RenderSession::frame(const FrameSettings& settings, nlohmann::json& stats) {
   validate(settings);
+  ta::reconstruction_rank(settings.rank, stored_rank(), path_.string());  // at most the file's rank
   const CameraSpec& spec = settings.camera;
   const bool adaptive = settings.quality == FrameQuality::interactive;
   const double scale = adaptive ? std::max(options_.min_interactive_scale, options_.target_fps > 0 ? image_scale_ : 1.0)

@@ -278,6 +278,22 @@ void TaVolume::check_level(int level) const {
                                       " for " + container_->name());
 }
 
+int TaVolume::reconstruction_rank(int requested) const {
+  return ta::reconstruction_rank(requested, rank_, container_->name());
+}
+
+int reconstruction_rank(int requested, int stored, std::string_view file) {
+  if (requested == 0) return stored;
+  if (stored <= 0)
+    throw ParameterError("rank", fmt::format("{} stores no Tucker rank (not a tensor-approximation file): expected 0, "
+                                             "got {}",
+                                             file, requested));
+  if (requested < 0 || requested > stored)
+    throw ParameterError("rank", fmt::format("expected 1..{} (the stored rank of {}) or 0 for the stored rank, got {}",
+                                             stored, file, requested));
+  return requested;
+}
+
 Geometry TaVolume::level_geometry(int level, const Box& box) const {
   const double scale = std::ldexp(1.0, level);
   const Spacing level_spacing{source_.spacing.x * scale, source_.spacing.y * scale, source_.spacing.z * scale};

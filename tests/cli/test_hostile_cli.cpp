@@ -7,8 +7,13 @@
 #include <fstream>
 #include <string>
 #include <thread>
+#include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "cli/cli_test_util.hpp"
+#include "store/forge.hpp"
+#include "strata/store/zstd_frame.hpp"
 #include "support/test_support.hpp"
 
 using strata::test::run_command;
@@ -24,6 +29,11 @@ namespace fs = std::filesystem;
 bool has(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
 
 std::uintmax_t size_of(const fs::path& p) { return fs::file_size(p); }
+
+void write_text(const fs::path& path, const std::string& text) {
+  std::ofstream out(path, std::ios::binary);
+  out << text;
+}
 
 // Small inputs made once: a scalar NRRD and its .strata, a label NRRD and its encoding.
 class HostileCli : public ::testing::Test {
@@ -49,6 +59,12 @@ class HostileCli : public ::testing::Test {
     std::string out;
     EXPECT_EQ(run_command(strata_cmd(args), &out), code) << args << "\n" << out;
     EXPECT_TRUE(has(out, "error: " + flag)) << args << "\n" << out;
+    return out;
+  }
+  // Runs `args`, expects exit `code`; returns the output.
+  static std::string run(const std::string& args, int code) {
+    std::string out;
+    EXPECT_EQ(run_command(strata_cmd(args), &out), code) << args << "\n" << out;
     return out;
   }
 
@@ -208,6 +224,132 @@ TEST_F(HostileCli, CompressHelpListsTheRegisteredCodecs) {
   EXPECT_TRUE(has(out, "ta-bricked:")) << out;
   EXPECT_TRUE(has(out, "ta-global:")) << out;
   EXPECT_TRUE(has(out, "error-target")) << out;
+}
+
+// `labels query --top -1` wrapped to 2^64-1 and listed every label.
+TEST_F(HostileCli, LabelsQueryRefusesANegativeTop) {
+  const std::string out = run("labels query " + q("v.strata") + " --top -1", 2);
+  EXPECT_TRUE(has(out, "error: --top: expected a non-negative integer, got '-1'")) << out;
+  const std::string two = run("labels query " + q("v.strata") + " --top 2 --json", 0);
+  EXPECT_EQ(nlohmann::json::parse(two)["labels"].size(), 2u) << two;
+}
+
+// A seed of 2^64 or more was saturated to 2^64-1 without a word; "010" was read as octal 8.
+TEST_F(HostileCli, SeedsBeyond64BitsAreRefusedAndDecimalIsDecimal) {
+  for (const std::string seed : {"18446744073709551616", "99999999999999999999999"}) {
+    std::string out = run("generate sphere --size 8 --seed " + seed + " -o " + q("s.nrrd"), 2);
+    EXPECT_TRUE(has(out, "error: --seed: expected an integer in [0, 2^64-1], got '" + seed + "'")) << out;
+    out = run("labels calibrate " + q("v.strata") + " --boxes 1 --seed " + seed, 2);
+    EXPECT_TRUE(has(out, "error: --seed: expected an integer in [0, 2^64-1]")) << out;
+  }
+  EXPECT_FALSE(fs::exists(file("s.nrrd")));
+  run("generate prisms --size 12 --seed 18446744073709551615 -o " + q("max.nrrd"), 0);
+  // --seed 010 is ten, as --seed 10.
+  run("generate prisms --size 12 --seed 010 -o " + q("s010.nrrd"), 0);
+  run("generate prisms --size 12 --seed 10 -o " + q("s10.nrrd"), 0);
+  EXPECT_EQ(strata::test::forge::file_bytes(file("s010.nrrd")), strata::test::forge::file_bytes(file("s10.nrrd")));
+  // The other integer flags keep their types' ranges too.
+  std::string out = run("generate voronoi --size 8 --count 9223372036854775808 -o " + q("s.nrrd"), 2);
+  EXPECT_TRUE(has(out, "error: --count: expected an integer in [0, 2^63-1]")) << out;
+  out = run("--threads 2147483648 info " + q("p.nrrd"), 2);
+  EXPECT_TRUE(has(out, "error: --threads: expected an integer in [0, 2147483647]")) << out;
+}
+
+// decompress refused --rank 99 while render and eval clamped it to the stored rank: all three now
+// use the library's one rule, with the same message.
+TEST_F(HostileCli, RankAboveTheStoredRankIsRefusedByEveryCommand) {
+  const std::string expected = "error: --rank: expected 1..8 (the stored rank of ";
+  const std::vector<std::string> commands{"decompress " + q("p.strata") + " -o " + q("rank.nrrd"),
+                                          "eval " + q("p.nrrd") + " " + q("p.strata"),
+                                          "render " + q("p.strata") + " -o " + q("rank.png") + " --size 16x16"};
+  for (const std::string& command : commands) {
+    const std::string out = run(command + " --rank 99", 1);
+    EXPECT_TRUE(has(out, expected)) << command << "\n" << out;
+    EXPECT_TRUE(has(out, "p.strata) or 0 for the stored rank, got 99")) << command << "\n" << out;
+    // A negative rank is a usage error everywhere.
+    EXPECT_TRUE(has(run(command + " --rank -2", 2), "error: --rank: ")) << command;
+    run(command + " --rank 8", 0);
+  }
+  // A label file stores no rank: render refuses one rather than ignoring it.
+  const std::string out = run("render " + q("v.strata") + " -o " + q("rank-labels.png") + " --size 16x16 --rank 3", 1);
+  EXPECT_TRUE(has(out, "error: --rank: ")) << out;
+  EXPECT_TRUE(has(out, "stores no Tucker rank")) << out;
+  EXPECT_FALSE(fs::exists(file("rank-labels.png")));
+}
+
+// The JSON library's text ("parse error at line 1, column 3: syntax error while parsing value -
+// invalid literal; last read: '<bytes of the file>'") is replaced by the file, the field, the
+// position and what was expected; no byte of the input is echoed.
+TEST_F(HostileCli, JsonErrorsAreInStrataWordsAndEchoNoInputBytes) {
+  const std::string secret = "SECRETBYTES";
+  const auto expect_strata_words = [&](const std::string& out, const std::string& file_name) {
+    EXPECT_TRUE(has(out, file_name)) << out;
+    EXPECT_TRUE(has(out, "invalid JSON")) << out;
+    EXPECT_TRUE(has(out, "expected")) << out;
+    for (const char* library : {"parse error", "syntax error while parsing", "last read", "json.exception",
+                                "number overflow parsing", secret.c_str()})
+      EXPECT_FALSE(has(out, library)) << library << "\n" << out;
+  };
+  // A raw file's sidecar.
+  write_text(file("s.raw"), std::string(8, 'x'));
+  write_text(file("s.raw.json"), "{\"dims\": [2, 2, 2], \"dtype\": " + secret + "}");
+  std::string out = run("info " + q("s.raw"), 1);
+  expect_strata_words(out, "s.raw.json");
+  EXPECT_TRUE(has(out, "line 1, column")) << out;
+  // A number beyond a double's range: the library quoted the token.
+  write_text(file("s.raw.json"), "{\"dims\": [2, 2, 2], \"dtype\": \"u8\", \"spacing\": [1e999" + secret + "]}");
+  out = run("info " + q("s.raw"), 1);
+  expect_strata_words(out, "s.raw.json");
+  // A transfer function and a colour map.
+  write_text(file("tf.json"), "{\"points\": [" + secret + "]}");
+  expect_strata_words(run("render " + q("p.strata") + " -o " + q("t.png") + " --size 8x8 --tf " + q("tf.json"), 1),
+                      "tf.json");
+  write_text(file("colors.json"), "{\"3\": [1e999, 0, 0, 1]}");
+  expect_strata_words(
+      run("labels palette " + q("v.strata") + " --colors " + q("colors.json") + " -o " + q("pal.json"), 1),
+      "colors.json");
+  // A .strata file whose metadata is not JSON (checksums recomputed, as a forger would).
+  fs::copy_file(file("p.strata"), file("m.strata"), fs::copy_options::overwrite_existing);
+  strata::test::forge::replace_metadata_text(file("m.strata"), "{\"codec\": " + secret + "}");
+  out = run("info " + q("m.strata"), 1);
+  expect_strata_words(out, "m.strata");
+  EXPECT_TRUE(has(out, "metadata")) << out;
+}
+
+// A damaged zstd chunk of a Zarr array: zstd's own "Data corruption detected" became
+// "<file>: <chunk>: damaged zstd data: ...".
+TEST_F(HostileCli, ZstdErrorsAreInStrataWords) {
+  const fs::path zarr = file("z.zarr");
+  fs::create_directories(zarr);
+  write_text(zarr / ".zarray", R"({"zarr_format": 2, "shape": [16, 16, 16], "chunks": [16, 16, 16], "dtype": "<u2",
+    "compressor": {"id": "zstd", "level": 3}, "fill_value": 0, "order": "C", "filters": null})");
+  // Samples with structure (literals and matches), so the frame holds entropy-coded blocks.
+  std::vector<std::uint16_t> samples(16 * 16 * 16);
+  for (std::size_t i = 0; i < samples.size(); ++i) samples[i] = std::uint16_t((i * i) % 977 + (i / 7) % 13);
+  std::vector<std::byte> frame = strata::store::zstd_compress(std::as_bytes(std::span(samples)), 3);
+  ASSERT_GT(frame.size(), 64u);
+  // Bytes in the middle of the compressed blocks overwritten.
+  for (std::size_t i = frame.size() / 3; i < frame.size() / 3 + 24; ++i) frame[i] = std::byte(0xA5);
+  strata::test::forge::write_file(zarr / "0.0.0", frame);
+  const std::string out = run("info " + shell_quoted(zarr), 1);
+  EXPECT_TRUE(has(out, "z.zarr")) << out;
+  EXPECT_TRUE(has(out, "damaged zstd data")) << out;
+  for (const char* library : {"Data corruption detected", "Corrupted block detected", "Src size is incorrect",
+                              "Destination buffer is too small", "Unknown frame descriptor"})
+    EXPECT_FALSE(has(out, library)) << library << "\n" << out;
+}
+
+// CLI11's "File is actually a directory: <path>" and "File does not exist: <path>" for render's
+// input became Strata's words.
+TEST_F(HostileCli, RenderInputErrorsAreInStrataWords) {
+  fs::create_directories(file("folder"));
+  std::string out = run("render " + q("folder") + " -o " + q("f.png"), 2);
+  EXPECT_TRUE(has(out, "error: input: '")) << out;
+  EXPECT_TRUE(has(out, "folder' is a folder, expected a .strata file, a volume file or an http(s) URL")) << out;
+  EXPECT_FALSE(has(out, "File is actually a directory")) << out;
+  out = run("render " + q("missing.strata") + " -o " + q("f.png"), 2);
+  EXPECT_TRUE(has(out, "missing.strata' does not exist, expected a .strata file")) << out;
+  EXPECT_FALSE(has(out, "File does not exist")) << out;
 }
 
 }  // namespace

@@ -19,6 +19,14 @@ class FormatError : public Error {
       : Error(file + ": " + field + ": " + problem) {}
 };
 
+/// @brief Thrown when a buffer whose size the input or the caller decides cannot be allocated:
+/// "<what>: cannot allocate <bytes> bytes for <shape> (out of memory)". Front ends report it as
+/// running out of memory (Python: MemoryError) with the message unchanged.
+class OutOfMemoryError : public Error {
+ public:
+  using Error::Error;
+};
+
 /// @brief Thrown when a value the caller passed to the library is out of range or inconsistent:
 /// "<parameter>: <problem>", e.g. "CodecParams::rank: must be between 1 and the brick width 16, got 20".
 ///

@@ -13,8 +13,8 @@ int hardware_threads();
 inline constexpr int kMaxThreadsPerHardwareThread = 4;
 /// @brief The largest count set_thread_count accepts: kMaxThreadsPerHardwareThread x hardware_threads().
 int max_thread_count();
-/// @brief n <= 0 restores the default. Applies to OpenMP loops and to our own worker pools.
-/// Throws strata::Error, changing nothing, when n > max_thread_count().
+/// @brief n == 0 restores the default. Applies to OpenMP loops and to our own worker pools.
+/// Throws ParameterError("n"), changing nothing, when n < 0 or n > max_thread_count().
 void set_thread_count(int n);
 
 }  // namespace strata

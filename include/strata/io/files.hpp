@@ -87,8 +87,9 @@ class UnnamedTempFile {
 // the caller's messages call the document.
 nlohmann::json read_json_file(const std::filesystem::path& path, std::string_view field);
 
-/// @brief What a JSON parse or type error says, without the library's
-/// "[json.exception.<kind>.<id>] " prefix ("parse error at line 1, column 9: ...").
+/// @brief What a JSON parse error means, in Strata's words: its position and the kind of problem
+/// ("no JSON value starts at line 1, column 9 (expected an object, ...)"), never the library's
+/// text, which quotes the bytes it read last.
 std::string json_error_reason(const std::exception& error);
 
 }  // namespace strata::io

@@ -79,7 +79,7 @@ enum class LabelLightingChoice {
 struct FrameSettings {
   CameraSpec camera;
   std::shared_ptr<const TransferFunction> tf;  ///< scalar and plain files; null = the "ct" preset
-  int rank = 0;                                ///< TA files: reconstruction rank K; 0 = the stored rank
+  int rank = 0;                                ///< TA files: reconstruction rank K (1..stored); 0 = the stored rank
   double lod = 1.0;                            ///< TA files: pixels per voxel before a brick is refined
   /// ta-global files: ε_target of paper 2's Alg. 2, a normalized RMSE (RMSE / value range) that
   /// picks each brick's rank and bounds refinement (lod/selection.hpp); 0 = off.
@@ -139,7 +139,8 @@ class RenderSession {
   nlohmann::json describe() const;
 
   /// @brief One frame. `stats` receives its figures (selection, load, render, frame_ms, cpu_s,
-  /// image_scale, rank). Throws ParameterError when validate(settings) does.
+  /// image_scale, rank). Throws ParameterError when validate(settings) does, and
+  /// ParameterError("rank") for a rank above the stored one (ta::reconstruction_rank).
   Image frame(const FrameSettings& settings, nlohmann::json& stats);
 
   /// @brief Scalar and plain files: the values of a slice at its level and rank.

@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <memory>
 #include <span>
+#include <string_view>
 #include <vector>
 
 #include "strata/core/volume.hpp"
@@ -56,6 +57,8 @@ class TaVolume {
   std::uint64_t subtree_histogram(const store::BrickKey& key) const;
   // Throws ParameterError("level"), naming the file, unless 0 <= level < geometry().level_count().
   void check_level(int level) const;
+  // The reconstruction rank a read at `requested` uses: reconstruction_rank(requested, rank(), file).
+  int reconstruction_rank(int requested) const;
 
   // B^3 floats of one brick (overlap included) reconstructed at rank K (clamped to 1..rank()).
   void decode_brick(const store::BrickKey& key, int k, std::span<float> out, tensor::BrickReconstructor& reconstructor,
@@ -82,5 +85,11 @@ class TaVolume {
   std::vector<float> feature_scale_;
   void read_global(const store::MetadataField& meta);
 };
+
+/// @brief The one rule for a reconstruction rank asked of a file that stores rank `stored` (0: a
+/// file without one, a label or plain volume): 0 means the stored rank; 1..stored is taken as it
+/// is. Anything else throws ParameterError("rank") naming `file` and the accepted range.
+/// `decompress`, `eval` and `render` --rank, Python's read(rank=) and Renderer.frame(rank=) use it.
+int reconstruction_rank(int requested, int stored, std::string_view file);
 
 }  // namespace strata::ta

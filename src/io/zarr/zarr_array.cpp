@@ -43,6 +43,7 @@
 #include <blosc.h>
 #include <fmt/format.h>
 #include <zstd.h>
+#include <zstd_errors.h>
 
 #include "io/io_detail.hpp"
 #include "strata/core/bytes.hpp"
@@ -430,7 +431,10 @@ std::vector<std::byte> undo(ZarrByteCodec codec, const std::vector<std::byte>& i
       const std::uint64_t capacity = declared == ZSTD_CONTENTSIZE_UNKNOWN ? limit : std::min<std::uint64_t>(declared, limit + 1);
       std::vector<std::byte> out(capacity);
       const std::size_t n = ZSTD_decompress(out.data(), out.size(), in.data(), in.size());
-      if (ZSTD_isError(n)) throw FormatError(file, chunk, fmt::format("zstd: {}", ZSTD_getErrorName(n)));
+      // Strata's words, not zstd's ("Data corruption detected").
+      if (ZSTD_isError(n) && ZSTD_getErrorCode(n) == ZSTD_error_dstSize_tooSmall)
+        throw FormatError(file, chunk, fmt::format("zstd data that decodes to more than the {} bytes of a chunk", limit));
+      if (ZSTD_isError(n)) throw FormatError(file, chunk, "damaged zstd data: expected a zstd frame that decodes");
       out.resize(n);
       return out;
     }
