@@ -37,10 +37,11 @@ void as_usage_error(const std::function<void()>& check);
 void naming_files(const std::vector<std::string>& files, const std::function<void()>& run);
 
 // The one check of every option of `app` and of its subcommands (all, recursively) that takes a
-// value, before the option's own checks: an empty value is refused ("--psnr ''", "--rank="),
-// which CLI11 would read as "not given" (an optional) or as 0 and go on; an integer option takes
-// decimal digits only (CLI11 would read "010" as octal 8), a number option a number. The usage
-// error names the flag and what it expects. Call once every option is added.
+// value, before the option's own checks: an empty value is refused ("--psnr ''"), which CLI11
+// would read as "not given" (an optional) or as 0 and go on ("--psnr=" CLI11 refuses itself);
+// an integer option takes decimal digits only (CLI11 would read "010" as octal 8), a number
+// option a number. The usage error names the flag and what it expects. Call once every option
+// is added.
 void check_option_values(CLI::App& app);
 
 // --rank of decompress, eval and render, for a file that stores rank `stored` (0: none): the

@@ -88,7 +88,7 @@ def test_any_strides_byte_order_and_read_only_arrays_are_taken_by_value(tmp_path
 
 
 @pytest.mark.parametrize("bad, error, words", [
-    (np.uint16(3), ValueError, "3-D array"),                                # 0-d
+    (np.array(3, np.uint16), ValueError, "3-D array"),                      # 0-d
     (np.zeros(8, np.uint16), ValueError, "3-D array"),                      # 1-d
     (np.zeros((2, 2, 2, 2), np.uint16), ValueError, "3-D array"),           # 4-d
     (np.zeros((2, 0, 2), np.uint16), ValueError, "at least one voxel"),
@@ -97,7 +97,8 @@ def test_any_strides_byte_order_and_read_only_arrays_are_taken_by_value(tmp_path
     (np.zeros((2, 2, 2), [("a", "<u2"), ("b", "<f4")]), TypeError, "not supported"),
     (np.zeros((2, 2, 2), ">c8"), TypeError, "not supported"),
     (np.zeros((2, 2, 2), bool), TypeError, "not supported"),
-    ([[[1, 2]]], TypeError, "numpy array"),
+    ([[[1, 2]]], TypeError, "numpy array|a path"),                          # neither array nor path
+    (np.uint16(3), TypeError, "numpy array|a path"),
 ])
 def test_arrays_the_bindings_cannot_take_raise_python_errors(tmp_path, bad, error, words):
     for call in (lambda: strata.write(tmp_path / "v.nrrd", bad), lambda: strata.compress(bad, tmp_path / "v.strata"),

@@ -100,7 +100,7 @@ INSTANTIATE_TEST_SUITE_P(Commands, EmptyFlagValues,
 TEST(FlagValueSyntax, TheMessageNamesWhatTheFlagExpects) {
   const std::pair<const char*, const char*> cases[] = {
       {"compress in.nrrd -o out.strata --psnr ''", "error: --psnr: expected a number, got an empty value"},
-      {"compress in.nrrd -o out.strata --rank=", "error: --rank: expected an integer, got an empty value"},
+      {"compress in.nrrd -o out.strata --rank ''", "error: --rank: expected an integer, got an empty value"},
       {"--progress '' info x", "error: --progress: expected one of {auto,bar,json,none}, got an empty value"},
       {"compress in.nrrd -o out.strata --rank abc", "error: --rank: expected an integer, got 'abc'"},
       {"compress in.nrrd -o out.strata --psnr 40dB", "error: --psnr: expected a number, got '40dB'"},

@@ -29,11 +29,14 @@ std::string failure(const std::vector<std::byte>& frame) {
 }
 
 TEST(ZstdFrame, DamagedDataIsDescribedInStrataWords) {
-  std::vector<std::byte> overwritten = sample_frame();
-  for (std::size_t i = overwritten.size() / 3; i < overwritten.size() / 3 + 24; ++i) overwritten[i] = std::byte(0xA5);
+  // The first block's type set to the reserved 3 (after a 7-byte frame header: single segment, a
+  // 2-byte content size), zstd's "Data corruption detected"; and a frame cut short.
+  std::vector<std::byte> reserved_block = sample_frame();
+  ASSERT_EQ(reserved_block[4], std::byte(0x60));
+  reserved_block[7] |= std::byte(0x06);
   std::vector<std::byte> truncated = sample_frame();
   truncated.resize(truncated.size() - 9);
-  for (const auto& frame : {overwritten, truncated}) {
+  for (const auto& frame : {reserved_block, truncated}) {
     const std::string message = failure(frame);
     EXPECT_TRUE(message.starts_with("f.strata: brick (0, 1, 2, 3): damaged zstd data: expected ")) << message;
     for (const char* library : {"Data corruption detected", "Corrupted block detected", "Src size is incorrect",
