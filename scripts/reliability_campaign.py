@@ -562,7 +562,8 @@ class Campaign:
         for what, (code, expected) in self.PYTHON_CASES.items():
             program = (f"import strata, sys\nOUT = {str(d / 'p.strata')!r}\ntry:\n"
                        + "".join("    " + line + "\n" for line in code.split("\n"))
-                       + "except Exception as e:\n    print(type(e).__name__ + ': ' + str(e))\n    sys.exit(3)\n")
+                       + "except Exception as e:\n"
+                       "    print(','.join(c.__name__ for c in type(e).__mro__) + ': ' + str(e))\n    sys.exit(3)\n")
             self.runs += 1
             try:
                 p = subprocess.run(["/usr/bin/python3", "-c", program], env=env, capture_output=True, text=True,
@@ -580,8 +581,8 @@ class Campaign:
                 self.finding(cls, f"exit {p.returncode}: {what}", p.stderr)
             elif LIBRARY_RE.search(message):
                 self.finding(cls, f"library text: {what}", message)
-            elif expected and not message.startswith(expected):
-                self.finding(cls, f"{what}: {message.split(':')[0]}, expected {expected}", message)
+            elif expected and expected not in message.split(":")[0].split(","):
+                self.finding(cls, f"{what}: {message.split(',')[0]}, expected {expected}", message)
             self.leftovers(cls, d, what)
 
 
