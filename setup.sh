@@ -17,7 +17,7 @@ PACKAGES=(
   python3-pydicom                             # reference DICOM writer (python/tests/test_dicom.py)
   libblosc-dev                                # blosc-compressed Zarr chunks (OME-Zarr)
   libspng-dev libturbojpeg0-dev               # PNG output, JPEG frames of the viewer and precomputed chunks
-  libcpp-httplib-dev                          # HTTP server (strata serve)
+  libcpp-httplib-dev                          # HTTP client of the server tests
   libcli11-dev nlohmann-json3-dev libfmt-dev  # CLI, JSON, formatting
   libgtest-dev libbenchmark-dev               # tests and benchmarks
   mricron-data                                # sample MRI and brain atlases

@@ -21,7 +21,8 @@ pkg_check_modules(HDF5 REQUIRED IMPORTED_TARGET hdf5-serial)
 pkg_check_modules(CURL REQUIRED IMPORTED_TARGET libcurl)
 # Debian builds cpp-httplib as a library with OpenSSL, zlib and brotli support: its pkg-config
 # flags (-DCPPHTTPLIB_*_SUPPORT) must reach every file that includes httplib.h, or the class
-# layouts differ from the library's. Only the server module uses it.
+# layouts differ from the library's. Only the server tests' HTTP clients use it (the server
+# speaks HTTP itself: src/server/http_server.cpp).
 pkg_check_modules(HTTPLIB REQUIRED IMPORTED_TARGET cpp-httplib)
 
 # libspng ships neither a CMake nor a pkg-config file: find it by hand.

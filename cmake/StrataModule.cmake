@@ -35,9 +35,7 @@ function(strata_add_module name deps)
     target_link_libraries(strata_${name} PUBLIC MPI::MPI_CXX)
   endif()
   if(name STREQUAL "server")
-    # PUBLIC: whatever includes httplib.h (the server, its tests' HTTP clients) must be compiled
-    # with the library's -DCPPHTTPLIB_* flags, or its classes' layouts differ from the library's.
-    target_link_libraries(strata_${name} PUBLIC PkgConfig::HTTPLIB)
+    target_link_libraries(strata_${name} PRIVATE ZLIB::ZLIB)  # gzip answers (src/server/http_wire.cpp)
     strata_embed_web(strata_${name})  # the viewer's files compiled in (cmake/EmbedWeb.cmake)
   endif()
 endfunction()

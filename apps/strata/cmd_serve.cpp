@@ -29,13 +29,16 @@ struct ServeArgs {
 };
 
 void run_serve(const ServeArgs& a, const GlobalOptions&) {
-  const std::vector<std::filesystem::path> files = server::dataset_files(a.inputs);
+  const std::vector<server::DatasetFile> files = server::dataset_files(a.inputs);
   server::ApiOptions options;
   options.cache_bytes = a.cache_mb << 20;
   options.queue_capacity = a.queue;
   options.volume = a.volume;
   options.cors_origin = a.cors;
   options.precomputed_jpeg_quality = a.precomputed_jpeg;
+  options.on_skip = [](const std::filesystem::path& file, const std::string& reason) {
+    std::fprintf(stderr, "warning: skipping %s: %s\n", file.string().c_str(), reason.c_str());
+  };
   std::printf("Opening %zu dataset%s\n", files.size(), files.size() == 1 ? "" : "s");
   const auto api_or_usage_error = [&] {
     try {

@@ -73,7 +73,7 @@ struct Api::Impl {
   std::vector<std::unique_ptr<Dataset>> datasets;
   RenderQueue queue;
 
-  Impl(const std::vector<std::filesystem::path>& files, const ApiOptions& o);
+  Impl(const std::vector<DatasetFile>& files, const ApiOptions& o);
   HttpResponse route(const HttpRequest& r);
   HttpResponse list_datasets() const;
   HttpResponse dataset_endpoint(Dataset& d, const std::string& endpoint, const HttpRequest& r);
@@ -147,26 +147,52 @@ std::string size_text(const nlohmann::json& d) {
                      d["dims"][2].get<std::int64_t>());
 }
 
+// Why `file` did not open: the message, without the file's name in front when it has it.
+std::string open_failure(const std::filesystem::path& file, const std::exception& e) {
+  std::string reason = e.what();
+  const std::string prefix = file.string() + ": ";
+  if (reason.starts_with(prefix)) reason.erase(0, prefix.size());
+  return reason;
+}
+
+// "a, b and c".
+std::string listed(const std::vector<std::string>& items) {
+  std::string text;
+  for (std::size_t i = 0; i < items.size(); ++i)
+    text += (i == 0 ? "" : i + 1 == items.size() ? " and " : ", ") + items[i];
+  return text;
+}
+
 }  // namespace
 
-Api::Impl::Impl(const std::vector<std::filesystem::path>& files, const ApiOptions& o)
-    : options(o), queue(o.queue_capacity) {
+Api::Impl::Impl(const std::vector<DatasetFile>& files, const ApiOptions& o) : options(o), queue(o.queue_capacity) {
   if (files.empty()) throw ParameterError("files", "no volumes to serve");
   check_cors_origin(o.cors_origin);
-  const std::size_t strata_files =
-      std::size_t(std::count_if(files.begin(), files.end(), [](const auto& f) { return store::is_strata_file(f); }));
+  const std::size_t strata_files = std::size_t(
+      std::count_if(files.begin(), files.end(), [](const DatasetFile& f) { return store::is_strata_file(f.path); }));
   const render::SessionOptions session = session_options(o, strata_files);
-  for (const std::filesystem::path& file : files) {
+  std::vector<std::string> folders;
+  for (const DatasetFile& file : files) {
     auto d = std::make_unique<Dataset>();
+    try {
+      d->session = std::make_unique<render::RenderSession>(file.path, session);
+      d->description = d->session->describe();
+    } catch (const std::exception& e) {
+      // A file named on the command line was asked for; one of a folder's may be anything.
+      if (file.folder.empty()) throw;
+      if (options.on_skip) options.on_skip(file.path, open_failure(file.path, e));
+      if (std::find(folders.begin(), folders.end(), file.folder.string()) == folders.end())
+        folders.push_back(file.folder.string());
+      continue;
+    }
     d->id = int(datasets.size());
-    d->name = dataset_name(file, datasets);
-    d->path = file;
-    d->session = std::make_unique<render::RenderSession>(file, session);
-    d->description = d->session->describe();
+    d->name = dataset_name(file.path, datasets);
+    d->path = file.path;
     d->description["id"] = d->id;
     d->description["slug"] = d->name;
     datasets.push_back(std::move(d));
   }
+  if (datasets.empty()) throw Error("nothing to serve: no volume file in " + listed(folders) + " opens");
 }
 
 Dataset* Api::Impl::dataset(std::string_view id) const {
@@ -268,8 +294,19 @@ std::string api_parameter(const std::string& library) {
 
 }  // namespace
 
-Api::Api(const std::vector<std::filesystem::path>& files, const ApiOptions& options)
-    : impl_(std::make_unique<Impl>(files, options)) {}
+namespace {
+
+std::vector<DatasetFile> named(const std::vector<std::filesystem::path>& files) {
+  std::vector<DatasetFile> out;
+  for (const std::filesystem::path& f : files) out.push_back({f, {}});
+  return out;
+}
+
+}  // namespace
+
+Api::Api(const std::vector<std::filesystem::path>& files, const ApiOptions& options) : Api(named(files), options) {}
+
+Api::Api(const std::vector<DatasetFile>& files, const ApiOptions& options) : impl_(std::make_unique<Impl>(files, options)) {}
 
 Api::~Api() = default;
 

@@ -100,6 +100,7 @@ nlohmann::json header_stats(const nlohmann::json& s, bool coarse, double queue_m
   if (s.contains("render")) {
     const nlohmann::json& r = s["render"];
     j["render_ms"] = r.contains("raycast_ms") ? r["raycast_ms"] : r.value("march_ms", nlohmann::json(0.0));
+    if (r.contains("palette_ms")) j["palette_ms"] = r["palette_ms"];
   }
   return j;
 }

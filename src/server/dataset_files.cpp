@@ -40,17 +40,17 @@ std::string volume_names() {
 
 }  // namespace
 
-std::vector<fs::path> dataset_files(const std::vector<std::string>& arguments) {
-  std::vector<fs::path> files;
+std::vector<DatasetFile> dataset_files(const std::vector<std::string>& arguments) {
+  std::vector<DatasetFile> files;
   for (const std::string& argument : arguments) {
     const fs::path path(argument);
     if (io::is_url(argument)) {  // a remote .strata file: opening it checks it
-      files.push_back(path);
+      files.push_back({path, {}});
       continue;
     }
     if (!fs::exists(path)) throw Error(argument + ": no such file or folder");
     if (!fs::is_directory(path)) {
-      files.push_back(path);
+      files.push_back({path, {}});
       continue;
     }
     std::vector<fs::path> inside;
@@ -59,7 +59,7 @@ std::vector<fs::path> dataset_files(const std::vector<std::string>& arguments) {
     if (inside.empty())
       throw Error(argument + ": no volume files inside (" + volume_names() + ")");
     std::sort(inside.begin(), inside.end());
-    files.insert(files.end(), inside.begin(), inside.end());
+    for (const fs::path& file : inside) files.push_back({file, path});
   }
   return files;
 }

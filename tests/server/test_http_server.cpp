@@ -11,6 +11,7 @@
 
 #include <httplib.h>
 
+#include "server/live_server.hpp"
 #include "server/server_test_util.hpp"
 #include "strata/server/api.hpp"
 #include "strata/server/http_server.hpp"
@@ -21,40 +22,18 @@ namespace {
 using namespace testing;
 using namespace std::chrono_literals;
 
-// A server on a free loopback port, listening on its own thread until the object dies.
-class LiveServer {
- public:
-  explicit LiveServer(Api& api, ServerOptions options = {}) : server_(api, with_any_port(std::move(options))) {
-    port_ = server_.bind();
-    thread_ = std::thread([this] { server_.listen(); });
-    if (!eventually([this] { return server_.running(); })) ADD_FAILURE() << "the server did not start listening";
-  }
-  ~LiveServer() {
-    server_.stop();
-    thread_.join();
-  }
-  int port() const { return port_; }
-  httplib::Client client() const {
-    httplib::Client c("127.0.0.1", port_);
-    c.set_connection_timeout(5);
-    c.set_read_timeout(30);
-    return c;
-  }
-
- private:
-  static ServerOptions with_any_port(ServerOptions o) {
-    o.port = 0;
-    return o;
-  }
-  HttpServer server_;
-  int port_ = 0;
-  std::thread thread_;
-};
+// An HTTP client of `live` with generous time-outs.
+httplib::Client client(const LiveServer& live) {
+  httplib::Client c("127.0.0.1", live.port());
+  c.set_connection_timeout(5);
+  c.set_read_timeout(30);
+  return c;
+}
 
 TEST(ServerHttp, ServesTheApiOnLoopback) {
   const auto api = make_api();
   LiveServer live(*api);
-  httplib::Client c = live.client();
+  httplib::Client c = client(live);
   const auto list = c.Get("/api/datasets");
   ASSERT_TRUE(list) << httplib::to_string(list.error());
   EXPECT_EQ(list->status, 200);
@@ -100,7 +79,7 @@ TEST(ServerHttp, ServesTheApiOnLoopback) {
 TEST(ServerHttp, TraversalAttemptsAre404OnTheWire) {
   const auto api = make_api();
   LiveServer live(*api);
-  httplib::Client c = live.client();
+  httplib::Client c = client(live);
   c.set_url_encode(false);  // send the paths exactly as written
   for (const std::string path :
        {"/static/../CMakeLists.txt", "/static/%2e%2e/CMakeLists.txt", "/static/%2E%2E/%2E%2E/etc/passwd",
@@ -118,7 +97,7 @@ TEST(ServerHttp, LargeBodiesAreRefused) {
   ServerOptions options;
   options.max_body_bytes = 4096;
   LiveServer live(*api, options);
-  httplib::Client c = live.client();
+  httplib::Client c = client(live);
   const auto r = c.Post("/api/datasets/1/palette", std::string(10000, ' '), "application/json");
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 413);
@@ -179,7 +158,7 @@ TEST(ServerHttp, LoadOf1000RequestsFrom32Clients) {
   const auto api = make_api(options);
   LiveServer live(*api);
   {  // warm-up: the first frame of each dataset and the label lookup, so RSS starts settled
-    httplib::Client c = live.client();
+    httplib::Client c = client(live);
     for (const char* path : {"/api/datasets/0/render?w=64&h=48", "/api/datasets/1/render?w=40&h=30",
                              "/api/datasets/2/render?w=48&h=36", "/api/datasets/1/query?box=0,0,0,2,2,2"})
       ASSERT_TRUE(c.Get(path));
@@ -192,7 +171,7 @@ TEST(ServerHttp, LoadOf1000RequestsFrom32Clients) {
   std::vector<std::thread> clients;
   for (int id = 0; id < kClients; ++id)
     clients.emplace_back([&, id] {
-      httplib::Client c = live.client();
+      httplib::Client c = client(live);
       for (int i = next++; i < kRequests; i = next++) {
         const std::string target = load_target(id, i);
         const auto r = c.Get(target);
@@ -217,7 +196,7 @@ TEST(ServerHttp, LoadOf1000RequestsFrom32Clients) {
   EXPECT_EQ(ok + superseded + busy + failed, kRequests);
   EXPECT_GT(ok, kRequests / 2) << "most requests are not frames and never wait for the queue";
   EXPECT_LT(growth, std::int64_t(kCacheBytes + kMargin)) << "memory stays within the cache budget plus a margin";
-  httplib::Client c = live.client();
+  httplib::Client c = client(live);
   EXPECT_EQ(c.Get("/api/datasets")->status, 200) << "still serving";
 }
 

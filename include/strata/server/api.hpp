@@ -17,6 +17,7 @@
 /// one translation unit (DESIGN.md, "Known traps").
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -47,6 +48,15 @@ struct ApiOptions {
   /// 1..100: uint8 images in the precomputed view as `jpeg` chunks of this quality
   /// (`--precomputed-jpeg`); 0: `raw`. Other sample types and segmentations keep their encoding.
   int precomputed_jpeg_quality = 0;
+  /// Told of each file found in a folder that does not open (DatasetFile::folder), with the
+  /// reason, as it is skipped; such files are left out rather than stopping the server.
+  std::function<void(const std::filesystem::path& file, const std::string& reason)> on_skip;
+};
+
+/// @brief A file to serve, and the folder argument it was found in (empty: named itself).
+struct DatasetFile {
+  std::filesystem::path path;
+  std::filesystem::path folder;
 };
 
 class Api {
@@ -54,6 +64,11 @@ class Api {
   /// @brief Opens every file (dataset i = files[i]). Throws Error naming a file that cannot be
   /// opened, ParameterError("files") when there is none.
   explicit Api(const std::vector<std::filesystem::path>& files, const ApiOptions& options = {});
+  /// @brief Opens every file in order; dataset ids count the files that open. A file found in
+  /// a folder that does not open is skipped (ApiOptions::on_skip hears of it); one named itself
+  /// throws Error naming it, as does a list of which nothing opens ("nothing to serve").
+  /// ParameterError("files") when the list is empty.
+  explicit Api(const std::vector<DatasetFile>& files, const ApiOptions& options = {});
   ~Api();
   Api(const Api&) = delete;
   Api& operator=(const Api&) = delete;
@@ -77,8 +92,8 @@ class Api {
 /// @brief The dataset files named by command-line arguments, in order: a file as it is, a
 /// folder as the volume files directly inside it, sorted by name (.strata, .nrrd, .nhdr, .nii,
 /// .nii.gz, .tif, .tiff, and .raw with a FILE.raw.json or FILE.json sidecar; other files and
-/// hidden ones are skipped). Throws Error for an argument that does not exist or a folder
-/// without volumes.
-std::vector<std::filesystem::path> dataset_files(const std::vector<std::string>& arguments);
+/// hidden ones are skipped), each with the folder it was found in. Throws Error for an argument
+/// that does not exist or a folder without volumes.
+std::vector<DatasetFile> dataset_files(const std::vector<std::string>& arguments);
 
 }  // namespace strata::server
