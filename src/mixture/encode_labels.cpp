@@ -162,7 +162,7 @@ nlohmann::json add_normals(const Volume& labels, const std::filesystem::path& ou
   inner.measure_error = false;
   encode_labels(normals.codes, nested.path(), inner);
   const io::MappedFile bytes(nested.path());
-  writer.add_section("normals", std::span(bytes.data(), std::size_t(bytes.size())));
+  writer.add_container_section("normals", std::span(bytes.data(), std::size_t(bytes.size())));
   rep.normals_bytes = bytes.size();
   rep.normals_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   const NormalOptions& o = options.normal_options;

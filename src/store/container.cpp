@@ -113,7 +113,7 @@ bool known_kind(PayloadKind k) { return find_payload_kind(std::uint8_t(k)) != nu
 // Appends value(e) of the entries (with payload_only, of those with payload bytes) as one column
 // of T, split into byte planes.
 template <class T, class Value>
-void put_column(std::vector<std::byte>& out, const std::vector<BrickEntry>& entries, bool payload_only, Value&& value) {
+void put_column(std::vector<std::byte>& out, std::span<const BrickEntry> entries, bool payload_only, Value&& value) {
   std::vector<T> column;
   column.reserve(entries.size());
   for (const BrickEntry& e : entries)
@@ -124,10 +124,8 @@ void put_column(std::vector<std::byte>& out, const std::vector<BrickEntry>& entr
   split_byte_planes(bytes, std::span(out).subspan(at), sizeof(T));
 }
 
-// The stored compressed index: u64 frame size, then the zstd frame of the columns.
-std::vector<std::byte> encode_compressed_index(const std::vector<BrickEntry>& entries) {
-  std::vector<std::byte> columns;
-  columns.reserve(entries.size() * (kColumnBytesPerEntry + kColumnBytesPerPayload));
+// The columns every entry has (1-9 of docs/format.md): what bricks_check_value covers.
+void put_entry_columns(std::vector<std::byte>& columns, std::span<const BrickEntry> entries) {
   put_column<std::uint8_t>(columns, entries, false, [](const BrickEntry& e) { return e.key.level; });
   put_column<std::uint8_t>(columns, entries, false, [](const BrickEntry& e) { return std::uint8_t(e.kind); });
   put_column<std::int32_t>(columns, entries, false, [](const BrickEntry& e) { return e.key.x; });
@@ -137,6 +135,13 @@ std::vector<std::byte> encode_compressed_index(const std::vector<BrickEntry>& en
   put_column<float>(columns, entries, false, [](const BrickEntry& e) { return e.min; });
   put_column<float>(columns, entries, false, [](const BrickEntry& e) { return e.max; });
   put_column<std::uint64_t>(columns, entries, false, [](const BrickEntry& e) { return e.histogram; });
+}
+
+// The stored compressed index: u64 frame size, then the zstd frame of the columns.
+std::vector<std::byte> encode_compressed_index(const std::vector<BrickEntry>& entries) {
+  std::vector<std::byte> columns;
+  columns.reserve(entries.size() * (kColumnBytesPerEntry + kColumnBytesPerPayload));
+  put_entry_columns(columns, entries);
   std::uint64_t end = kHeaderSize;  // where the previous brick payload ended
   put_column<std::uint64_t>(columns, entries, true, [&end](const BrickEntry& e) {
     const std::uint64_t expected = packed_offset(end, e.kind);
@@ -214,6 +219,19 @@ std::uint32_t section_check_value(std::span<const std::byte> bytes, const std::s
   return crc32c(length.data(), length.size(), crc);
 }
 
+std::uint32_t container_section_check_value(std::span<const std::byte> head, const std::string& name, std::uint64_t size) {
+  std::array<std::byte, 8> length{};
+  store_field(length, 0, size);
+  return crc32c(length.data(), length.size(), section_check_value(head.first(std::min(head.size(), kContainerSectionHead)), name));
+}
+
+std::uint32_t bricks_check_value(std::span<const BrickEntry> entries) {
+  std::vector<std::byte> columns;
+  columns.reserve(entries.size() * kColumnBytesPerEntry);
+  put_entry_columns(columns, entries);
+  return crc32c(columns.data(), columns.size());
+}
+
 std::string brick_name(const BrickKey& k) { return fmt::format("brick (level {}, {},{},{})", int(k.level), k.x, k.y, k.z); }
 
 const PayloadKindTraits& payload_kind_traits(PayloadKind kind) {
@@ -273,6 +291,13 @@ void ContainerWriter::add_section(const std::string& name, std::span<const std::
   sections_.emplace_back(name, s);
 }
 
+void ContainerWriter::add_container_section(const std::string& name, std::span<const std::byte> container) {
+  Section s{0, container.size(), container_section_check_value(container, name, container.size()), true};
+  std::lock_guard lock(mutex_);
+  s.offset = append(container, true);
+  sections_.emplace_back(name, s);
+}
+
 std::uint64_t ContainerWriter::bytes_written() const {
   std::lock_guard lock(mutex_);
   return position_;
@@ -281,8 +306,12 @@ std::uint64_t ContainerWriter::bytes_written() const {
 std::uint64_t ContainerWriter::finish(nlohmann::json metadata) {
   std::lock_guard lock(mutex_);
   nlohmann::json sections = nlohmann::json::object();
-  for (const auto& [name, s] : sections_) sections[name] = {{"offset", s.offset}, {"size", s.size}, {"crc32c", s.crc32c}};
+  for (const auto& [name, s] : sections_) {
+    sections[name] = {{"offset", s.offset}, {"size", s.size}, {"crc32c", s.crc32c}};
+    if (s.container) sections[name]["container"] = true;
+  }
   metadata["sections"] = sections;
+  metadata["bricks_crc32c"] = bricks_check_value(entries_);
   const std::string text = metadata.dump();
   Header h;
   h.metadata_size = text.size();
@@ -327,14 +356,34 @@ ContainerReader::ContainerReader(const std::filesystem::path& path)
 
 ContainerReader::ContainerReader(const ContainerReader& outer, const std::string& section, std::string name)
     : path_(outer.path_), name_(std::move(name)) {
-  const auto it = outer.sections_.find(section);
-  if (it == outer.sections_.end()) throw FormatError(outer.name_, "sections", "no section named '" + section + "'");
-  // The outer reader checked that the range lies inside the file; the member's own checksums
-  // (header, metadata, index, every payload) protect its bytes, so the section's check value,
-  // which would read every byte of the member, is checked only when the
-  // outer reader's section() is asked for it.
-  source_ = io::byte_subrange(outer.source_, it->second.offset, it->second.size, name_);
+  // The outer reader checked that the range lies inside the file, and checks here that the
+  // section is the one its name says; the member's own checksums (header, metadata, index, every
+  // payload, its sections) protect the rest of its bytes.
+  const Section& s = outer.container_section(section);
+  source_ = io::byte_subrange(outer.source_, s.offset, s.size, name_);
   open();
+}
+
+// The section `name` verified as one holding a container, before it is opened in place. Format
+// 1.6: it is marked as a container and its check value covers its header (whose own checksum
+// covers the container's metadata and index checksums, and through them everything else), its
+// name and its size, so only the header is read. Before 1.6 its check value covers all its bytes.
+const Section& ContainerReader::container_section(const std::string& name) const {
+  const auto it = sections_.find(name);
+  if (it == sections_.end()) throw FormatError(name_, "sections", "no section named '" + name + "'");
+  const Section& s = it->second;
+  if (minor_ < kBoundIndexMinor) {
+    section(name);
+    return s;
+  }
+  if (!s.container)
+    throw FormatError(name_, "metadata.sections." + name + ".container",
+                      fmt::format("missing: section {} holds a whole .strata file, and a format 1.{} file marks such a "
+                                  "section with \"container\": true (its check value covers the container's header)",
+                                  name, minor_));
+  const io::SharedBytes head = read_range(s.offset, std::min<std::uint64_t>(s.size, kContainerSectionHead), "section " + name);
+  check_section_value(name, s, container_section_check_value(head, name, s.size));
+  return s;
 }
 
 // The writer puts the metadata and then the index at the end of the file (format.md), so one
@@ -406,6 +455,7 @@ void ContainerReader::open() {
   }
   entries_ = std::move(entries);
   read_sections();
+  if (minor_ >= kBoundIndexMinor) check_bricks();
   tail_ = {};  // payloads and sections are read from the source, with its cache
 }
 
@@ -435,8 +485,26 @@ void ContainerReader::check_entry(const BrickEntry& e) const {
                       fmt::format("a constant brick needs min == max (its value), got min {} and max {}", e.min, e.max));
 }
 
-// "sections": {"<name>": {"offset": u64, "size": u64, "crc32c": u32}, ...}, every range inside
-// the file.
+// Format 1.6: metadata.bricks_crc32c is the check value of the index's entries without their
+// offsets and check values. Those are covered by the payloads' check values, which cover the
+// metadata's checksum, so an edited min, max or histogram (or any key, kind or size) fails here,
+// and fixing bricks_crc32c too fails every payload.
+void ContainerReader::check_bricks() const {
+  const MetadataField field{name_, "metadata.bricks_crc32c"};
+  const auto it = metadata_.find("bricks_crc32c");
+  if (it == metadata_.end())
+    field.fail(fmt::format("missing (a format 1.{} file keeps the check value of its brick index here)", minor_));
+  const auto stored = std::uint32_t(json_unsigned(*it, field, UINT32_MAX));
+  const std::uint32_t computed = bricks_check_value(entries_);
+  if (computed != stored)
+    throw FormatError(name_, "index",
+                      fmt::format("the bricks' keys, kinds, sizes, min, max and histograms give check value {:#010x}, but "
+                                  "metadata.bricks_crc32c is {:#010x} (the index or the metadata was altered)",
+                                  computed, stored));
+}
+
+// "sections": {"<name>": {"offset": u64, "size": u64, "crc32c": u32, "container": bool (1.6,
+// optional)}, ...}, every range inside the file.
 void ContainerReader::read_sections() {
   const auto it = metadata_.find("sections");
   if (it == metadata_.end()) return;
@@ -447,6 +515,7 @@ void ContainerReader::read_sections() {
     Section sec{json_unsigned(json_member(s, "offset", at), at / "offset"), json_unsigned(json_member(s, "size", at), at / "size"),
                 std::uint32_t(json_unsigned(json_member(s, "crc32c", at), at / "crc32c", UINT32_MAX))};
     check_range(sec.offset, sec.size, "section " + name);
+    if (minor_ >= kBoundIndexMinor && s.contains("container")) sec.container = json_bool(s["container"], at / "container");
     sections_[name] = sec;
   }
 }
@@ -558,14 +627,25 @@ bool ContainerReader::has_section(const std::string& name) const { return sectio
 io::SharedBytes ContainerReader::section(const std::string& name) const {
   auto it = sections_.find(name);
   if (it == sections_.end()) throw FormatError(name_, "sections", "no section named '" + name + "'");
-  io::SharedBytes bytes = read_range(it->second.offset, it->second.size, "section " + name);
-  const bool bound = minor_ >= kBoundChecksumsMinor;
-  if ((bound ? section_check_value(bytes, name) : crc32c(bytes.data(), bytes.size())) != it->second.crc32c)
-    throw FormatError(name_, "section " + name,
-                      bound ? "checksum mismatch (the section is corrupted, or its entry in metadata.sections belongs "
-                              "to another section: the checksum covers the bytes and the name)"
-                            : "checksum mismatch (file corrupted)");
+  const Section& s = it->second;
+  io::SharedBytes bytes = read_range(s.offset, s.size, "section " + name);
+  check_section_value(name, s,
+                      s.container                      ? container_section_check_value(bytes, name, s.size)
+                      : minor_ >= kBoundChecksumsMinor ? section_check_value(bytes, name)
+                                                       : crc32c(bytes.data(), bytes.size()));
   return bytes;
+}
+
+// `computed` is the check value of section `name` by the rule of its kind and this file's version.
+void ContainerReader::check_section_value(const std::string& name, const Section& s, std::uint32_t computed) const {
+  if (computed == s.crc32c) return;
+  const char* covers = s.container                      ? "the header of the container it holds, its name and its size"
+                       : minor_ >= kBoundChecksumsMinor ? "its bytes and its name"
+                                                        : "its bytes";
+  throw FormatError(name_, "section " + name,
+                    fmt::format("checksum mismatch: metadata.sections.{}.crc32c is {:#010x}, expected {:#010x} from {} (the "
+                                "section is damaged or replaced, or its entry belongs to another section)",
+                                name, s.crc32c, computed, covers));
 }
 
 std::uint64_t ContainerReader::file_size() const { return size_; }

@@ -73,7 +73,7 @@ void write_volume_set(const std::filesystem::path& output, const std::vector<std
     if (is_volume_set(member))
       throw ParameterError("members", members[i].string() + ": a member of a volume set cannot be a volume set itself");
     const io::MappedFile bytes(members[i]);
-    writer.add_section(member_section(std::int64_t(i)), {bytes.data(), std::size_t(bytes.size())});
+    writer.add_container_section(member_section(std::int64_t(i)), {bytes.data(), std::size_t(bytes.size())});
   }
   writer.finish({{"codec", kVolumeSetCodec}, {"volume_count", members.size()}, {"source", source}});
 }

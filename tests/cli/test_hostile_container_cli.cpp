@@ -3,6 +3,9 @@
 // doubled file name or a crash.
 #include <gtest/gtest.h>
 
+#include <cstdint>
+#include <fstream>
+
 #include <nlohmann/json.hpp>
 
 #include "store/forge.hpp"
@@ -33,6 +36,28 @@ class CliHostile : public ::testing::Test {
   static void TearDownTestSuite() { delete dir_; }
   static fs::path scalar() { return *dir_ / "p.strata"; }
   static fs::path labels() { return *dir_ / "v.strata"; }
+
+  // A volume set of three different 12x10x8 time points (a 4-D NRRD written here), made once.
+  static fs::path volume_set() {
+    const fs::path set = *dir_ / "set.strata";
+    if (fs::exists(set)) return set;
+    const fs::path series = *dir_ / "series.nrrd";
+    {
+      std::ofstream out(series, std::ios::binary);
+      out << "NRRD0004\ntype: uint16\ndimension: 4\nsizes: 12 10 8 3\nkinds: domain domain domain list\n"
+             "endian: little\nencoding: raw\n\n";
+      for (int t = 0; t < 3; ++t)
+        for (int z = 0; z < 8; ++z)
+          for (int y = 0; y < 10; ++y)
+            for (int x = 0; x < 12; ++x) {
+              const auto v = std::uint16_t(1000 * t + (t + 1) * (7 * x + 3 * y) + 11 * z);
+              out.put(char(v & 0xff)).put(char(v >> 8));
+            }
+    }
+    std::string out;
+    EXPECT_EQ(run_command(strata_cmd("compress " + q(series) + " -o " + q(set) + " --all-volumes"), &out), 0) << out;
+    return set;
+  }
 
   // A copy of `from` with its metadata edited and re-checksummed in place.
   static fs::path edited(const fs::path& from, const std::string& name, const std::function<void(nlohmann::json&)>& edit) {
@@ -135,5 +160,49 @@ TEST_F(CliHostile, TruncatedFilesFailCleanly) {
       const std::string out = fails("info " + q(p));
       EXPECT_TRUE(has(out, "error: " + p.string() + ": ")) << size << ": " << out;
     }
+  }
+}
+
+// Sections volume_1 and volume_2 of a volume set swapped in the metadata (its checksum fixed):
+// `decompress --volume 1` wrote volume 2 and exited 0.
+TEST_F(CliHostile, DecompressRefusesSwappedVolumes) {
+  const fs::path p = edited(volume_set(), "swapped.strata",
+                            [](nlohmann::json& m) { std::swap(m["sections"]["volume_1"], m["sections"]["volume_2"]); });
+  for (const std::string volume : {"1", "2"}) {
+    const std::string out = fails("decompress " + q(p) + " --volume " + volume + " -o " + q(*dir_ / "v.nrrd"));
+    EXPECT_TRUE(has(out, "error: " + p.string() + ": section volume_" + volume + ": checksum mismatch")) << out;
+  }
+  std::string out;
+  EXPECT_EQ(run_command(strata_cmd("decompress " + q(p) + " --volume 0 -o " + q(*dir_ / "v.nrrd")), &out), 0) << out;
+}
+
+// A `normals` section with check value 0 was never compared: `render --lighting normals` lit the
+// frame with it.
+TEST_F(CliHostile, RenderRefusesANormalsSectionWithChecksumZero) {
+  const fs::path lit = *dir_ / "lit.strata";
+  std::string out;
+  ASSERT_EQ(run_command(strata_cmd("labels encode " + q(*dir_ / "v.nrrd") + " -o " + q(lit) + " --normals --no-error"), &out),
+            0)
+      << out;
+  const fs::path p = edited(lit, "normals0.strata", [](nlohmann::json& m) { m["sections"]["normals"]["crc32c"] = 0; });
+  out = fails("render " + q(p) + " --size 32x24 --lighting normals -o " + q(*dir_ / "n.png"));
+  EXPECT_TRUE(has(out, "error: " + p.string() + ": section normals: checksum mismatch")) << out;
+  EXPECT_FALSE(fs::exists(*dir_ / "n.png"));
+}
+
+// The index's min, max and histogram of a brick edited (index and header checksums fixed): they
+// were under no check value, and the render changed (culling and ranges follow them).
+TEST_F(CliHostile, EditedBrickRangesAreRefused) {
+  const fs::path p = *dir_ / "ranges.strata";
+  fs::copy_file(scalar(), p, fs::copy_options::overwrite_existing);
+  const std::size_t n = strata::store::ContainerReader(scalar()).bricks().size();
+  forge::rewrite_index_columns(p, [n](std::vector<std::byte>& c) {
+    const std::size_t max = 26 * n, histogram = 30 * n;  // columns 8 and 9, byte planes
+    c[max + 3 * n] ^= std::byte{0x01};                   // brick 0's max, its high byte
+    for (std::size_t plane = 0; plane < 8; ++plane) c[histogram + plane * n] = std::byte{0xff};
+  });
+  for (const std::string& command : {std::string("info "), "render --size 32x24 -o " + q(*dir_ / "r.png") + " "}) {
+    const std::string out = fails(command + q(p));
+    EXPECT_TRUE(has(out, "error: " + p.string() + ": index: ") && has(out, "metadata.bricks_crc32c")) << command << out;
   }
 }

@@ -127,8 +127,9 @@ inline void rewrite_index_columns(const std::filesystem::path& path, const std::
   write_file(path, bytes);
 }
 
-/// Rewrites a file written now (format 1.3, compressed index) as a 1.2 writer wrote it: payload
-/// and section checksums by the old rule (the CRC-32C of their bytes alone), minor version 2.
+/// Rewrites a file written now (format 1.6, compressed index) as a 1.2 writer wrote it: payload
+/// and section checksums by the old rule (the CRC-32C of their bytes alone), no
+/// metadata.bricks_crc32c and no section marked as a container, minor version 2.
 inline void downgrade_to_1_2(const std::filesystem::path& path) {
   std::vector<std::uint32_t> crcs;  // the crc32c column: entries with payload bytes, in index order
   nlohmann::json m;
@@ -140,9 +141,11 @@ inline void downgrade_to_1_2(const std::filesystem::path& path) {
         crcs.push_back(store::crc32c(p.data(), p.size()));
       }
     m = r.metadata();
+    m.erase("bricks_crc32c");
     for (auto& [name, s] : m["sections"].items()) {
       const auto b = r.section(name);
       s["crc32c"] = store::crc32c(b.data(), b.size());
+      s.erase("container");
     }
   }
   replace_metadata_text(path, m.dump());
@@ -159,10 +162,11 @@ struct Brick {
   store::BrickEntry entry;
   std::vector<std::byte> payload;
 };
-/// One section: name and bytes.
+/// One section: name, bytes, and whether it holds a whole container (format 1.6).
 struct Section {
   std::string name;
   std::vector<std::byte> bytes;
+  bool container = false;
 };
 
 /// Writes `out` from `in` through ContainerWriter, the metadata changed by `edit`, the bricks and
@@ -184,16 +188,17 @@ inline void rewrite(const std::filesystem::path& in, const std::filesystem::path
     m = r.metadata();
     for (const auto& [name, s] : m["sections"].items()) {
       const auto b = r.section(name);
-      sections.push_back({name, std::vector<std::byte>(b.begin(), b.end())});
+      sections.push_back({name, std::vector<std::byte>(b.begin(), b.end()), s.value("container", false)});
     }
   }
   m.erase("sections");
+  m.erase("bricks_crc32c");
   if (edit) edit(m);
   if (edit_bricks) edit_bricks(bricks);
   if (edit_sections) edit_sections(sections);
   store::ContainerWriter w(out);
   for (const Brick& b : bricks) w.add_brick(b.entry, b.payload);
-  for (const Section& s : sections) w.add_section(s.name, s.bytes);
+  for (const Section& s : sections) s.container ? w.add_container_section(s.name, s.bytes) : w.add_section(s.name, s.bytes);
   w.finish(m);
 }
 

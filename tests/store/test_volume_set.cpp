@@ -18,6 +18,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using test::error_of;
+namespace forge = strata::test::forge;
 
 // A container of `bricks` payload bricks of different kinds and sizes (aligned and packed
 // payloads, so a member's offsets are exercised both ways), and one section.
@@ -113,8 +114,74 @@ TEST_F(StoreVolumeSet, ACorruptMemberIsNamedByItsVolume) {
   const std::string message = error_of([&] { opened->payload(opened->bricks().front()); });
   EXPECT_NE(message.find("bad.strata (volume 1): brick (level 0, 0,0,0)"), std::string::npos) << message;
   EXPECT_NE(message.find("payload checksum mismatch"), std::string::npos) << message;
-  // The outer section's check value covers the same byte.
+  // The outer section's check value covers the member's header, which roots the payload's check
+  // value: a byte of the header flipped fails it, when the member is opened or read whole.
+  bytes[at] ^= std::byte{1};
+  bytes[std::size_t(outer.metadata()["sections"]["volume_1"]["offset"].get<std::uint64_t>() + 20)] ^= std::byte{1};
+  test::io::write_bytes(bad, bytes);
+  EXPECT_NE(error_of([&] { open_volume(bad, 1); }).find("bad.strata: section volume_1: checksum mismatch"), std::string::npos);
   EXPECT_THROW(ContainerReader(bad).section("volume_1"), FormatError);
+}
+
+// Sections volume_0 and volume_1 swapped in metadata.sections, only the metadata checksum fixed:
+// `--volume 1` read volume 0, silently, while members were not checked against their sections.
+TEST_F(StoreVolumeSet, SwappedMembersAreRefusedNamingTheSection) {
+  forge::edit_metadata_in_place(set, [](nlohmann::json& m) { std::swap(m["sections"]["volume_0"], m["sections"]["volume_1"]); });
+  for (const int i : {0, 1}) {
+    const std::string message = error_of([&] { open_volume(set, i); });
+    EXPECT_NE(message.find(set.string() + ": section volume_" + std::to_string(i) + ": checksum mismatch"), std::string::npos)
+        << message;
+    EXPECT_NE(message.find("belongs to another section"), std::string::npos) << message;
+  }
+}
+
+// A member's check value of 0 (a forger's "no checksum") was accepted: nothing compared it.
+TEST_F(StoreVolumeSet, AMemberCheckValueOfZeroIsRefused) {
+  forge::edit_metadata_in_place(set, [](nlohmann::json& m) { m["sections"]["volume_1"]["crc32c"] = 0; });
+  const std::string message = error_of([&] { open_volume(set, 1); });
+  EXPECT_NE(message.find(set.string() + ": section volume_1: checksum mismatch"), std::string::npos) << message;
+  EXPECT_NE(message.find("0x00000000"), std::string::npos) << message;
+  expect_same_container(*open_volume(set, 0), ContainerReader(a));
+}
+
+// Member 0's bytes replaced by another valid container of the same size: every check of the
+// member passes, the section's check value does not.
+TEST_F(StoreVolumeSet, AMemberReplacedByAnotherContainerIsRefused) {
+  const fs::path other = dir / "other.strata";
+  write_member(other, 3, 7);
+  const auto replacement = test::io::read_bytes(other);
+  ASSERT_EQ(replacement.size(), fs::file_size(a));
+  auto bytes = test::io::read_bytes(set);
+  const auto offset = ContainerReader(set).metadata()["sections"]["volume_0"]["offset"].get<std::size_t>();
+  std::copy(replacement.begin(), replacement.end(), bytes.begin() + std::ptrdiff_t(offset));
+  test::io::write_bytes(set, bytes);
+  EXPECT_NO_THROW(ContainerReader{set});
+  const std::string message = error_of([&] { open_volume(set, 0); });
+  EXPECT_NE(message.find(set.string() + ": section volume_0: checksum mismatch"), std::string::npos) << message;
+  expect_same_container(*open_volume(set, 1), ContainerReader(b));
+}
+
+// A set written by format 1.5 (fuzz seed of then: two members of one 10x9x8 series) still opens,
+// and its members are checked against their sections' check values of then (the whole bytes).
+TEST(StoreVolumeSetV15, OpensAndChecksItsMembers) {
+  test::TempDir dir;
+  const fs::path old = dir / "old.strata";
+  fs::copy_file(test::test_data("volume_set_v1_5.strata"), old);
+  ASSERT_EQ(ContainerReader(old).version_minor(), 5u);
+  for (const int i : {0, 1}) {
+    const auto member = open_volume(old, i);
+    for (const BrickEntry& e : member->bricks()) member->payload(e);
+  }
+  forge::edit_metadata_in_place(old, [](nlohmann::json& m) { std::swap(m["sections"]["volume_0"], m["sections"]["volume_1"]); });
+  std::string message = error_of([&] { open_volume(old, 1); });
+  EXPECT_NE(message.find(old.string() + ": section volume_1: checksum mismatch"), std::string::npos) << message;
+  forge::edit_metadata_in_place(old, [](nlohmann::json& m) {
+    std::swap(m["sections"]["volume_0"], m["sections"]["volume_1"]);
+    m["sections"]["volume_0"]["crc32c"] = 0;
+  });
+  EXPECT_NO_THROW(open_volume(old, 1));
+  message = error_of([&] { open_volume(old, 0); });
+  EXPECT_NE(message.find(old.string() + ": section volume_0: checksum mismatch"), std::string::npos) << message;
 }
 
 TEST_F(StoreVolumeSet, ForgedSetsAreRefusedByField) {
@@ -122,7 +189,7 @@ TEST_F(StoreVolumeSet, ForgedSetsAreRefusedByField) {
     ContainerWriter w(path);
     for (std::size_t i = 0; i < members.size(); ++i) {
       const auto bytes = test::io::read_bytes(members[i]);
-      w.add_section("volume_" + std::to_string(i), bytes);
+      w.add_container_section("volume_" + std::to_string(i), bytes);
     }
     w.finish(metadata);
   };

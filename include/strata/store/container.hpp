@@ -7,7 +7,10 @@
 // fixed 64-byte-per-entry index. Since format 1.3 a payload's checksum also covers its index
 // key, its kind and the metadata's checksum, and a section's covers its name
 // (payload_check_value, section_check_value), so a swapped index entry or section, or metadata
-// edited under the payloads, fails the check.
+// edited under the payloads, fails the check. Since format 1.6 the metadata holds the check value
+// of the index's keys, kinds, sizes, min, max and histograms (bricks_check_value), and a section
+// that holds a whole container (a volume set member, the labels' normals) is checked through that
+// container's header whenever it is opened (container_section_check_value).
 #include <cstdint>
 #include <filesystem>
 #include <memory>
@@ -25,9 +28,15 @@
 namespace strata::store {
 
 inline constexpr std::uint16_t kFormatVersionMajor = 1;
-inline constexpr std::uint16_t kFormatVersionMinor = 5;
+inline constexpr std::uint16_t kFormatVersionMinor = 6;
 /// The first minor version whose checksums are bound to keys, kinds and names.
 inline constexpr std::uint16_t kBoundChecksumsMinor = 3;
+/// The first minor version with metadata.bricks_crc32c and sections marked as containers.
+inline constexpr std::uint16_t kBoundIndexMinor = 6;
+/// Bytes of a section holding a container that its check value covers: the container's header
+/// without its own checksum (bytes 0-59, which that checksum covers). Not all 64: a CRC-32C
+/// continued over a block and then over that block's own CRC-32C gives one value for every block.
+inline constexpr std::size_t kContainerSectionHead = 60;
 inline constexpr std::size_t kHeaderSize = 64;
 /// Bytes of one entry of the 1.0/1.1 index, and the header's `index_entry_size` in every version
 /// (the logical entry; a compressed index stores far fewer).
@@ -73,10 +82,26 @@ struct BrickEntry {
   std::uint64_t histogram = 0;
 };
 
-// A named blob outside the brick index (e.g. global factor matrices, a mixture graph).
+/// @brief Format 1.6's check value of the brick index, stored as metadata.bricks_crc32c: the
+/// CRC-32C of the first nine columns of the compressed index (level, kind, x, y, z, size, min,
+/// max, histogram: byte planes, before compression) of `entries`, i.e. everything but offsets and
+/// check values. The payload check values cover the metadata's checksum, so an index entry's
+/// min, max or histogram (which no payload check value covers) cannot change unnoticed.
+std::uint32_t bricks_check_value(std::span<const BrickEntry> entries);
+
+/// @brief Format 1.6's check value of a section that holds a whole container: section_check_value
+/// over its first kContainerSectionHead bytes (`head`: the container's header, which roots every
+/// other check of it; all of them in a shorter section), continued over the section's size (u64).
+/// `head` may be longer; only its first kContainerSectionHead bytes count.
+std::uint32_t container_section_check_value(std::span<const std::byte> head, const std::string& name, std::uint64_t size);
+
+// A named blob outside the brick index (e.g. global factor matrices, a mixture graph). A
+// `container` section (format 1.6) holds a whole .strata file: a volume set member, the labels'
+// normals graph; its check value is container_section_check_value.
 struct Section {
   std::uint64_t offset = 0, size = 0;
   std::uint32_t crc32c = 0;
+  bool container = false;
 };
 
 // Streams payloads into `<path>.tmp`; finish() writes metadata, the compressed index (format
@@ -94,8 +119,13 @@ class ContainerWriter {
   /// gets offset 0. finish() binds the checksum to the key, the kind and the metadata.
   void add_brick(BrickEntry entry, std::span<const std::byte> payload);
   void add_section(const std::string& name, std::span<const std::byte> payload);
+  /// @brief Appends `container`, the bytes of a whole .strata file, as a section that readers
+  /// open in place (ContainerReader's section constructor): marked `"container": true` in
+  /// metadata.sections, with the check value of its header, name and size.
+  void add_container_section(const std::string& name, std::span<const std::byte> container);
   std::uint64_t bytes_written() const;
-  // `metadata` gets a "sections" object added; returns the final file size.
+  // `metadata` gets a "sections" object and "bricks_crc32c" (bricks_check_value of the index)
+  // added; returns the final file size.
   std::uint64_t finish(nlohmann::json metadata);
 
  private:
@@ -110,7 +140,8 @@ class ContainerWriter {
 // Opens a container through an io::ByteSource (a memory-mapped local file, or an http(s) URL read
 // with range requests) and validates header, metadata and index: the metadata must be a JSON
 // object whose "sections" entries are well-formed and inside the file; index entries must have a
-// known kind, a unique key and a range inside the file, and constant bricks no payload bytes.
+// known kind, a unique key and a range inside the file, and constant bricks no payload bytes;
+// since format 1.6 the index must match metadata.bricks_crc32c.
 // Opening reads the header, the metadata and the index only (the last two with one read, as the
 // writer puts them together at the tail). Payload checksums are verified on every payload()
 // call; a mismatch raises a FormatError naming the brick.
@@ -119,11 +150,14 @@ class ContainerReader {
   /// @brief Opens `path`, a local file or an `http://`/`https://` URL (io::open_byte_source).
   explicit ContainerReader(const std::filesystem::path& path);
   /// @brief Opens the container stored in section `section` of `outer` (a member of a volume
-  /// set, store/volume_set.hpp), sharing its mapping; offsets are relative to the section's
-  /// start. Every check of the path constructor applies, within the section's bytes. The
-  /// section's own check value is not computed (it would read every byte of the member; the
-  /// member's header, metadata, index and payloads carry their own). Messages name the file as
-  /// `name`.
+  /// set, store/volume_set.hpp; the labels' normals graph), sharing its mapping; offsets are
+  /// relative to the section's start. The section's check value is verified first: in a file of
+  /// format 1.6 the section must be marked as a container and its check value covers the
+  /// container's header (which roots the container's own checks), its name and its size; in an
+  /// older file it covers the section's bytes, which are then read once. So a section swapped
+  /// with another, a check value of 0 or a replaced container is a FormatError naming `outer`
+  /// and the section. Then every check of the path constructor applies, within the section's
+  /// bytes. Messages name the file as `name`.
   ContainerReader(const ContainerReader& outer, const std::string& section, std::string name);
   ~ContainerReader();
 
@@ -141,7 +175,8 @@ class ContainerReader {
   /// in as few requests as is cheap; a local one does nothing.
   void prefetch(std::span<const BrickEntry* const> entries) const;
   bool has_section(const std::string& name) const;
-  /// @brief The section's bytes, checksum verified.
+  /// @brief The section's bytes, checksum verified (for a container section of format 1.6, its
+  /// header, name and size; the container's own checks cover the rest when it is opened).
   io::SharedBytes section(const std::string& name) const;
   /// @brief Where the bytes come from (its transfer_stats() count a remote file's requests).
   const io::ByteSource& source() const { return *source_; }
@@ -161,6 +196,9 @@ class ContainerReader {
   io::SharedBytes read_range(std::uint64_t offset, std::uint64_t size, const std::string& what) const;
   void read_tail(std::uint64_t metadata_offset, std::uint64_t index_offset, std::uint64_t count);
   void read_sections();
+  void check_bricks() const;
+  const Section& container_section(const std::string& name) const;
+  void check_section_value(const std::string& name, const Section& s, std::uint32_t computed) const;
   void check_entry(const BrickEntry& e) const;
   void check_index_fits_memory(std::uint64_t count) const;
   std::vector<BrickEntry> read_plain_index(std::uint64_t offset, std::uint64_t count, std::uint32_t crc);

@@ -5,8 +5,9 @@
 /// member is a complete `.strata` container, stored byte for byte in section `volume_<i>` of an
 /// outer container that has no bricks and whose metadata says `"codec": "volume-set"`. Members
 /// share nothing else: each has its own header, metadata, index, codec, value range and
-/// checksums, so a member opens exactly like a file of its own. Byte-level spec: docs/format.md,
-/// "Volume sets".
+/// checksums, so a member opens exactly like a file of its own, once its section's check value
+/// (format 1.6: over the member's header, the section's name and its size) has bound it to its
+/// place in the set. Byte-level spec: docs/format.md, "Codec `volume-set`".
 #include <cstdint>
 #include <filesystem>
 #include <memory>
@@ -30,8 +31,9 @@ bool is_volume_set(const ContainerReader& reader);
 std::int64_t volume_count(const ContainerReader& set);
 
 /// @brief Member `index` of a volume set, named "<file> (volume <index>)" in messages. Throws
-/// ParameterError for an index outside 0..count-1 and FormatError for a member that is not a
-/// valid container or is itself a volume set.
+/// ParameterError for an index outside 0..count-1 and FormatError for a member whose section
+/// fails its check value (swapped with another, replaced, a check value of 0: named
+/// "<file>: section volume_<index>"), that is not a valid container or is itself a volume set.
 std::unique_ptr<ContainerReader> open_member(const ContainerReader& set, std::int64_t index);
 
 /// @brief The container a command works on: member `volume` of a volume set, or the file itself
