@@ -1,11 +1,15 @@
 #include "all_volumes.hpp"
 
 #include <cstdio>
+#include <string_view>
 #include <vector>
 
 #include <fmt/format.h>
 
+#include "cli_checks.hpp"
 #include "report.hpp"
+#include "strata/io/file_names.hpp"
+#include "strata/io/signal_cleanup.hpp"
 #include "strata/store/volume_set.hpp"
 
 namespace strata::cli {
@@ -14,13 +18,32 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// The members while they are made: hidden files beside the output (same file system, so the
-// set's writer copies them locally), removed however the command ends.
+// Member `index` of the set written to `output`: a hidden file beside it (same file system, so
+// the set's writer copies it locally).
+fs::path member_path(const fs::path& output, std::int64_t index) {
+  return output.parent_path() / fmt::format(".{}.volume{}.part", output.filename().string(), index);
+}
+
+// Whether `name` is a member of a set written to `output`, or a member's temporary:
+// ".<output>.volume<N>.part" or ".<output>.volume<N>.part.tmp".
+bool is_member_name(const std::string& name, const fs::path& output) {
+  const std::string prefix = "." + output.filename().string() + ".volume";
+  if (!name.starts_with(prefix)) return false;
+  std::string_view rest = std::string_view(name).substr(prefix.size());
+  const std::size_t digits = rest.find_first_not_of("0123456789");
+  if (digits == 0 || digits == std::string_view::npos) return false;
+  rest.remove_prefix(digits);
+  return rest == ".part" || rest == std::string(".part") + std::string(io::kTemporarySuffix);
+}
+
+// The members while they are made: removed however the command ends, a stop signal included
+// (io::RemovedOnSignal). A run killed by SIGKILL leaves them; the next run writing the same
+// output removes them first.
 class MemberFiles {
  public:
-  MemberFiles(const fs::path& output, std::int64_t count) {
-    for (std::int64_t i = 0; i < count; ++i)
-      paths_.push_back(output.parent_path() / fmt::format(".{}.volume{}.part", output.filename().string(), i));
+  MemberFiles(const fs::path& output, std::vector<fs::path> paths) : paths_(std::move(paths)) {
+    remove_stale(output);
+    for (const fs::path& p : paths_) on_signal_.emplace_back(p);
   }
   ~MemberFiles() {
     std::error_code ignored;
@@ -31,7 +54,18 @@ class MemberFiles {
   const std::vector<fs::path>& paths() const { return paths_; }
 
  private:
+  // Members of an earlier run that was killed (SIGKILL, a power cut), of any count.
+  static void remove_stale(const fs::path& output) {
+    const fs::path dir = output.parent_path().empty() ? fs::path(".") : output.parent_path();
+    std::error_code ec;
+    std::vector<fs::path> stale;
+    for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec))
+      if (is_member_name(it->path().filename().string(), output)) stale.push_back(it->path());
+    for (const fs::path& p : stale) fs::remove(p, ec);
+  }
+
   std::vector<fs::path> paths_;
+  std::vector<io::RemovedOnSignal> on_signal_;  // released after the destructor removed the files
 };
 
 }  // namespace
@@ -46,7 +80,10 @@ std::int64_t encode_all_volumes(const std::string& input, io::ReadOptions read, 
     return 1;
   }
   first.reset();
-  const MemberFiles members(output, count);
+  std::vector<fs::path> parts;
+  for (std::int64_t i = 0; i < count; ++i) parts.push_back(member_path(output, i));
+  check_spares_inputs(parts, "--output", {input});
+  const MemberFiles members(output, std::move(parts));
   for (std::int64_t i = 0; i < count; ++i) {
     read.volume = i;
     auto source = io::open_volume(input, read);

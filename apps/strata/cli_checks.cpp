@@ -10,6 +10,7 @@
 
 #include <fmt/format.h>
 
+#include "strata/io/touched_paths.hpp"
 #include "strata/ta/ta_volume.hpp"
 
 namespace strata::cli {
@@ -106,17 +107,19 @@ std::string lower(std::string s) {
   return s;
 }
 
-// The same file as `output` among `inputs`: by identity (device and inode) when both exist, so
-// other spellings, symlinks and hard links of the input are caught.
-void check_not_an_input(const std::string& output, const std::string& flag, const std::vector<std::string>& inputs) {
-  std::error_code ec;
-  if (!fs::exists(output, ec)) return;  // a file that does not exist yet is no input
-  for (const std::string& input : inputs) {
-    if (input.empty() || !fs::equivalent(input, output, ec)) continue;
-    const std::string same = input == output ? "" : " (the same file as the input '" + input + "')";
-    throw UsageError(flag, "'" + output + "' is an input of this command" + same +
-                               "; writing it would destroy the input, choose another output");
-  }
+// What the inputs read: each one's files (io::files_read: a detached header's data files, a raw
+// file's sidecar, a folder with everything in it).
+std::vector<io::TouchedPath> files_of_inputs(const std::vector<std::string>& inputs) {
+  std::vector<io::TouchedPath> files;
+  for (const std::string& input : inputs)
+    if (!input.empty())
+      for (io::TouchedPath& f : io::files_read(input)) files.push_back(std::move(f));
+  return files;
+}
+
+void check_spares(const std::vector<io::TouchedPath>& outputs, const std::string& flag,
+                  const std::vector<std::string>& inputs) {
+  if (const auto why = io::overwrite_conflict(outputs, files_of_inputs(inputs))) throw UsageError(flag, *why);
 }
 
 void check_extension(const std::string& output, const std::string& flag,
@@ -144,9 +147,17 @@ void check_parent_writable(const fs::path& path, const std::string& flag) {
 
 }  // namespace
 
+void check_spares_inputs(const std::vector<std::filesystem::path>& outputs, const std::string& flag,
+                         const std::vector<std::string>& inputs) {
+  std::vector<io::TouchedPath> written;
+  for (const fs::path& output : outputs)
+    for (io::TouchedPath& f : io::plain_file_written(output)) written.push_back(std::move(f));
+  check_spares(written, flag, inputs);
+}
+
 void check_output_file(const std::string& output, const std::string& flag, const std::vector<std::string>& inputs,
                        std::initializer_list<std::string_view> extensions) {
-  check_not_an_input(output, flag, inputs);
+  check_spares(io::plain_file_written(output), flag, inputs);
   check_extension(output, flag, extensions);
   std::error_code ec;
   if (fs::is_directory(output, ec)) throw Error(flag + ": '" + output + "' is a folder, expected a file name");
@@ -154,8 +165,9 @@ void check_output_file(const std::string& output, const std::string& flag, const
 }
 
 const io::VolumeFormat& check_volume_output(const std::string& output, const std::string& flag,
-                                           const std::vector<std::string>& inputs, const DType* dtype) {
-  check_not_an_input(output, flag, inputs);
+                                           const std::vector<std::string>& inputs, const DType* dtype,
+                                           const io::WriteOptions& write) {
+  check_spares(io::files_written(output, write), flag, inputs);
   const io::VolumeFormat* format = nullptr;
   const fs::path file = io::split_output_container(output).first;  // out.h5:/group/name writes out.h5
   try {
@@ -173,7 +185,7 @@ const io::VolumeFormat& check_volume_output(const std::string& output, const std
 }
 
 void check_output_folder(const std::string& output, const std::string& flag, const std::vector<std::string>& inputs) {
-  check_not_an_input(output, flag, inputs);
+  check_spares({io::touched_itself(output)}, flag, inputs);
   std::error_code ec;
   if (fs::exists(output, ec) && !fs::is_directory(output, ec))
     throw UsageError(flag, "'" + output + "' is a file, expected a folder");

@@ -13,6 +13,7 @@
 
 #include "strata/core/error.hpp"
 #include "strata/io/formats.hpp"
+#include "strata/io/signal_cleanup.hpp"
 
 namespace strata::cli {
 
@@ -52,20 +53,33 @@ int check_rank_flag(int requested, int stored, const std::string& file);
 // Throws UsageError(flag) unless `value` is finite and lies in [lo, hi].
 void check_finite_range(double value, double lo, double hi, const std::string& flag, std::string_view unit = "");
 
+// Every output check below first refuses an output that would overwrite or change what an input
+// reads (UsageError naming the output, the input and how they meet; io::overwrite_conflict): what
+// each of `inputs` (empty entries skipped) reads is io::files_read (the path, the data files its
+// header names, its sidecar, a folder with everything in it); they are compared by identity, so
+// another spelling, a symlink or a hard link is the same file, and an output inside an input
+// folder is refused as well. This one checks plain files the run writes as `<name>.tmp` renamed
+// into place (render frames, volume set members), each with its temporary.
+void check_spares_inputs(const std::vector<std::filesystem::path>& outputs, const std::string& flag,
+                         const std::vector<std::string>& inputs);
+
 // The checks of one output file before any work:
-//  - it is none of `inputs` (empty entries are skipped): the same file through another path, a
-//    symlink or a hard link is refused, as writing it would destroy the input (UsageError);
+//  - it spares every input (above: check_spares_inputs);
 //  - its name ends with one of `extensions` (case-insensitive; none = any name) (UsageError);
 //  - it is not a directory and its directory exists and is writable (Error naming the flag).
 void check_output_file(const std::string& output, const std::string& flag, const std::vector<std::string>& inputs,
                        std::initializer_list<std::string_view> extensions);
-// check_output_file for a volume file io writes: the format comes from the name (UsageError
+// check_output_file for a volume file io writes, with everything its writer adds beside it
+// (io::files_written as `write` writes: a `.nhdr` name's `.raw` or `.raw.gz` data file, a raw
+// file's sidecar, a folder format's staging folder): the format comes from the name (UsageError
 // when unknown, listing the registered extensions), must have a writer and must be able to hold
 // `dtype` samples when given.
 const io::VolumeFormat& check_volume_output(const std::string& output, const std::string& flag,
-                                   const std::vector<std::string>& inputs, const DType* dtype = nullptr);
-// An output folder (created when missing): not one of the inputs, not an existing file, its
-// parent writable.
+                                            const std::vector<std::string>& inputs, const DType* dtype = nullptr,
+                                            const io::WriteOptions& write = {});
+// An output folder (created when missing) that files are added to: not one of the inputs, not
+// inside an input folder, not an existing file, its parent writable (the files themselves:
+// check_spares_inputs).
 void check_output_folder(const std::string& output, const std::string& flag, const std::vector<std::string>& inputs);
 // Refuses two outputs of one run that are the same file (the second would overwrite the first).
 void check_distinct_outputs(const std::string& a, const std::string& flag_a, const std::string& b,
@@ -73,20 +87,32 @@ void check_distinct_outputs(const std::string& a, const std::string& flag_a, con
 
 // Outputs of a run that writes several files: each is added once written; unless commit() is
 // called, the destructor removes them again (and the folder, when this run created it and it is
-// empty), so a failed run leaves no output behind.
+// empty), so a failed run leaves no output behind; until then a stop signal removes them too
+// (io::RemovedOnSignal; the folder this run created with everything in it).
 class OutputSet {
  public:
   OutputSet() = default;
   ~OutputSet();
   OutputSet(const OutputSet&) = delete;
   OutputSet& operator=(const OutputSet&) = delete;
-  void created_folder(const std::filesystem::path& folder) { folder_ = folder; }
-  void add(const std::filesystem::path& written) { written_.push_back(written); }
-  void commit() { committed_ = true; }
+  void created_folder(const std::filesystem::path& folder) {
+    folder_ = folder;
+    on_signal_.emplace_back(folder);
+  }
+  // Call once the file is written (while it is written, AtomicOutputFile covers its temporary).
+  void add(const std::filesystem::path& written) {
+    written_.push_back(written);
+    on_signal_.emplace_back(written);
+  }
+  void commit() {
+    committed_ = true;
+    on_signal_.clear();
+  }
 
  private:
   std::vector<std::filesystem::path> written_;
   std::filesystem::path folder_;
+  std::vector<io::RemovedOnSignal> on_signal_;  // destroyed after ~OutputSet removed the files
   bool committed_ = false;
 };
 

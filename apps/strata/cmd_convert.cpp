@@ -17,10 +17,10 @@ struct ConvertArgs {
 };
 
 void run_convert(const ConvertArgs& args, const GlobalOptions& global) {
-  check_volume_output(args.output, "output", {args.input});
-  auto progress = global.make_progress();
   io::WriteOptions write;
   write.compress = !args.uncompressed;
+  check_volume_output(args.output, "output", {args.input}, nullptr, write);
+  auto progress = global.make_progress();
   io::convert_volume(args.input, args.output, args.raw.to_read_options(), write, *progress);
 }
 

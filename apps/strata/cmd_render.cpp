@@ -170,8 +170,14 @@ render::FrameSettings frame_settings(const RenderArgs& a) {
 void check_outputs(const RenderArgs& a) {
   std::vector<std::string> inputs{a.input, a.colors};
   if (!render::TransferFunction::is_preset(a.tf)) inputs.push_back(a.tf);
-  if (a.orbit > 0) check_output_folder(a.output, "--output", inputs);
-  else check_output_file(a.output, "--output", inputs, {io::kPngExtension});
+  if (a.orbit > 0) {
+    check_output_folder(a.output, "--output", inputs);
+    std::vector<fs::path> frames;
+    for (int i = 0; i < a.orbit; ++i) frames.push_back(frame_path(a, i));
+    check_spares_inputs(frames, "--output", inputs);
+  } else {
+    check_output_file(a.output, "--output", inputs, {io::kPngExtension});
+  }
   if (a.stats.empty()) return;
   check_output_file(a.stats, "--stats", inputs, {io::kJsonExtension});
   if (a.orbit == 0) check_distinct_outputs(a.output, "--output", a.stats, "--stats");

@@ -11,6 +11,7 @@
 #include "strata/core/error.hpp"
 #include "strata/core/isa.hpp"
 #include "strata/core/threads.hpp"
+#include "strata/io/signal_cleanup.hpp"
 
 namespace {
 
@@ -51,6 +52,9 @@ std::string memory_hint(const std::string& command) {
 int main(int argc, char** argv) {
   using namespace strata;
   cli::keep_brick_buffers_mapped();
+  // SIGINT, SIGTERM and SIGHUP remove the outputs in progress (`<name>.tmp`, volume set members)
+  // before the process ends.
+  io::install_signal_cleanup();
   CLI::App app{"Strata: compressed multiresolution volumes — store, explore and query.", "strata"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "strata 0.1.0");

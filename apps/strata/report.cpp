@@ -63,19 +63,6 @@ void print_transfer(const nlohmann::json& t) {
               t["retries"].get<unsigned long long>(), t["cache_hits"].get<unsigned long long>());
 }
 
-std::string human_bytes(std::uint64_t bytes) {
-  const char* units[] = {"B", "KiB", "MiB", "GiB", "TiB"};
-  double v = double(bytes);
-  int i = 0;
-  while (v >= 1024 && i < 4) {
-    v /= 1024;
-    ++i;
-  }
-  char buf[32];
-  std::snprintf(buf, sizeof buf, i ? "%.1f %s" : "%.0f %s", v, units[i]);
-  return buf;
-}
-
 }  // namespace strata::cli
 
 namespace strata::cli {

@@ -9,6 +9,7 @@
 
 #include <optional>
 
+#include "strata/core/text.hpp"
 #include "strata/io/byte_source.hpp"
 #include "strata/io/volume_io.hpp"
 
@@ -30,7 +31,7 @@ struct RawInputArgs {
 // a .strata volume set.
 void add_volume_option(CLI::App& cmd, std::optional<std::int64_t>& volume);
 
-std::string human_bytes(std::uint64_t bytes);
+using strata::human_bytes;  // strata/core/text.hpp
 // What reading a remote (http/https) file cost: {"bytes_fetched", "requests", "retries",
 // "cache_hits"}, the "transfer" member of --json/--stats reports; printed as one line.
 nlohmann::json transfer_json(const io::TransferStats& stats);

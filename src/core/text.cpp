@@ -1,5 +1,7 @@
 #include "strata/core/text.hpp"
 
+#include <cstdio>
+
 namespace strata {
 
 std::string joined_list(const std::vector<std::string>& items, std::string_view conjunction) {
@@ -13,6 +15,19 @@ std::string joined_list(const std::vector<std::string>& items, std::string_view 
     text.append(items[i]);
   }
   return text;
+}
+
+std::string human_bytes(std::uint64_t bytes) {
+  const char* units[] = {"B", "KiB", "MiB", "GiB", "TiB", "PiB"};
+  double v = double(bytes);
+  int i = 0;
+  while (v >= 1024 && i < 5) {
+    v /= 1024;
+    ++i;
+  }
+  char buf[32];
+  std::snprintf(buf, sizeof buf, i ? "%.1f %s" : "%.0f %s", v, units[i]);
+  return buf;
 }
 
 }  // namespace strata

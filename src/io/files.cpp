@@ -86,6 +86,7 @@ void MappedFile::release(std::uint64_t offset, std::uint64_t length) const {
 AtomicOutputFile::AtomicOutputFile(std::filesystem::path path) : path_(std::move(path)) {
   tmp_ = path_;
   tmp_ += kTemporarySuffix;
+  tmp_on_signal_ = RemovedOnSignal(tmp_);  // before the file exists: no instant leaves it behind
   file_ = std::fopen(tmp_.c_str(), "wb");
   if (!file_) throw Error(fmt::format("{}: cannot create: {}", tmp_.string(), system_error_text()));
 }
@@ -117,6 +118,7 @@ void AtomicOutputFile::commit() {
   }
   std::error_code ec;
   if (flushed) std::filesystem::rename(tmp_, path_, ec);
+  if (flushed && !ec) tmp_on_signal_.release();
   if (!flushed || ec) {
     std::error_code ignored;
     std::filesystem::remove(tmp_, ignored);
@@ -135,6 +137,7 @@ TempFile::TempFile(const std::filesystem::path& dir, const std::string& stem) {
   if (fd < 0) throw Error(fmt::format("{}: cannot create a temporary file: {}", dir.string(), system_error_text()));
   ::close(fd);
   path_ = name.data();
+  on_signal_ = RemovedOnSignal(path_);
 }
 
 TempFile::~TempFile() {

@@ -3,6 +3,8 @@
 #include "io/io_detail.hpp"
 
 #include "strata/core/checked.hpp"
+#include "strata/core/text.hpp"
+#include "strata/io/file_names.hpp"
 
 #include <zlib.h>
 
@@ -10,6 +12,7 @@
 #include <bit>
 #include <cctype>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <functional>
 
@@ -99,6 +102,21 @@ void OutputStream::commit() {
   file_.commit();
 }
 
+void add_written_file(std::vector<TouchedPath>& out, const std::filesystem::path& file,
+                      const std::filesystem::path& named, const std::string& role) {
+  std::filesystem::path tmp = file;
+  tmp += kTemporarySuffix;
+  out.push_back({.path = file, .named = named, .role = role});
+  out.push_back({.path = tmp, .named = named, .role = role.empty() ? "temporary file" : "temporary " + role});
+}
+
+std::vector<TouchedPath> replaced_folder_written(const std::filesystem::path& folder) {
+  const std::filesystem::path dir = folder.has_filename() ? folder : folder.parent_path();  // "out/" -> "out"
+  std::filesystem::path staging = dir;
+  staging += kTemporarySuffix;
+  return {touched_itself(dir, true), {.path = staging, .named = dir, .role = "staging folder", .replaced_folder = true}};
+}
+
 void write_file_atomically(const std::filesystem::path& path, std::string_view text) {
   AtomicOutputFile out(path);
   out.write(text.data(), text.size());
@@ -120,71 +138,113 @@ std::string ascii_lower(std::string text) {
 // ---------------------------------------------------------------------------------------------
 // gzip decoding
 
+struct GzipStream::Impl {
+  const std::byte* data;
+  std::uint64_t size;
+  std::string file, field;
+  z_stream stream{};
+  std::uint64_t fed = 0;  // bytes handed to zlib so far (some may still wait in stream.avail_in)
+  bool member_ended = false;
+  bool finished = false;
+
+  ~Impl() { inflateEnd(&stream); }
+  std::uint64_t consumed() const { return fed - stream.avail_in; }
+
+  [[noreturn]] void corrupt(const char* why) const {
+    throw FormatError(file, field, fmt::format("corrupt gzip stream near compressed byte {}: {}", consumed(), why));
+  }
+};
+
+GzipStream::GzipStream(const std::byte* data, std::uint64_t size, std::string file, std::string field,
+                       bool accept_zlib)
+    : impl_(std::make_unique<Impl>()) {
+  Impl& z = *impl_;
+  z.data = data;
+  z.size = size;
+  z.file = std::move(file);
+  z.field = std::move(field);
+  if (!looks_gzipped(data, size) && !(accept_zlib && looks_zlib(data, size)))
+    throw FormatError(z.file, z.field,
+                      accept_zlib ? "neither a gzip nor a zlib stream (no 1f 8b signature, no zlib header)"
+                                  : "not a gzip stream (missing the 1f 8b signature)");
+  // windowBits 15 + 32: accept gzip (and zlib) headers, detected automatically.
+  if (inflateInit2(&z.stream, 15 + 32) != Z_OK) throw Error(z.file + ": cannot initialise gzip decompression");
+}
+
+GzipStream::~GzipStream() = default;
+
+std::uint64_t GzipStream::consumed() const { return impl_->consumed(); }
+
+std::size_t GzipStream::read(std::byte* out, std::size_t n) {
+  Impl& z = *impl_;
+  std::size_t got = 0;
+  while (got < n && !z.finished) {
+    if (z.member_ended) {
+      // Another member follows, or padding (often zeros) that gzip(1) ignores, and so do we.
+      const std::uint64_t at = z.consumed();
+      if (at >= z.size || !looks_gzipped(z.data + at, z.size - at)) {
+        z.finished = true;
+        break;
+      }
+      inflateReset(&z.stream);
+      z.member_ended = false;
+    }
+    if (z.stream.avail_in == 0) {
+      if (z.fed == z.size)
+        throw FormatError(z.file, z.field, fmt::format("truncated gzip stream: ended after {} compressed bytes", z.size));
+      const std::uint64_t chunk = std::min(z.size - z.fed, kZlibChunk);
+      z.stream.next_in = reinterpret_cast<Bytef*>(const_cast<std::byte*>(z.data + z.fed));
+      z.stream.avail_in = uInt(chunk);
+      z.fed += chunk;
+    }
+    const auto room = uInt(std::min<std::uint64_t>(n - got, kZlibChunk));
+    z.stream.next_out = reinterpret_cast<Bytef*>(out + got);
+    z.stream.avail_out = room;
+    const int status = inflate(&z.stream, Z_NO_FLUSH);
+    if (status == Z_NEED_DICT || status == Z_DATA_ERROR || status == Z_STREAM_ERROR || status == Z_MEM_ERROR)
+      z.corrupt(z.stream.msg ? z.stream.msg : "invalid data");
+    got += room - z.stream.avail_out;
+    if (status == Z_STREAM_END) z.member_ended = true;
+    // Z_BUF_ERROR: no progress without more input, which the next turn feeds (or, at the end of
+    // the data, reports as truncation); with input left it cannot happen on sound data.
+    if (status == Z_BUF_ERROR && z.stream.avail_in > 0 && z.stream.avail_out > 0) z.corrupt("no progress");
+  }
+  produced_ += got;
+  return got;
+}
+
+std::uint64_t GzipStream::skip(std::uint64_t n) {
+  std::vector<std::byte> sink(std::size_t(std::min<std::uint64_t>(n, kInflateBufferBytes)));
+  std::uint64_t skipped = 0;
+  while (skipped < n) {
+    const std::size_t got = read(sink.data(), std::size_t(std::min<std::uint64_t>(n - skipped, sink.size())));
+    if (got == 0) break;
+    skipped += got;
+  }
+  return skipped;
+}
+
 namespace {
 
-using ChunkSink = std::function<void(const unsigned char*, std::size_t)>;
+using ChunkSink = std::function<void(const std::byte*, std::size_t)>;
 
-// Inflates gzip members back to back (as `gzip` and `cat a.gz b.gz` produce), handing every
-// decoded chunk to `sink`, and returns the number of decoded bytes. Stops as soon as `limit`
-// bytes are decoded, without looking at the rest of the stream. Throws FormatError on corrupt
-// data and on a stream that stops before its end-of-member marker (a truncated file). With
-// `accept_zlib`, a zlib (RFC 1950) stream is taken as well.
+// Decodes the gzip data into `sink`, chunk by chunk, and returns the number of decoded bytes;
+// stops as soon as `limit` bytes are decoded, without looking at the rest of the stream.
 std::uint64_t inflate_gzip(const std::byte* data, std::uint64_t size, const std::string& file,
                            const std::string& field, ProgressSink& progress, std::uint64_t limit,
                            const ChunkSink& sink, bool accept_zlib = false) {
-  if (!looks_gzipped(data, size) && !(accept_zlib && looks_zlib(data, size)))
-    throw FormatError(file, field,
-                      accept_zlib ? "neither a gzip nor a zlib stream (no 1f 8b signature, no zlib header)"
-                                  : "not a gzip stream (missing the 1f 8b signature)");
-  z_stream stream{};
-  // windowBits 15 + 32: accept gzip (and zlib) headers, detected automatically.
-  if (inflateInit2(&stream, 15 + 32) != Z_OK) throw Error(file + ": cannot initialise gzip decompression");
-  struct End { z_stream* s; ~End() { inflateEnd(s); } } end_guard{&stream};
-
+  GzipStream stream(data, size, file, field, accept_zlib);
   ProgressTask task(progress, "decompress", size, "bytes");
-  std::vector<unsigned char> out(kInflateBufferBytes);
-  std::uint64_t consumed = 0, produced = 0;
-  bool member_ended = false;
-  while (consumed < size) {
-    if (member_ended) {
-      inflateReset(&stream);
-      member_ended = false;
-    }
-    std::uint64_t chunk = std::min(size - consumed, kZlibChunk);
-    stream.next_in = reinterpret_cast<Bytef*>(const_cast<std::byte*>(data + consumed));
-    stream.avail_in = uInt(chunk);
-    // Keep calling while input remains or the last call filled the buffer: zlib may hold
-    // decoded bytes (and the end-of-member marker) back until it gets more output space.
-    bool output_full = true;
-    while (!member_ended && (stream.avail_in > 0 || output_full)) {
-      if (produced == limit) return produced;
-      const auto room = uInt(std::min<std::uint64_t>(out.size(), limit - produced));
-      stream.next_out = out.data();
-      stream.avail_out = room;
-      int status = inflate(&stream, Z_NO_FLUSH);
-      if (status == Z_NEED_DICT || status == Z_DATA_ERROR || status == Z_STREAM_ERROR || status == Z_MEM_ERROR) {
-        throw FormatError(file, field,
-                          fmt::format("corrupt gzip stream near compressed byte {}: {}",
-                                      consumed + (chunk - stream.avail_in), stream.msg ? stream.msg : "invalid data"));
-      }
-      sink(out.data(), room - stream.avail_out);
-      produced += room - stream.avail_out;
-      output_full = stream.avail_out == 0;
-      if (status == Z_STREAM_END) member_ended = true;
-      // Z_BUF_ERROR: no progress without more input; the outer loop feeds the next chunk or,
-      // at the end of the data, reports truncation.
-      if (status == Z_BUF_ERROR) break;
-    }
-    std::uint64_t used = chunk - stream.avail_in;
-    consumed += used;
-    task.advance(used);
-    // Bytes after a finished member that do not start another gzip member are padding some
-    // tools append (often zeros); gzip(1) ignores them, and so do we.
-    if (member_ended && consumed < size && !looks_gzipped(data + consumed, size - consumed)) return produced;
+  std::vector<std::byte> out(kInflateBufferBytes);
+  std::uint64_t reported = 0;
+  while (stream.produced() < limit) {
+    const std::size_t got = stream.read(out.data(), std::size_t(std::min<std::uint64_t>(out.size(), limit - stream.produced())));
+    task.advance(stream.consumed() - reported);
+    reported = stream.consumed();
+    if (got == 0) break;
+    sink(out.data(), got);
   }
-  if (!member_ended)
-    throw FormatError(file, field, fmt::format("truncated gzip stream: ended after {} compressed bytes", size));
-  return produced;
+  return stream.produced();
 }
 
 }  // namespace
@@ -194,10 +254,7 @@ std::vector<std::byte> gunzip_to_memory(const std::byte* data, std::uint64_t siz
   std::vector<std::byte> result;
   inflate_gzip(
       data, size, file_for_errors, field, silent_progress(), limit,
-      [&](const unsigned char* p, std::size_t n) {
-        auto* b = reinterpret_cast<const std::byte*>(p);
-        result.insert(result.end(), b, b + n);
-      },
+      [&](const std::byte* p, std::size_t n) { result.insert(result.end(), p, p + n); },
       accept_zlib);
   return result;
 }
@@ -213,28 +270,57 @@ bool looks_zlib(const std::byte* data, std::uint64_t size) {
   return (cmf & 0x0Fu) == 8 && (cmf >> 4) <= 7 && (cmf * 256 + flg) % 31 == 0;
 }
 
+std::filesystem::path temp_folder(const std::optional<std::filesystem::path>& temp_dir, const std::string& file) {
+  if (temp_dir) return *temp_dir;
+  std::error_code ec;
+  std::filesystem::path dir = std::filesystem::temp_directory_path(ec);
+  if (ec) {
+    const char* tmpdir = std::getenv("TMPDIR");
+    throw Error(fmt::format("{}: needs a temporary file, but TMPDIR ({}) is not a folder: {}", file,
+                            tmpdir ? tmpdir : "unset", ec.message()));
+  }
+  return dir;
+}
+
+void check_temp_space(const std::filesystem::path& dir, std::uint64_t bytes, const std::string& file,
+                      const std::string& field, const std::string& what) {
+  std::error_code ec;
+  const std::filesystem::space_info space = std::filesystem::space(dir, ec);
+  if (ec || space.available >= bytes) return;
+  throw Error(fmt::format("{}: {}: {} needs {} bytes ({}) in the temporary folder {}, which has {} bytes ({}) free; "
+                          "set TMPDIR to a folder with room",
+                          file, field, what, bytes, human_bytes(bytes), dir.string(), space.available,
+                          human_bytes(space.available)));
+}
+
 std::shared_ptr<MappedFile> gunzip_to_temp_file(const std::byte* data, std::uint64_t size, const ReadOptions& options,
                                                 const std::string& stem, const std::string& file_for_errors,
                                                 const std::string& field, const DeclaredSize& declared) {
-  const std::filesystem::path dir = options.temp_dir.value_or(std::filesystem::temp_directory_path());
+  const std::filesystem::path dir = temp_folder(options.temp_dir, file_for_errors);
+  if (declared.bytes != kNoDecodeLimit)
+    check_temp_space(dir, declared.bytes, file_for_errors, field,
+                     fmt::format("decoding the gzip data {} declares", declared.declared_by));
   UnnamedTempFile decoded(dir, stem);
   ProgressSink& progress = options.progress ? *options.progress : silent_progress();
   // One byte past the declared size is enough to tell that the stream holds more.
   const std::uint64_t limit = declared.bytes == kNoDecodeLimit ? declared.bytes : declared.bytes + 1;
   const std::uint64_t produced =
-      inflate_gzip(data, size, file_for_errors, field, progress, limit, [&](const unsigned char* p, std::size_t n) {
+      inflate_gzip(data, size, file_for_errors, field, progress, limit, [&](const std::byte* p, std::size_t n) {
         try {
           decoded.write(p, n);
         } catch (const Error& e) {
           throw Error(fmt::format("{} (while decoding {})", e.what(), file_for_errors));
         }
       });
-  if (produced > declared.bytes)
-    throw FormatError(file_for_errors, field,
-                      fmt::format("the gzip stream decodes to more than the {} bytes {} declares; stopped decoding "
-                                  "there (wrong header, or a gzip bomb)",
-                                  declared.bytes, declared.declared_by));
+  if (produced > declared.bytes) throw_decodes_to_more(file_for_errors, field, declared);
   return std::make_shared<MappedFile>(decoded.descriptor(), fmt::format("{} (decoded)", file_for_errors));
+}
+
+void throw_decodes_to_more(const std::string& file, const std::string& field, const DeclaredSize& declared) {
+  throw FormatError(file, field,
+                    fmt::format("the gzip stream decodes to more than the {} bytes {} declares; stopped decoding "
+                                "there (wrong header, or a gzip bomb)",
+                                declared.bytes, declared.declared_by));
 }
 
 std::uint64_t checked_volume_bytes(const VolumeInfo& info, const std::string& file, const std::string& field) {

@@ -336,19 +336,32 @@ std::unique_ptr<VolumeSource> source_over(std::shared_ptr<MappedFile> file, cons
 }
 
 // The header is decoded first: its dims, datatype and vox_offset bound what the whole stream
-// may decode to, so a stream that inflates to more stops there instead of filling the disk.
-std::unique_ptr<VolumeSource> open_gzipped(const fs::path& path, const MappedFile& compressed,
+// may decode to, so a stream that inflates to more stops there instead of filling the disk. The
+// samples are decoded as reads need them (make_gzip_source).
+std::unique_ptr<VolumeSource> open_gzipped(const fs::path& path, std::shared_ptr<MappedFile> compressed,
                                            const ReadOptions& options) {
   const std::string file = path.string();
-  const auto head = gunzip_to_memory(compressed.data(), compressed.size(), file, "gzip", kLargestHeader);
+  const auto head = gunzip_to_memory(compressed->data(), compressed->size(), file, "gzip", kLargestHeader);
   const NiftiHeader header = parse_header(head.data(), head.size(), file);
-  volume_offset(header, options, file);  // a missing or wrong volume fails before the decode
+  VolumeInfo info = header.stored;
+  info.volumes = header.volumes;
   const std::uint64_t declared = header.vox_offset + header.data_bytes;  // both below 2^62
-  auto decoded = gunzip_to_temp_file(
-      compressed.data(), compressed.size(), options, "strata-" + path.filename().string(), file, "gzip",
-      {declared, fmt::format("the header (vox_offset {} + {} x dim {} of {})", header.vox_offset, header.volumes,
-                             header.stored.dims.to_string(), dtype_name(header.stored.dtype))});
-  return source_over(std::move(decoded), path, options);
+  GzipVolume volume{
+      .info = info,
+      .big_endian = header.big_endian,
+      .offset = volume_offset(header, options, file),  // a missing or wrong volume fails before the decode
+      .declared = {declared, fmt::format("the header (vox_offset {} + {} x dim {} of {})", header.vox_offset,
+                                         header.volumes, header.stored.dims.to_string(), dtype_name(header.stored.dtype))},
+      .field = "gzip",
+      .report_short = [file, declared](std::uint64_t decoded) {
+        throw FormatError(file, "gzip", fmt::format("the decoded stream ends after {} bytes, but the header needs {} "
+                                                    "(vox_offset and dim; a truncated file or a wrong header)",
+                                                    decoded, declared));
+      },
+  };
+  auto stored = make_gzip_source(std::move(compressed), 0, std::move(volume), path, options);
+  if (!header.scaling) return stored;
+  return std::make_unique<ScaledSource>(std::move(stored), *header.scaling);
 }
 
 // NIfTI-1 when every dimension fits its 16-bit dim (what every reader takes), else NIfTI-2.
@@ -435,7 +448,7 @@ std::unique_ptr<VolumeSource> open_nifti(const std::filesystem::path& path, cons
   auto file = std::make_shared<MappedFile>(path);
   // Content decides, so a compressed file named .nii still opens; a .gz name that is not gzip
   // is reported by the decoder as a bad gzip stream rather than as a bad NIfTI header.
-  if (has_gz_name(path) || looks_gzipped(file->data(), file->size())) return open_gzipped(path, *file, options);
+  if (has_gz_name(path) || looks_gzipped(file->data(), file->size())) return open_gzipped(path, std::move(file), options);
   return source_over(std::move(file), path, options);
 }
 

@@ -3,9 +3,11 @@
 // decoded once to a temporary file which is then memory-mapped.
 #include <algorithm>
 #include <bit>
+#include <cctype>
 #include <charconv>
 #include <cmath>
 #include <cstring>
+#include <fstream>
 #include <map>
 #include <sstream>
 
@@ -514,6 +516,8 @@ std::unique_ptr<VolumeSource> open_raw_encoded(const std::filesystem::path& path
   return volume_source(std::move(data), offset, layout, path, options);
 }
 
+// Gzip data is decoded as reads need it (make_gzip_source): a pass in z order never writes it
+// to disk, and a volume of a series decodes only the volumes before it.
 std::unique_ptr<VolumeSource> open_gzip_encoded(const std::filesystem::path& path, const NrrdLayout& layout,
                                                 const ReadOptions& options) {
   // For compressed encodings the byte skip counts decoded bytes (as teem does).
@@ -525,20 +529,26 @@ std::unique_ptr<VolumeSource> open_gzip_encoded(const std::filesystem::path& pat
     throw FormatError(path.string(), "byte skip",
                       fmt::format("{} plus the {} bytes of samples overflows a 64-bit file offset", skip,
                                   data_bytes(layout)));
-  std::shared_ptr<MappedFile> data;
-  {
-    auto compressed = map_data_file(path, layout);
-    const std::uint64_t start = skip_lines(*compressed, layout.data_start, layout.line_skip, path.string());
-    if (start >= compressed->size())
-      throw FormatError(path.string(), "data", "no gzip data follows the header (truncated file)");
-    const std::string declared_by =
-        fmt::format("the header (sizes {} of type {}{})", sizes_text(layout), dtype_name(layout.info.dtype),
-                    skip ? fmt::format(" after a byte skip of {}", skip) : "");
-    data = gunzip_to_temp_file(compressed->data() + start, compressed->size() - start, options, "strata-nrrd",
-                               path.string(), "data", {std::uint64_t(*declared), declared_by});
-  }
-  check_data_bytes(path.string(), layout, skip > data->size() ? 0 : data->size() - skip, "the decoded gzip stream");
-  return volume_source(std::move(data), skip, layout, path, options);
+  auto compressed = map_data_file(path, layout);
+  const std::uint64_t start = skip_lines(*compressed, layout.data_start, layout.line_skip, path.string());
+  if (start >= compressed->size())
+    throw FormatError(path.string(), "data", "no gzip data follows the header (truncated file)");
+  const std::int64_t t = choose_volume(layout.info.volumes, layout.info.dims, options, path.string(), "kinds",
+                                       layout.interleaved ? "components, interleaved" : "the last axis");
+  GzipVolume volume{
+      .info = layout.info,
+      .big_endian = layout.big_endian,
+      .offset = skip + (layout.interleaved ? 0 : std::uint64_t(t) * layout.info.byte_size()),
+      .interleave = layout.interleaved ? Interleave{layout.info.volumes, t} : Interleave{},
+      .declared = {std::uint64_t(*declared),
+                   fmt::format("the header (sizes {} of type {}{})", sizes_text(layout), dtype_name(layout.info.dtype),
+                               skip ? fmt::format(" after a byte skip of {}", skip) : "")},
+      .field = "data",
+      .report_short = [file = path.string(), layout, skip](std::uint64_t decoded) {
+        check_data_bytes(file, layout, decoded > skip ? decoded - skip : 0, "the decoded gzip stream");
+      },
+  };
+  return make_gzip_source(std::move(compressed), start, std::move(volume), path, options);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -632,6 +642,95 @@ class NrrdWriter final : public VolumeWriter {
   OutputStream out_;       // the attached header and data, or the detached data
 };
 
+// ---------------------------------------------------------------------------------------------
+// The data files a header names, for files_read
+
+// At most this many names of a `data file` pattern are listed (a hostile range is not expanded).
+constexpr std::int64_t kMaxPatternFiles = 100000;
+
+// `pattern` (printf style, one %d, %i or %u conversion with optional 0 flag and width) with
+// `value` in place of the conversion; nullopt when there is no such conversion.
+std::optional<std::string> expand_pattern(const std::string& pattern, std::int64_t value) {
+  for (std::size_t at = pattern.find('%'); at != std::string::npos; at = pattern.find('%', at + 2)) {
+    if (at + 1 < pattern.size() && pattern[at + 1] == '%') continue;  // "%%": a literal percent
+    std::size_t end = at + 1;
+    const bool zero = end < pattern.size() && pattern[end] == '0';
+    std::size_t width = 0;
+    while (end < pattern.size() && std::isdigit(static_cast<unsigned char>(pattern[end])))
+      width = std::min<std::size_t>(width * 10 + std::size_t(pattern[end++] - '0'), 64);
+    if (end >= pattern.size() || (pattern[end] != 'd' && pattern[end] != 'i' && pattern[end] != 'u')) return std::nullopt;
+    std::string number = std::to_string(value);
+    if (number.size() < width) number.insert(0, width - number.size(), zero ? '0' : ' ');
+    return pattern.substr(0, at) + number + pattern.substr(end + 1);
+  }
+  return std::nullopt;
+}
+
+// The files of a `data file` value: one name; `LIST`, the names on the header's remaining lines;
+// or a pattern "<format> <min> <max> <step> [<subdim>]".
+std::vector<std::string> data_file_names(const std::string& value, std::istream& rest) {
+  const std::vector<std::string> words = HeaderParser::words(value);
+  if (words.empty()) return {};
+  if (words[0] == "LIST") {
+    std::vector<std::string> names;
+    for (std::string line; std::getline(rest, line);) {
+      line = HeaderParser::trim(line);
+      if (line.empty()) break;
+      names.push_back(line);
+    }
+    return names;
+  }
+  if (words.size() >= 4) {
+    std::int64_t range[3]{};
+    bool numbers = true;
+    for (int i = 0; i < 3; ++i) {
+      const std::string& w = words[std::size_t(i) + 1];
+      numbers = numbers && std::from_chars(w.data(), w.data() + w.size(), range[i]).ec == std::errc{};
+    }
+    if (numbers && expand_pattern(words[0], range[0])) {
+      std::vector<std::string> names;
+      const auto [first, last, step] = range;
+      std::int64_t i = first;
+      for (std::int64_t n = 0; n < kMaxPatternFiles && (step > 0 ? i <= last : step < 0 ? i >= last : n == 0); ++n) {
+        names.push_back(*expand_pattern(words[0], i));
+        if (__builtin_add_overflow(i, step, &i)) break;
+      }
+      return names;
+    }
+  }
+  return {value};
+}
+
+// The files a header's `data file` field names, read as leniently as a header can be: its
+// reader refuses what it cannot read, and this only has to say which files it would open.
+std::vector<TouchedPath> nrrd_files_read(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::string line;
+  if (!std::getline(in, line) || !is_magic_line(HeaderParser::trim(line))) return {};
+  std::vector<TouchedPath> files;
+  for (std::size_t lines = 0; lines < 100000 && std::getline(in, line); ++lines) {
+    line = HeaderParser::trim(line);
+    if (line.empty()) break;  // attached data follows
+    const std::size_t colon = line.find(':');
+    if (line[0] == '#' || colon == std::string::npos || (colon + 1 < line.size() && line[colon + 1] == '=')) continue;
+    const std::string field = ascii_lower(HeaderParser::trim(std::string_view(line).substr(0, colon)));
+    if (field != "data file" && field != "datafile") continue;
+    for (const std::string& name : data_file_names(HeaderParser::trim(std::string_view(line).substr(colon + 1)), in))
+      files.push_back({.path = resolve_data_file(name, path), .named = path, .role = "data file", .field = "data file"});
+    break;
+  }
+  return files;
+}
+
+// A detached header's data file (NrrdWriter) beside the header, each with its temporary.
+std::vector<TouchedPath> nrrd_files_written(const std::filesystem::path& path, const WriteOptions& options) {
+  std::vector<TouchedPath> files;
+  add_written_file(files, path, path);
+  if (is_detached_name(path))
+    add_written_file(files, path.parent_path() / detached_data_name(path, options.compress), path, "data file");
+  return files;
+}
+
 std::unique_ptr<VolumeSource> open_nrrd(const std::filesystem::path& path, const ReadOptions& options) {
   const NrrdLayout layout = read_layout(path);
   if (layout.encoding == Encoding::gzip) return open_gzip_encoded(path, layout, options);
@@ -660,7 +759,9 @@ VolumeFormat nrrd_format() {
       .magic_bytes = 8,
       .sniff = has_nrrd_magic,
       .open = open_nrrd,
+      .files_read = nrrd_files_read,
       .create_writer = create_nrrd_writer,
+      .files_written = nrrd_files_written,
       .capabilities = {.streaming = true, .multi_volume = true, .spatial_metadata = true},
       .write_dtypes = DTypeSet::all(),
       .read_notes = "attached or detached header, raw/gzip, little/big endian, mmap for raw; 4-D files one volume at a "

@@ -170,6 +170,7 @@ VolumeFormat precomputed_format() {
       .sniff_directory = looks_like_precomputed,
       .open = open_precomputed,
       .create_writer = create_precomputed_writer,
+      .files_written = [](const fs::path& path, const WriteOptions&) { return replaced_folder_written(path); },
       .capabilities = {.streaming = true, .multi_volume = true, .spatial_metadata = true, .multiscale = true},
       .read_dtypes = {DType::u8, DType::i8, DType::u16, DType::i16, DType::u32, DType::i32, DType::u64, DType::f32},
       .write_dtypes = {DType::u8, DType::i8, DType::u16, DType::i16, DType::u32, DType::i32, DType::u64, DType::f32},

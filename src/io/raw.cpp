@@ -207,6 +207,19 @@ std::unique_ptr<VolumeWriter> create_raw_writer(const std::filesystem::path& pat
   return std::make_unique<RawWriter>(path, info);
 }
 
+std::vector<TouchedPath> raw_files_read(const std::filesystem::path& path) {
+  if (const auto sidecar = find_sidecar(path)) return {{.path = *sidecar, .named = path, .role = "JSON sidecar"}};
+  return {};
+}
+
+// The samples and the sidecar RawWriter adds, each with its temporary.
+std::vector<TouchedPath> raw_files_written(const std::filesystem::path& path, const WriteOptions&) {
+  std::vector<TouchedPath> files;
+  add_written_file(files, path, path);
+  add_written_file(files, std::filesystem::path(path) += kJsonExtension, path, "JSON sidecar");
+  return files;
+}
+
 }  // namespace
 
 VolumeFormat raw_format() {
@@ -217,7 +230,9 @@ VolumeFormat raw_format() {
       .extensions = {".raw", ".bin"},
       .opens_alone = [](const std::filesystem::path& path) { return find_sidecar(path).has_value(); },
       .open = open_raw,
+      .files_read = raw_files_read,
       .create_writer = create_raw_writer,
+      .files_written = raw_files_written,
       .capabilities = {.streaming = true, .multi_volume = false, .spatial_metadata = true},
       .write_dtypes = DTypeSet::all(),
       .read_notes = "dims and dtype from `FILE.raw.json` or `FILE.json`, else `--dims`/`--dtype` (`--spacing`, "

@@ -538,8 +538,8 @@ void rename_or_throw(const fs::path& from, const fs::path& to) {
 class MultiPageWriter final : public VolumeWriter {
  public:
   MultiPageWriter(const fs::path& path, const VolumeInfo& info, bool compress)
-      : path_(path), tmp_(with_suffix(path, kTemporarySuffix)), info_(info), slices_(info.bytes_per_slice()),
-        layout_{info_, compress, true, spacing_description(info.spacing)},
+      : path_(path), tmp_(with_suffix(path, kTemporarySuffix)), tmp_on_signal_(tmp_), info_(info),
+        slices_(info.bytes_per_slice()), layout_{info_, compress, true, spacing_description(info.spacing)},
         file_(std::make_unique<TiffFile>(tmp_, write_mode(info.byte_size()))) {}
 
   ~MultiPageWriter() override {
@@ -556,11 +556,13 @@ class MultiPageWriter final : public VolumeWriter {
   void finish() override {
     file_->close_written();
     rename_or_throw(tmp_, path_);
+    tmp_on_signal_.release();
     finished_ = true;
   }
 
  private:
   fs::path path_, tmp_;
+  RemovedOnSignal tmp_on_signal_;  // before file_: registered before the file is created
   VolumeInfo info_;
   SliceCounter slices_;
   PageLayout layout_;
@@ -573,7 +575,8 @@ class MultiPageWriter final : public VolumeWriter {
 class FolderWriter final : public VolumeWriter {
  public:
   FolderWriter(const fs::path& dir, const VolumeInfo& info, bool compress)
-      : dir_(dir), staging_(with_suffix(dir, kTemporarySuffix)), info_(info), slices_(info.bytes_per_slice()),
+      : dir_(dir), staging_(with_suffix(dir, kTemporarySuffix)), staging_on_signal_(staging_), info_(info),
+        slices_(info.bytes_per_slice()),
         layout_{info_, compress, false, spacing_description(info.spacing)},
         digits_(std::max<std::size_t>(4, std::to_string(std::max<std::int64_t>(info.dims.z - 1, 0)).size())) {
     check_replaceable(dir_);
@@ -607,6 +610,7 @@ class FolderWriter final : public VolumeWriter {
       if (ec) throw Error(fmt::format("{}: cannot replace the old folder: {}", dir_.string(), ec.message()));
     }
     rename_or_throw(staging_, dir_);
+    staging_on_signal_.release();
     finished_ = true;
   }
 
@@ -626,6 +630,7 @@ class FolderWriter final : public VolumeWriter {
   }
 
   fs::path dir_, staging_;
+  RemovedOnSignal staging_on_signal_;
   VolumeInfo info_;
   SliceCounter slices_;
   PageLayout layout_;
@@ -660,6 +665,11 @@ std::unique_ptr<VolumeWriter> create_tiff_writer(const std::filesystem::path& pa
   return std::make_unique<MultiPageWriter>(path, info, options.compress);
 }
 
+// A folder of slices is replaced whole; a multi-page file is a file and its temporary.
+std::vector<TouchedPath> tiff_files_written(const std::filesystem::path& path, const WriteOptions&) {
+  return names_folder(path) ? replaced_folder_written(path) : plain_file_written(path);
+}
+
 // The sniffer: the byte-order mark and 42 (classic TIFF) or 43 (BigTIFF) in that order.
 bool has_tiff_magic(std::span<const std::byte> head) {
   if (head.size() < 4) return false;
@@ -682,6 +692,7 @@ VolumeFormat tiff_format() {
       .directory = "a directory of TIFF slices",
       .open = open_tiff,
       .create_writer = create_tiff_writer,
+      .files_written = tiff_files_written,
       .capabilities = {.streaming = true, .multi_volume = true, .spatial_metadata = true},
       .write_dtypes = DTypeSet::all(),
       .read_notes = "8/16/32-bit integer and 32/64-bit float pages, strips or tiles; a folder's slices in natural name "

@@ -340,6 +340,7 @@ VolumeFormat zarr_format() {
       .sniff_url = url_is_zarr,
       .open = open_zarr,
       .create_writer = create_zarr_writer,
+      .files_written = [](const fs::path& path, const WriteOptions&) { return replaced_folder_written(path); },
       .capabilities = {.streaming = true, .multi_volume = true, .spatial_metadata = true, .datasets = true,
                        .multiscale = true},
       .write_dtypes = DTypeSet::all(),

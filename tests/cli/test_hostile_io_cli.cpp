@@ -1,15 +1,24 @@
-// Hostile volume files through the `strata` program: sizes that overflow, gzip bombs, kills
-// while a gzip input is decoded, and messages that name the file and field (never library text).
+// Hostile volume files through the `strata` program: sizes that overflow, gzip bombs, gzip inputs
+// that must stream instead of filling TMPDIR, kills while a gzip input is decoded or a volume set
+// is written, and messages that name the file and field (never library text).
 #include <gtest/gtest.h>
 
+#include <signal.h>
+
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <thread>
 
 #include "cli/cli_test_util.hpp"
 #include "support/test_support.hpp"
 
+using strata::test::PeakRun;
 using strata::test::run_command;
+using strata::test::run_measuring_peak;
+using strata::test::start_program;
+using strata::test::wait_program;
 using strata::test::strata_cmd;
 using strata::test::shell_quoted;
 using strata::test::TempDir;
@@ -106,4 +115,113 @@ TEST(CliHostileIo, MessagesNameTheFileAndField) {
   expect_failure("info " + shell_quoted(dir / "s.raw"), {"s.raw.json", "header_bytes"});
   write_file(dir / "sp.nrrd", "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 1 1 1\nspacings: 1 -1 1\nencoding: raw\n\nx");
   expect_failure("info " + shell_quoted(dir / "sp.nrrd"), {"sp.nrrd", "spacings"});
+}
+
+// Passes in z order decode a gzip input as they go: `info`, `convert` and `compress` need no
+// temporary file (they run with a TMPDIR that does not exist), and a small gzip file that
+// declares more than it holds fails at the end of its stream without writing what it decoded.
+TEST(CliHostileIo, GzipInputsStreamWithoutATemporary) {
+  TempDir dir, temp;
+  std::string out;
+  ASSERT_EQ(run_command(strata_cmd("generate marschner-lobb --size 40 -o " + shell_quoted(dir / "g.nrrd")), &out), 0)
+      << out;
+  ASSERT_EQ(run_command(strata_cmd("convert " + shell_quoted(dir / "g.nrrd") + " " + shell_quoted(dir / "g.nii.gz")),
+                        &out),
+            0)
+      << out;
+  const std::vector<std::string> nowhere{"TMPDIR=" + (dir / "missing").string()};
+  for (const char* name : {"g.nrrd", "g.nii.gz"}) {
+    SCOPED_TRACE(name);
+    const std::string in = (dir / name).string();
+    EXPECT_EQ(run_measuring_peak({"info", in}, nowhere).exit_code, 0);
+    EXPECT_EQ(run_measuring_peak({"convert", in, (dir / "c.raw").string()}, nowhere).exit_code, 0);
+    EXPECT_EQ(run_measuring_peak({"compress", in, "--brick", "16", "-o", (dir / "c.strata").string()}, nowhere).exit_code,
+              0);
+  }
+  // 1024 x 1024 x 128 bytes declared, 64 MiB of zeros (64 KiB of gzip) in the stream.
+  ASSERT_EQ(run_command("head -c 67108864 /dev/zero | gzip -1 > " + shell_quoted(dir / "zeros.gz")), 0);
+  write_file(dir / "short.nrrd", "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 1024 1024 128\nencoding: gzip\n\n");
+  ASSERT_EQ(run_command("cat " + shell_quoted(dir / "zeros.gz") + " >> " + shell_quoted(dir / "short.nrrd")), 0);
+  for (const char* command : {"info", "compress"}) {
+    SCOPED_TRACE(command);
+    std::vector<std::string> args{command, (dir / "short.nrrd").string()};
+    if (std::string(command) == "compress") args.insert(args.end(), {"-o", (dir / "short.strata").string()});
+    const PeakRun run = run_measuring_peak(args, {"TMPDIR=" + temp.path().string()});
+    EXPECT_EQ(run.exit_code, 1);
+    EXPECT_LT(run.written_bytes, std::uint64_t(16) << 20);  // decoding to TMPDIR wrote all 64 MiB
+    EXPECT_EQ(entries(temp.path()), 0u);
+  }
+  expect_failure("info " + shell_quoted(dir / "short.nrrd"), {"short.nrrd", "data", "67108864 bytes", "truncated"});
+  EXPECT_FALSE(fs::exists(dir / "short.strata"));
+}
+
+namespace {
+
+// The entries of `dir` whose names start with a dot or end with .tmp: what a stopped run leaves.
+std::vector<std::string> leftovers(const fs::path& dir) {
+  std::vector<std::string> names;
+  for (const auto& e : fs::directory_iterator(dir)) {
+    const std::string name = e.path().filename().string();
+    if (name.starts_with(".") || name.ends_with(".tmp")) names.push_back(name);
+  }
+  return names;
+}
+
+// Waits until `dir` holds a member of the volume set `output` (".<output>.volumeN.part"), so a
+// signal lands while the next member is encoded; false when the run ends first.
+bool wait_for_member(pid_t pid, const fs::path& dir, const std::string& output) {
+  const std::string prefix = "." + output + ".volume";
+  for (int i = 0; i < 24000; ++i) {
+    for (const auto& e : fs::directory_iterator(dir)) {
+      const std::string name = e.path().filename().string();
+      if (name.starts_with(prefix) && name.ends_with(".part")) return true;
+    }
+    if (::waitpid(pid, nullptr, WNOHANG) != 0) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  return false;
+}
+
+}  // namespace
+
+// `compress --all-volumes` encodes each volume into a hidden member beside the output. A run
+// stopped by SIGTERM or SIGINT removes them (and its .tmp files) before it ends by that signal;
+// SIGKILL cannot be caught, and the next run writing the same output removes what it left.
+TEST(CliHostileIo, StoppedAllVolumesRunLeavesNoMembers) {
+  TempDir dir;
+  std::string out;
+  ASSERT_EQ(run_command(strata_cmd("generate marschner-lobb --size 96 -o " + shell_quoted(dir / "one.raw")), &out), 0)
+      << out;
+  std::ifstream one(dir / "one.raw", std::ios::binary);
+  const std::string samples((std::istreambuf_iterator<char>(one)), std::istreambuf_iterator<char>());
+  ASSERT_EQ(samples.size(), std::size_t(96 * 96 * 96 * 4));
+  std::string series = "NRRD0004\ntype: float\ndimension: 4\nsizes: 96 96 96 6\nkinds: domain domain domain list\n"
+                       "endian: little\nencoding: raw\n\n";
+  for (int t = 0; t < 6; ++t) series += samples;
+  fs::remove(dir / "one.raw");
+  fs::remove(dir / "one.raw.json");
+  write_file(dir / "series.nrrd", series);
+  const std::vector<std::string> args{"--threads", "1", "compress", (dir / "series.nrrd").string(), "--all-volumes",
+                                      "--brick", "16", "-o", (dir / "set.strata").string()};
+  for (const int sig : {SIGTERM, SIGINT}) {
+    SCOPED_TRACE(sig);
+    const pid_t pid = start_program(args);
+    ASSERT_TRUE(wait_for_member(pid, dir.path(), "set.strata")) << "the run ended before its first member was written";
+    ::kill(pid, sig);
+    const PeakRun run = wait_program(pid);
+    EXPECT_EQ(run.signal, sig);  // it still ends by the signal
+    EXPECT_EQ(leftovers(dir.path()), std::vector<std::string>{});
+    EXPECT_FALSE(fs::exists(dir / "set.strata"));
+  }
+  // SIGKILL leaves the members; the next run of the same output removes them, and those of an
+  // earlier run with more volumes.
+  const pid_t pid = start_program(args);
+  ASSERT_TRUE(wait_for_member(pid, dir.path(), "set.strata"));
+  ::kill(pid, SIGKILL);
+  wait_program(pid);
+  EXPECT_FALSE(leftovers(dir.path()).empty());
+  write_file(dir / ".set.strata.volume17.part", "stale");
+  EXPECT_EQ(run_measuring_peak(args).exit_code, 0);
+  EXPECT_EQ(leftovers(dir.path()), std::vector<std::string>{});
+  EXPECT_TRUE(fs::exists(dir / "set.strata"));
 }

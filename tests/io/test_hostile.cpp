@@ -155,6 +155,78 @@ TEST(IoHostile, DecodedGzipDataLeavesNoFileInTheTempFolder) {
   }
 }
 
+// Passes in z order (info, convert, compress, labels encode) decode a gzip input as they go:
+// with a temporary folder that does not exist they still read, so none is made. Another read
+// order decodes the volume once to an unnamed temporary and reads it mapped.
+TEST(IoHostile, GzipInputsStreamPassesInZOrderWithoutATemporary) {
+  test::TempDir dir, temp;
+  const Volume volume = random_bytes_volume({9, 7, 6}, DType::u16, 12);
+  write_volume(dir / "v.nrrd", volume, with_compression(true));
+  write_volume(dir / "v.nii.gz", volume);
+  std::vector<std::uint16_t> series(9 * 7 * 6 * 3);
+  for (std::size_t i = 0; i < series.size(); ++i) series[i] = std::uint16_t(31 * i + 7);
+  write_text(dir / "series.nrrd", nrrd("type: uint16\ndimension: 4\nsizes: 9 7 6 3\nkinds: domain domain domain list\n"
+                                       "endian: little\nencoding: gzip\n") +
+                                      gzipped(dir / "scratch.gz", std::string(reinterpret_cast<const char*>(series.data()),
+                                                                              series.size() * 2)));
+  ReadOptions nowhere;
+  nowhere.temp_dir = dir / "missing";
+  for (const char* name : {"v.nrrd", "v.nii.gz"}) {
+    SCOPED_TRACE(name);
+    auto source = open_volume(dir / name, nowhere);
+    for (int pass = 0; pass < 3; ++pass) {  // compress makes two passes, labels encode more
+      for (std::int64_t z = 0; z < 6; z += 2) EXPECT_TRUE(source->read_slab(z, z + 2) == volume.crop({{0, 0, z}, {9, 7, z + 2}}));
+      EXPECT_TRUE(source->read_box({{2, 1, 4}, {5, 6, 6}}) == volume.crop({{2, 1, 4}, {5, 6, 6}}));  // the slices held
+    }
+    // A step back that is not a new pass needs the temporary.
+    expect_error([&] { source->read_slab(1, 3); }, {"missing", "temporary"});
+  }
+  for (std::int64_t t = 0; t < 3; ++t) {
+    ReadOptions o = nowhere;
+    o.volume = t;
+    const Volume v = open_volume(dir / "series.nrrd", o)->read_all();
+    for (std::size_t i = 0; i < std::size_t(v.voxel_count()); ++i)
+      ASSERT_EQ(v.samples<std::uint16_t>()[i], series[std::size_t(t) * 378 + i]) << t;
+  }
+  // Random access: decoded once into the temporary folder, with no name, then mapped.
+  ReadOptions options;
+  options.temp_dir = temp.path();
+  for (const char* name : {"v.nrrd", "v.nii.gz", "series.nrrd"}) {
+    SCOPED_TRACE(name);
+    ReadOptions o = options;
+    o.volume = 1;
+    if (std::string(name) != "series.nrrd") o.volume.reset();
+    auto source = open_volume(dir / name, o);
+    const Volume whole = open_volume(dir / name, o)->read_all();
+    EXPECT_TRUE(source->read_slab(4, 6) == whole.crop({{0, 0, 4}, {9, 7, 6}}));
+    EXPECT_FALSE(maps_a_file_in(temp.path()));
+    EXPECT_TRUE(source->read_slab(1, 3) == whole.crop({{0, 0, 1}, {9, 7, 3}}));
+    EXPECT_TRUE(maps_a_file_in(temp.path()));
+    EXPECT_EQ(file_count(temp.path()), 0u);
+    EXPECT_TRUE(source->read_all() == whole);
+  }
+}
+
+// A small stream whose header declares more than the temporary folder holds: refused before
+// anything is decoded to it, naming the file, the field, the declared size and the free space.
+TEST(IoHostile, GzipDecodingForRandomAccessNeedsRoomForTheDeclaredSize) {
+  test::TempDir dir, temp;
+  // 2^50 bytes declared (1024 x 1024 x 2^30 u8); three slices of zeros in the stream.
+  write_text(dir / "huge.nrrd", nrrd("type: uint8\ndimension: 3\nsizes: 1024 1024 1073741824\nencoding: gzip\n") +
+                                    gzipped(dir / "scratch.gz", std::string(std::size_t(3) << 20, '\0')));
+  ReadOptions options;
+  options.temp_dir = temp.path();
+  auto source = open_volume(dir / "huge.nrrd", options);
+  EXPECT_EQ(source->read_slab(2, 3).voxel_count(), std::int64_t(1) << 20);  // streamed
+  const std::string message = test::error_of([&] { source->read_slab(1, 2); });
+  for (const char* part : {"huge.nrrd", "data", "1125899906842624 bytes (1.0 PiB)", "free", "TMPDIR"})
+    EXPECT_NE(message.find(part), std::string::npos) << "\"" << part << "\" missing from: " << message;
+  EXPECT_NE(message.find(temp.path().string()), std::string::npos) << message;
+  EXPECT_FALSE(maps_a_file_in(temp.path()));
+  // Reading on past the stream's end names the shortfall, without a temporary.
+  expect_clear_error(dir / "huge.nrrd", {"data", "truncated file or wrong sizes"}, options);
+}
+
 TEST(IoHostile, UnnamedTempFileHasNoNameAndMapsWhatWasWritten) {
   test::TempDir temp;
   std::shared_ptr<MappedFile> mapped;

@@ -14,7 +14,9 @@ namespace strata::io {
 /// content) into `output` (create_volume_writer with `write`; its format from the extension or
 /// WriteOptions::format), slab by slab, so volumes larger than memory convert. Progress goes to
 /// `progress`, and decoding a compressed input to read.progress or else `progress` too.
-/// Returns what was written. Throws Error naming the file when the input cannot be read, the
+/// Returns what was written. Throws Error naming both paths, before anything is read or written,
+/// when writing `output` would overwrite a file the input reads (overwrite_conflict in
+/// touched_paths.hpp). Throws Error naming the file when the input cannot be read, the
 /// output format cannot store the input's sample type, or writing fails; no partial output is
 /// left behind.
 VolumeInfo convert_volume(const std::filesystem::path& input, const std::filesystem::path& output,

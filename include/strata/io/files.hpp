@@ -12,6 +12,8 @@
 
 #include <nlohmann/json_fwd.hpp>
 
+#include "strata/io/signal_cleanup.hpp"
+
 namespace strata::io {
 
 // Read-only mmap of a whole file. release() drops pages already consumed so streaming a
@@ -35,7 +37,8 @@ class MappedFile {
   std::uint64_t size_ = 0;
 };
 
-// A file written as `<path>.tmp` and renamed to `<path>` by commit(); removed if never committed.
+// A file written as `<path>.tmp` and renamed to `<path>` by commit(); removed if never committed,
+// and by a stop signal (signal_cleanup.hpp) while it is being written.
 class AtomicOutputFile {
  public:
   explicit AtomicOutputFile(std::filesystem::path path);
@@ -48,10 +51,12 @@ class AtomicOutputFile {
   const std::filesystem::path& path() const { return path_; }
  private:
   std::filesystem::path path_, tmp_;
+  RemovedOnSignal tmp_on_signal_;
   std::FILE* file_ = nullptr;
 };
 
-// A temporary file `<dir>/<stem>-XXXXXX` (created empty), removed when the object dies.
+// A temporary file `<dir>/<stem>-XXXXXX` (created empty), removed when the object dies or a stop
+// signal ends the process (signal_cleanup.hpp).
 class TempFile {
  public:
   explicit TempFile(const std::filesystem::path& dir, const std::string& stem);
@@ -61,6 +66,7 @@ class TempFile {
   const std::filesystem::path& path() const { return path_; }
  private:
   std::filesystem::path path_;
+  RemovedOnSignal on_signal_;
 };
 
 // A temporary file with no name: opened with O_TMPFILE in `dir` where the file system supports

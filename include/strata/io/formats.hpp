@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "strata/core/dtype.hpp"
+#include "strata/io/touched_paths.hpp"
 #include "strata/io/volume_io.hpp"
 
 namespace strata::io {
@@ -68,8 +69,9 @@ class DTypeSet {
 /// @brief What a format can do beyond reading a 3D volume.
 struct FormatCapabilities {
   /// Boxes are read without reading the whole file (memory-mapped samples, pages read on
-  /// demand, or compressed data decoded once to a temporary file that is then mapped), so
-  /// files larger than memory stream slab by slab.
+  /// demand, or compressed data decoded as passes in z order read it and, for other access,
+  /// once to a temporary file that is then mapped), so files larger than memory stream slab by
+  /// slab.
   bool streaming = false;
   /// A file may hold several 3D volumes (time points, components, channels), read one at a time
   /// through ReadOptions::volume. Without it open_volume refuses any volume but 0 itself.
@@ -97,6 +99,12 @@ using FormatWriter = std::function<std::unique_ptr<VolumeWriter>(const std::file
 using MagicSniffer = std::function<bool(std::span<const std::byte> head)>;
 /// @brief A yes/no question about a path (a folder's contents, a file's sidecar).
 using PathPredicate = std::function<bool(const std::filesystem::path& path)>;
+
+/// @brief What reading `path` touches beside it: its data files, its sidecar (touched_paths.hpp).
+using ReadPaths = std::function<std::vector<TouchedPath>(const std::filesystem::path& path)>;
+/// @brief Everything writing `path` creates or replaces, `path` itself and temporaries included.
+using WrittenPaths = std::function<std::vector<TouchedPath>(const std::filesystem::path& path,
+                                                            const WriteOptions& options)>;
 
 /// @brief One entry of the registry: everything io and the front ends know about a format.
 /// Every member has a default, so an entry names only what it has (designated initializers).
@@ -133,8 +141,15 @@ struct VolumeFormat {
   PathPredicate opens_alone{};
   /// Required: the reader.
   FormatReader open{};
+  /// Optional: the files the reader reads besides the path itself (a detached header's data
+  /// files, a JSON sidecar), so that no output overwrites them (files_read). Unset: none.
+  ReadPaths files_read{};
   /// Optional: the writer; a format without one is read-only.
   FormatWriter create_writer{};
+  /// Optional, with a writer: everything it creates or replaces for `path` (the output, its
+  /// data file or sidecar, each one's temporary, folders it replaces whole), for files_written.
+  /// Unset: `path` and `<path>.tmp`.
+  WrittenPaths files_written{};
   FormatCapabilities capabilities{};
   /// The sample types the reader returns and the writer stores (empty without a writer).
   DTypeSet read_dtypes = DTypeSet::all();

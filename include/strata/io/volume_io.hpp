@@ -34,7 +34,8 @@ struct ReadOptions {
   // `scales`), from 0, the finest (the default). Formats without FormatCapabilities::multiscale
   // refuse any level but 0.
   std::optional<std::int64_t> level;
-  // Where compressed inputs (gzip) are decoded for random access; default: the system temp dir.
+  // Where compressed inputs (gzip) are decoded for random access; default: the system temp dir
+  // (TMPDIR). Reads in z order decode as they go and need no room there.
   std::optional<std::filesystem::path> temp_dir;
   ProgressSink* progress = nullptr;  // for decoding compressed inputs
 };
@@ -51,8 +52,8 @@ struct WriteOptions {
 };
 
 // Random access to a volume on disk without loading it whole. Raw and raw-encoded NRRD are
-// memory-mapped; gzip inputs are decoded once to a temporary raw file (deleted on close);
-// TIFF stacks read the pages a request touches.
+// memory-mapped; gzip inputs are decoded as reads in z order ask for them, and for other access
+// once to an unnamed temporary file; TIFF stacks read the pages a request touches.
 class VolumeSource {
  public:
   virtual ~VolumeSource() = default;

@@ -86,6 +86,7 @@ class ScaleWriter final : public VolumeWriter {
 
 struct PrecomputedPyramidWriter::Impl {
   fs::path folder, temporary;
+  RemovedOnSignal temporary_on_signal;
   VolumeDescription description;
   std::vector<std::unique_ptr<ScaleWriter>> scales;
   bool finished = false;
@@ -97,6 +98,7 @@ PrecomputedPyramidWriter::PrecomputedPyramidWriter(fs::path folder, std::vector<
   Impl& m = *impl_;
   m.folder = std::move(folder);
   m.temporary = fs::path(m.folder.string() + std::string(kTemporarySuffix));
+  m.temporary_on_signal = RemovedOnSignal(m.temporary);
   m.description = written_description(levels, m.folder.string(), encoding);
   std::error_code ec;
   if (fs::exists(m.folder, ec) && !fs::exists(m.folder / "info", ec))
@@ -129,6 +131,7 @@ void PrecomputedPyramidWriter::finish() {
   fs::rename(m.temporary, m.folder, ec);
   if (ec)
     throw Error(fmt::format("{}: cannot rename {} to it: {}", m.folder.string(), m.temporary.string(), ec.message()));
+  m.temporary_on_signal.release();
   m.finished = true;
 }
 

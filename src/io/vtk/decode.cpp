@@ -85,8 +85,19 @@ std::optional<DType> dtype_of_legacy_type(std::string_view name) {
 // ---------------------------------------------------------------------------------------------
 // Temporary file
 
-DecodedSamples::DecodedSamples(const ReadOptions& options, std::string file)
-    : temp_(options.temp_dir.value_or(std::filesystem::temp_directory_path()), "strata-vtk"), file_(std::move(file)) {}
+namespace {
+
+const std::filesystem::path& checked_temp_folder(const std::filesystem::path& dir, const std::string& file,
+                                                 const std::string& field, std::uint64_t bytes) {
+  check_temp_space(dir, bytes, file, field, "decoding the samples");
+  return dir;
+}
+
+}  // namespace
+
+DecodedSamples::DecodedSamples(const ReadOptions& options, std::string file, const std::string& field,
+                               std::uint64_t bytes)
+    : temp_(checked_temp_folder(temp_folder(options.temp_dir, file), file, field, bytes), "strata-vtk"), file_(std::move(file)) {}
 
 void DecodedSamples::write(const void* data, std::size_t bytes) {
   try {

@@ -179,7 +179,7 @@ std::unique_ptr<VolumeSource> open_legacy(const std::filesystem::path& path, con
       in.advance(parse_ascii_samples(in.rest(), scalars.dtype, samples, nullptr, file, field));
       continue;
     }
-    DecodedSamples out(options, file);
+    DecodedSamples out(options, file, field, layout.bytes);
     parse_ascii_samples(in.rest(), scalars.dtype, samples, &out, file, field);
     return component_source(out.map(), 0, layout, false, path, options, field);
   }

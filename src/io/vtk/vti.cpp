@@ -137,7 +137,7 @@ ArrayLayout image_layout(const XmlDocument& doc, const XmlElement& array, const 
 std::shared_ptr<MappedFile> decode_binary(ByteReader in, const FileAttributes& attributes, const ArrayLayout& layout,
                                           std::uint64_t available, const ReadOptions& options, const std::string& file,
                                           const std::string& field) {
-  DecodedSamples out(options, file);
+  DecodedSamples out(options, file, field, layout.bytes);
   if (attributes.compressed) {
     inflate_blocks(in, attributes.header, layout.bytes, available, out, file, field);
   } else {
@@ -168,7 +168,7 @@ std::unique_ptr<VolumeSource> open_vti(const std::filesystem::path& path, const 
   const std::string format = attribute_or(array, "format", "");
 
   if (format == "ascii") {
-    DecodedSamples out(options, file);
+    DecodedSamples out(options, file, field, layout.bytes);
     parse_ascii_samples(array.text, layout.info.dtype, layout.bytes / dtype_size(layout.info.dtype), &out, file, field);
     return component_source(out.map(), 0, layout, false, path, options, field);
   }

@@ -25,10 +25,11 @@ std::optional<DType> dtype_of_xml_type(std::string_view name);
 std::string_view legacy_type_name(DType t);
 std::optional<DType> dtype_of_legacy_type(std::string_view name);
 
-// Decoded samples on their way to a mapping: an unnamed temporary file in ReadOptions::temp_dir.
+// Decoded samples on their way to a mapping: an unnamed temporary file in ReadOptions::temp_dir,
+// refused up front (check_temp_space) when that folder has no room for the `bytes` of `field`.
 class DecodedSamples {
  public:
-  DecodedSamples(const ReadOptions& options, std::string file);
+  DecodedSamples(const ReadOptions& options, std::string file, const std::string& field, std::uint64_t bytes);
   void write(const void* data, std::size_t bytes);
   std::uint64_t size() const { return size_; }
   // Maps what was written (the file must hold something).

@@ -161,7 +161,8 @@ class ArrayWriter {
 // destroyed uncommitted.
 class ImageFolder {
  public:
-  explicit ImageFolder(fs::path path) : path_(std::move(path)), tmp_(path_.string() + std::string(kTemporarySuffix)) {
+  explicit ImageFolder(fs::path path)
+      : path_(std::move(path)), tmp_(path_.string() + std::string(kTemporarySuffix)), tmp_on_signal_(tmp_) {
     fs::remove_all(tmp_);
     fs::create_directories(tmp_);
     write_json(tmp_ / ".zgroup", {{"zarr_format", 2}});
@@ -181,11 +182,13 @@ class ImageFolder {
     fs::remove_all(path_, ec);
     fs::rename(tmp_, path_, ec);
     if (ec) throw Error(fmt::format("{}: cannot rename {} to it: {}", path_.string(), tmp_.string(), ec.message()));
+    tmp_on_signal_.release();
     committed_ = true;
   }
 
  private:
   fs::path path_, tmp_;
+  RemovedOnSignal tmp_on_signal_;
   bool committed_ = false;
 };
 
