@@ -51,8 +51,9 @@ RUN_TIMEOUT_S = 60
 
 class Campaign:
     def __init__(self, strata, pythonpath, seed, work):
-        self.strata = str(strata)
-        self.pythonpath = str(pythonpath)
+        # Commands run in the work folder: a path given relative to here must still find them.
+        self.strata = str(Path(strata).resolve()) if os.sep in str(strata) else str(strata)
+        self.pythonpath = str(Path(pythonpath).resolve())
         self.rng = random.Random(seed)
         self.work = Path(work)
         self.findings = []
@@ -244,18 +245,22 @@ class Campaign:
                     continue
                 bad = d / f"{name}.strata"
                 bad.write_bytes(data)
-                for args in self.decode_commands(kind, bad, d / "out.nrrd")[1:2] + self.section_readers(kind, bad, d):
+                forged_names = [s for s in sections if forged["sections"][s] != meta["sections"][s]]
+                readers = {tuple(map(str, a)): a for s in forged_names for a in self.section_readers(kind, bad, d, s)}
+                # Only a command that reads a forged section must refuse; the others may succeed.
+                for args in readers.values():
                     rc, out, err = self.run(args)
                     if self.judge(cls, args, rc, out, err) and rc == 0:
-                        self.finding(cls, f"accepted: {name} with {how}: strata {' '.join(map(str, args[:2]))}")
+                        self.finding(cls, f"accepted: {name} with {how}: strata {' '.join(map(str, args))}")
                 self.leftovers(cls, d, f"{name} {how}")
 
-    def section_readers(self, kind, path, d):
-        if kind == "labels":
+    def section_readers(self, kind, path, d, section):
+        """The commands that read `section` of `path`."""
+        if kind == "labels" and section == "normals":
             return [["render", path, "--lighting", "normals", "--size", "32x32", "-o", d / "f.png"]]
-        if kind == "set":
-            return [["decompress", path, "--volume", "0", "-o", d / "v0.nrrd"]]
-        return []
+        if kind == "set" and section.startswith("volume_"):
+            return [["decompress", path, "--volume", section[len("volume_"):], "-o", d / "v.nrrd"]]
+        return self.decode_commands(kind, path, d / "out.nrrd")[1:2]
 
     def with_metadata(self, data, meta):
         """`data` with `meta` as its metadata (same place, padded) and the metadata and header
@@ -336,32 +341,64 @@ class Campaign:
             for args in (["info", path], ["convert", path, d / "out.nrrd"], ["compress", path, "-o", d / "out.strata"]):
                 tmp = d / "tmp"
                 tmp.mkdir(exist_ok=True)
-                env = dict(os.environ, TMPDIR=str(tmp))
-                peak = [0]
-                done = threading.Event()
-
-                def watch():
-                    while not done.is_set():
-                        peak[0] = max(peak[0], folder_bytes(tmp))
-                        time.sleep(0.02)
-
-                t = threading.Thread(target=watch)
-                t.start()
-                rc, out, err = self.run(args, env=env)
-                done.set()
-                t.join()
+                rc, out, err, peak = self.run_watching_temp(args, tmp)
                 self.judge(cls, args, rc, out, err)
                 cmd = f"strata {args[0]} {name}.nrrd"
                 if rc == 0:
                     self.finding(cls, f"accepted a bomb: {cmd}")
                 limit = 0 if name == "huge" else 64 << 20
-                if args[0] == "info" or name == "huge":
-                    if peak[0] > limit:
-                        self.finding(cls, f"{peak[0] >> 20} MiB written to TMPDIR by {cmd}")
+                if peak > limit:  # every command reads these in z order: nothing to decode for random access
+                    self.finding(cls, f"{peak >> 20} MiB written to TMPDIR by {cmd}")
                 self.leftovers(cls, d, cmd)
                 if folder_bytes(tmp):
                     self.finding(cls, f"TMPDIR not emptied after {cmd}")
                 shutil.rmtree(tmp)
+        # A valid file of 2 GiB of zeros in about 2 MB (the issue's case): `info` reads it whole
+        # and must not decode it to TMPDIR on the way.
+        path = d / "full.nrrd"
+        with open(path, "wb") as f:
+            f.write(b"NRRD0004\ntype: uint8\ndimension: 3\nsizes: 1024 1024 2048\nencoding: gzip\n\n")
+            with gzip.GzipFile(fileobj=f, mode="wb", compresslevel=9) as z:
+                for _ in range(2048):
+                    z.write(zeros)
+        tmp = d / "tmp"
+        tmp.mkdir(exist_ok=True)
+        args = ["info", path]
+        rc, out, err, peak = self.run_watching_temp(args, tmp)
+        if self.judge(cls, args, rc, out, err) and rc != 0:
+            self.finding(cls, "strata info full.nrrd refused a valid 2 GiB gzip file", err)
+        if peak > 64 << 20:
+            self.finding(cls, f"{peak >> 20} MiB written to TMPDIR by strata info full.nrrd")
+        shutil.rmtree(tmp)
+        path.unlink()
+
+    def run_watching_temp(self, args, tmp):
+        """run() with TMPDIR=`tmp`, sampling every 20 ms the bytes in it, unnamed temporaries
+        (O_TMPFILE, or unlinked after creation: only the process's descriptors show them)
+        included; returns (rc, stdout, stderr, peak bytes)."""
+        self.runs += 1
+        env = dict(os.environ, TMPDIR=str(tmp))
+        peak = 0
+        with subprocess.Popen([self.strata, "--progress", "none", *map(str, args)], env=env, stdout=subprocess.PIPE,
+                              stderr=subprocess.PIPE, text=True, errors="replace") as p:
+            collected = {}
+            readers = [threading.Thread(target=lambda s=s, k=k: collected.__setitem__(k, s.read()))
+                       for k, s in (("out", p.stdout), ("err", p.stderr))]
+            for r in readers:
+                r.start()
+            start = time.monotonic()
+            while p.poll() is None and time.monotonic() - start < RUN_TIMEOUT_S:
+                peak = max(peak, folder_bytes(tmp) + open_bytes_under(p.pid, tmp))
+                time.sleep(0.02)
+            if p.poll() is None:
+                p.kill()
+                p.wait()
+                rc = None
+            else:
+                rc = p.returncode
+            for r in readers:
+                r.join()
+        return rc, collected.get("out", ""), collected.get("err", ""), peak
 
     # -- class 5: kills -----------------------------------------------------------------------------
 
@@ -603,6 +640,23 @@ def http_exchange(port, request, timeout):
     except OSError:
         pass
     return data
+
+
+def open_bytes_under(pid, folder):
+    """Bytes held by the files process `pid` has open under `folder`, deleted or unnamed ones too."""
+    total = 0
+    prefix = str(Path(folder).resolve())
+    try:
+        fds = os.listdir(f"/proc/{pid}/fd")
+    except OSError:
+        return 0
+    for fd in fds:
+        try:
+            if os.readlink(f"/proc/{pid}/fd/{fd}").startswith(prefix):
+                total += os.stat(f"/proc/{pid}/fd/{fd}").st_blocks * 512
+        except OSError:
+            pass
+    return total
 
 
 def folder_bytes(folder):
