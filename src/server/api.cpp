@@ -326,7 +326,7 @@ HttpResponse Api::handle(const HttpRequest& request) {
   } catch (const ParameterError& e) {
     response = error_response(400, e.what(), api_parameter(e.parameter()));
   } catch (const std::exception& e) {
-    response = error_response(500, e.what());
+    response = internal_error_response(e);
   }
   response.set_header("Cache-Control", "no-store");
   if (!impl_->options.cors_origin.empty()) response.set_header("Access-Control-Allow-Origin", impl_->options.cors_origin);

@@ -3,7 +3,11 @@
 #include <algorithm>
 #include <cctype>
 
+#include <new>
+
 #include <nlohmann/json.hpp>
+
+#include "strata/core/error.hpp"
 
 namespace strata::server {
 
@@ -78,6 +82,12 @@ HttpResponse error_response(int status, const std::string& message, const std::s
   // Messages may quote request bytes that are not UTF-8: replace those rather than throw.
   r.body = body.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
   return r;
+}
+
+HttpResponse internal_error_response(const std::exception& e) {
+  if (dynamic_cast<const Error*>(&e)) return error_response(500, e.what());
+  if (dynamic_cast<const std::bad_alloc*>(&e)) return error_response(500, "out of memory while answering the request");
+  return error_response(500, "internal error while answering the request");
 }
 
 }  // namespace strata::server

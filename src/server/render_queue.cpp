@@ -87,7 +87,7 @@ void RenderQueue::work() {
     try {
       response = entry->job();
     } catch (const std::exception& e) {
-      response = error_response(500, e.what());
+      response = internal_error_response(e);
     }
     entry->done.set_value(std::move(response));
     lock.lock();

@@ -4,9 +4,12 @@
 
 #include <atomic>
 #include <future>
+#include <new>
+#include <stdexcept>
 #include <thread>
 
 #include "server/server_test_util.hpp"
+#include "strata/core/error.hpp"
 #include "strata/server/render_queue.hpp"
 
 namespace strata::server {
@@ -90,11 +93,21 @@ TEST(ServerRenderQueue, StopAnswersQueuedJobs503AndRefusesNewOnes) {
   EXPECT_EQ(q.run("", std::nullopt, body("2")).status, 503);
 }
 
-TEST(ServerRenderQueue, FailingJobIs500) {
+// A failing job is a 500. Our errors name the file and field and are sent; another library's
+// text (which may quote anything) is not: the client reads that the request failed.
+TEST(ServerRenderQueue, FailingJobIs500InOurWords) {
   RenderQueue q(1);
-  const HttpResponse r = q.run("", std::nullopt, []() -> HttpResponse { throw std::runtime_error("broken brick"); });
+  HttpResponse r = q.run("", std::nullopt, []() -> HttpResponse { throw FormatError("a.strata", "brick (0, 0,0,0)", "broken brick"); });
   EXPECT_EQ(r.status, 500);
-  EXPECT_NE(r.body.find("broken brick"), std::string::npos);
+  EXPECT_NE(r.body.find("a.strata: brick (0, 0,0,0): broken brick"), std::string::npos) << r.body;
+  r = q.run("", std::nullopt, []() -> HttpResponse { throw std::out_of_range("json.exception.out_of_range.401: array index 7"); });
+  EXPECT_EQ(r.status, 500);
+  EXPECT_EQ(r.body.find("json.exception"), std::string::npos) << r.body;
+  EXPECT_NE(r.body.find("internal error while answering the request"), std::string::npos) << r.body;
+  r = q.run("", std::nullopt, []() -> HttpResponse { throw std::bad_alloc(); });
+  EXPECT_EQ(r.status, 500);
+  EXPECT_NE(r.body.find("out of memory"), std::string::npos) << r.body;
+  EXPECT_EQ(r.body.find("std::bad_alloc"), std::string::npos) << r.body;
   EXPECT_EQ(q.run("", std::nullopt, body("next")).body, "next") << "the worker survives";
 }
 

@@ -2,6 +2,7 @@
 /// @file
 /// @brief HTTP requests and responses as plain values, so the API can be driven and tested
 /// without sockets; the HTTP layer (http_server.hpp) converts to and from the wire.
+#include <exception>
 #include <map>
 #include <optional>
 #include <string>
@@ -40,5 +41,11 @@ HttpRequest make_request(std::string method, std::string_view target, std::strin
 /// @brief A JSON error body {"error": message, "parameter": parameter} (the parameter omitted
 /// when empty) with `status`.
 HttpResponse error_response(int status, const std::string& message, const std::string& parameter = {});
+
+/// @brief The 500 answer to a request that failed with `e`. A strata::Error's message is ours
+/// (it names the file and the field) and is sent; any other exception's text is a library's and
+/// may quote anything, so the client gets "internal error while answering the request" (out of
+/// memory says so) and never that text.
+HttpResponse internal_error_response(const std::exception& e);
 
 }  // namespace strata::server
