@@ -126,12 +126,6 @@ VolumeInfo array_info(const py::array& array, const Spacing& spacing) {
   return info;
 }
 
-Volume to_volume(const py::array& array, const Spacing& spacing) {
-  Volume v(array_info(array, spacing));
-  std::memcpy(v.bytes(), array.data(), v.byte_size());
-  return v;
-}
-
 py::array to_numpy(Volume volume) {
   const Extent d = volume.dims();
   const py::dtype dtype = numpy_dtype(volume.dtype());

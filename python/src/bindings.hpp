@@ -52,8 +52,6 @@ DType dtype_from_python(py::handle obj, const char* what);
 py::array volume_array(py::handle obj, const char* what);
 /// @brief The VolumeInfo of an array volume_array accepted, with `spacing`.
 VolumeInfo array_info(const py::array& array, const Spacing& spacing);
-/// @brief A copy of such an array as a Volume (io writes Volumes).
-Volume to_volume(const py::array& array, const Spacing& spacing);
 /// @brief `volume` as a (z, y, x) numpy array that owns its samples (moved, not copied).
 py::array to_numpy(Volume volume);
 

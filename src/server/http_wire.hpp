@@ -74,7 +74,7 @@ class RequestReader {
   std::size_t scanned_ = 0;  // how far in_ was searched for the end of the head
   std::size_t body_at_ = 0;  // where the body begins (0: head not complete)
   std::size_t chunk_at_ = 0; // chunked: where the next chunk-size line begins
-  bool chunked_ = false, chunks_done_ = false, expect_continue_ = false;
+  bool chunked_ = false, expect_continue_ = false;
   std::size_t content_length_ = 0;
   std::string body_;         // the decoded body of a chunked request
   std::size_t end_ = 0;      // complete: where the request ends in in_
