@@ -11,6 +11,10 @@ const ZOOM_PER_WHEEL_UNIT = 0.0015;
 // After the last camera change, wait this long before asking for the exact frame, so a drag
 // or a wheel spin produces a stream of coarse frames and only one exact frame.
 const EXACT_DELAY_MS = 250;
+// At rest, scalar frames are refined: passes 1..REFINE_PASSES-1 of the same view, each with its
+// own ray jitter pattern, are averaged with the exact frame (pass 0), which removes the
+// sampling noise of the step (docs/viewer.md).
+const REFINE_PASSES = 8;
 
 export class View3D {
   constructor(viewer, section) {
@@ -26,6 +30,7 @@ export class View3D {
     this.shownSeq = 0;
     this.frames = 0;
     this.lastExact = null; // {key, blob}: the screenshot reuses it when the view has not changed
+    this.refined = null; // {key, sum, passes, width, height}: the mean of the view's passes so far
     this.exactTimer = null;
     this.size = { width: 1, height: 1 };
     this.showOverlay = true;
@@ -189,12 +194,13 @@ export class View3D {
     return params;
   }
 
-  send(quality) {
+  send(quality, pass = 0) {
     const dataset = this.viewer.dataset3d();
     const params = this.frameParams();
     const key = apiUrl(dataset.id, 'render', params);
     const seq = ++this.seq;
-    const url = apiUrl(dataset.id, 'render', { ...params, quality, client: this.clientId, seq });
+    const extra = pass > 0 ? { pass } : {};
+    const url = apiUrl(dataset.id, 'render', { ...params, ...extra, quality, client: this.clientId, seq });
     const started = performance.now();
     this.channel.submit({
       // An exact frame in flight is worthless once the camera moves again.
@@ -202,7 +208,8 @@ export class View3D {
       run: async (signal, channel) => {
         const frame = await fetchImage(url, signal, channel);
         if (!frame || seq < this.shownSeq) return;
-        this.show(frame, { seq, quality, key, elapsed: performance.now() - started });
+        if (pass > 0) await this.refine(frame, { seq, key, pass });
+        else this.show(frame, { seq, quality, key, elapsed: performance.now() - started });
       },
     });
   }
@@ -211,12 +218,50 @@ export class View3D {
     this.shownSeq = seq;
     this.bitmap?.close?.();
     this.bitmap = frame.bitmap;
+    this.refined = null;
     if (quality === 'exact') this.lastExact = { key, blob: frame.blob };
     this.message.hidden = true;
     this.redrawFrame();
     this.frames += 1;
-    Object.assign(this.canvas.dataset, { frames: this.frames, quality, seq });
+    Object.assign(this.canvas.dataset, { frames: this.frames, quality, seq, passes: quality === 'exact' ? 1 : 0 });
     this.viewer.status.frameShown(parseStats(frame.headers), quality, elapsed);
+    if (quality === 'exact' && this.state.source3d === 'scalar') {
+      this.refined = { key, sum: null, passes: 0 };
+      this.accumulate(frame.bitmap);
+      this.send('exact', 1);
+    }
+  }
+
+  // Adds a frame's pixels to the running sum of the view's passes.
+  accumulate(bitmap) {
+    const { width, height } = bitmap;
+    const scratch = new OffscreenCanvas(width, height).getContext('2d', { willReadFrequently: true });
+    scratch.drawImage(bitmap, 0, 0);
+    const pixels = scratch.getImageData(0, 0, width, height).data;
+    const r = this.refined;
+    if (!r.sum || r.width !== width || r.height !== height) Object.assign(r, { sum: new Float32Array(pixels.length), passes: 0, width, height });
+    for (let i = 0; i < pixels.length; i += 1) r.sum[i] += pixels[i];
+    r.passes += 1;
+  }
+
+  // A refinement pass arrived: show the mean of the passes so far and ask for the next one.
+  async refine(frame, { seq, key, pass }) {
+    const r = this.refined;
+    if (!r || r.key !== key || pass !== r.passes) return; // the view changed meanwhile
+    this.accumulate(frame.bitmap);
+    frame.bitmap.close?.();
+    const mean = new ImageData(r.width, r.height);
+    const inverse = 1 / r.passes;
+    for (let i = 0; i < mean.data.length; i += 1) mean.data[i] = Math.round(r.sum[i] * inverse);
+    const bitmap = await createImageBitmap(mean);
+    if (this.refined !== r || seq < this.shownSeq) return;
+    this.shownSeq = seq;
+    this.bitmap?.close?.();
+    this.bitmap = bitmap;
+    r.image = mean;
+    this.redrawFrame();
+    this.canvas.dataset.passes = r.passes;
+    if (r.passes < REFINE_PASSES) this.send('exact', r.passes);
   }
 
   redrawFrame() {
@@ -242,6 +287,11 @@ export class View3D {
     if (!dataset) return null;
     const params = this.frameParams();
     const key = apiUrl(dataset.id, 'render', params);
+    if (this.refined?.key === key && this.refined.image) {
+      const canvas = new OffscreenCanvas(this.refined.width, this.refined.height);
+      canvas.getContext('2d').putImageData(this.refined.image, 0, 0);
+      return canvas.convertToBlob({ type: 'image/png' });
+    }
     if (this.lastExact?.key === key) return this.lastExact.blob;
     const frame = await fetchImage(apiUrl(dataset.id, 'render', { ...params, quality: 'exact', format: 'png' }));
     return frame?.blob ?? null;

@@ -28,14 +28,17 @@ namespace {
 
 // --orbit: at most one frame per tenth of a degree.
 constexpr int kMaxOrbitFrames = 3600;
+// --passes: beyond this the mean of jittered passes changes by less than an 8-bit level.
+constexpr int kMaxPasses = 256;
 
 struct RenderArgs {
   std::string input, output, size = "1024x768", tf = "ct", shading = "on", stats, colors, background = "0,0,0",
       lighting = "auto";
   double azimuth = 30, elevation = 20, distance = 0, fov = 30, lod = 1.0, step = 0.5, lod_bias = 0.0, target_fps = 0,
          feature_scale = 0;
-  int rank = 0, orbit = 0;
+  int rank = 0, orbit = 0, passes = 1;
   bool exact = false, ortho = false;
+  std::string jitter = "on";
   std::string cache = "1G";
   std::int64_t max_bricks = 8192;
   std::optional<std::int64_t> volume;
@@ -155,6 +158,10 @@ render::FrameSettings frame_settings(const RenderArgs& a) {
   else throw UsageError("--lighting", "expected auto, gradient, gradient-ao or normals, got '" + a.lighting + "'");
   f.step = a.step;
   f.shading = a.shading == "on";
+  if (a.jitter != "on" && a.jitter != "off") throw UsageError("--jitter", "expected on or off, got '" + a.jitter + "'");
+  f.jitter = a.jitter == "on";
+  if (a.passes < 1 || a.passes > kMaxPasses)
+    throw UsageError("--passes", fmt::format("must lie in 1..{}, got {}", kMaxPasses, a.passes));
   as_usage_error([&] {
     for (const int i : {0, std::max(0, a.orbit - 1)}) {
       f.camera.orbit.azimuth_deg = frame_azimuth(a, i);
@@ -191,6 +198,26 @@ render::FrameQuality frame_quality(const RenderArgs& a, int i) {
   return a.target_fps > 0 ? render::FrameQuality::interactive : render::FrameQuality::progressive;
 }
 
+// The mean of `passes` frames with jitter patterns 0..passes-1 (one frame when 1): `s` holds
+// the first frame's figures, with the passes' total time and CPU.
+render::Image refined_frame(render::RenderSession& session, render::FrameSettings settings, int passes,
+                            nlohmann::json& s) {
+  settings.pass = 0;
+  render::Image first = session.frame(settings, s);
+  if (passes == 1) return first;
+  render::ImageMean mean;
+  mean.add(first);
+  for (int p = 1; p < passes; ++p) {
+    nlohmann::json more;
+    settings.pass = std::uint32_t(p);
+    mean.add(session.frame(settings, more));
+    for (const char* key : {"frame_ms", "cpu_s"})
+      if (s.contains(key) && more.contains(key)) s[key] = s[key].get<double>() + more[key].get<double>();
+  }
+  s["passes"] = passes;
+  return mean.mean();
+}
+
 void run_render(const RenderArgs& a, const GlobalOptions&) {
   if (a.orbit < 0 || a.orbit > kMaxOrbitFrames)
     throw UsageError("--orbit", fmt::format("must lie in 0..{} frames, got {}", kMaxOrbitFrames, a.orbit));
@@ -220,7 +247,7 @@ void run_render(const RenderArgs& a, const GlobalOptions&) {
     nlohmann::json s;
     settings.camera.orbit.azimuth_deg = frame_azimuth(a, i);
     settings.quality = frame_quality(a, i);
-    const render::Image image = session.frame(settings, s);
+    const render::Image image = refined_frame(session, settings, a.passes, s);
     s["frame"] = i;
     s["azimuth"] = settings.camera.orbit.azimuth_deg;
     const fs::path path = frame_path(a, i);
@@ -282,6 +309,14 @@ void register_render(CLI::App& app, const GlobalOptions& global) {
       ->capture_default_str();
   cmd->add_option("--shading", a->shading, "Blinn-Phong shading: on | off")->capture_default_str();
   cmd->add_option("--step", a->step, "Sample distance in voxels of the sampled level (0.05..16)")->capture_default_str();
+  cmd->add_option("--jitter", a->jitter,
+                  "Scalar volumes: start each pixel's samples at its own fraction of a step (on: the step's error "
+                  "is fine noise, not rings; off: every ray samples at whole steps from the eye)")
+      ->capture_default_str();
+  cmd->add_option("--passes", a->passes,
+                  "Scalar volumes: average this many jittered passes per frame (1..256; 8 removes the sampling "
+                  "noise of step 0.5 and costs 8 frames)")
+      ->capture_default_str();
   cmd->add_option("--background", a->background, "Background colour r,g,b in [0,1]")->capture_default_str();
   cmd->add_flag("--exact", a->exact, "Wait for every brick of the cut in every frame (no progressive refinement)");
   cmd->add_option("--orbit", a->orbit, "Render N frames around the volume into the output folder (0..3600)")

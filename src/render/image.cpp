@@ -170,6 +170,39 @@ std::uint8_t mix(std::uint8_t a, std::uint8_t b, std::uint8_t c, std::uint8_t d,
 
 }  // namespace
 
+void ImageMean::add(const Image& image) {
+  if (count_ == 0) {
+    width_ = image.width();
+    height_ = image.height();
+    sum_.assign(std::size_t(width_) * std::size_t(height_) * 4, 0.0f);
+  } else if (image.width() != width_ || image.height() != height_) {
+    throw Error("ImageMean: an image of " + std::to_string(image.width()) + "x" + std::to_string(image.height()) +
+                " added to a mean of " + std::to_string(width_) + "x" + std::to_string(height_) + " images");
+  }
+  float* s = sum_.data();
+  for (const Rgba8& p : image.pixels()) {
+    s[0] += p.r;
+    s[1] += p.g;
+    s[2] += p.b;
+    s[3] += p.a;
+    s += 4;
+  }
+  ++count_;
+}
+
+Image ImageMean::mean() const {
+  if (count_ == 0) throw Error("ImageMean: the mean of no images");
+  Image out(width_, height_);
+  const float inv = 1.0f / float(count_);
+  const float* s = sum_.data();
+  auto level = [inv](float v) { return std::uint8_t(std::lround(std::clamp(v * inv, 0.0f, 255.0f))); };
+  for (Rgba8& p : out.pixels()) {
+    p = {level(s[0]), level(s[1]), level(s[2]), level(s[3])};
+    s += 4;
+  }
+  return out;
+}
+
 Image resize_bilinear(const Image& image, int width, int height) {
   if (width <= 0 || height <= 0 || image.width() <= 0 || image.height() <= 0)
     throw Error("resize: image sizes must be positive");

@@ -122,17 +122,24 @@ struct PixelCaster {
   const Camera& cam;
   const std::array<float, 4>& background;
   Image& image;
+  double jitter_span;  // the coarsest level's step when rays are jittered, else 0
+  std::uint32_t jitter_pass;
   std::vector<std::uint8_t> touched;  // per block
   std::uint64_t rays = 0, samples = 0;
 
   void operator()(int px, int py) {
     const Ray r = cam.ray(px, py);
-    RayContext ray{{r.origin.x, r.origin.y, r.origin.z},
+    // Lattice points lie at whole steps from the ray's origin: moving the origin back by a
+    // fraction of the coarsest step shifts every level's lattice (a level's step divides the
+    // coarsest one, so its phase is that fraction times a power of two, modulo 1).
+    const double shift = jitter_span * lattice_offset(px, py, jitter_pass);
+    RayContext ray{{r.origin.x - r.direction.x * shift, r.origin.y - r.direction.y * shift, r.origin.z - r.direction.z * shift},
                    {r.direction.x, r.direction.y, r.direction.z},
                    {float(-r.direction.x), float(-r.direction.y), float(-r.direction.z)}};
     std::array<double, 3> inv{};
     for (int a = 0; a < 3; ++a) inv[a] = ray.dir[a] != 0 ? 1.0 / ray.dir[a] : 0.0;
-    const auto [t0, t1] = clip_to_box(ray.origin, ray.dir, trav.index.volume_hi, TimesInverse{inv});
+    auto [t0, t1] = clip_to_box(ray.origin, ray.dir, trav.index.volume_hi, TimesInverse{inv});
+    t0 = std::max(t0, shift);  // nothing behind the camera's own origin
     RayState st;
     st.touched = touched.data();
     st.prev_t = t0;  // the volume entry starts the first segment
@@ -144,6 +151,13 @@ struct PixelCaster {
     image.at(px, py) = to_rgba8(st.acc, background);
   }
 };
+
+// The step of the coarsest level the frame holds (0 for an empty frame).
+double coarsest_step(const RenderJob& job) {
+  int level = -1;
+  for (const Block& b : job.index.blocks) level = std::max(level, b.level);
+  return level >= 0 ? job.levels[std::size_t(level)].h : 0.0;
+}
 
 }  // namespace
 
@@ -166,9 +180,13 @@ Image run(const RenderJob& job, RenderStats& stats) {
   const int threads = job.options.threads > 0 ? job.options.threads : thread_count();
   std::vector<std::uint8_t> sampled(index.blocks.size(), 0);
   stats.rays = stats.samples = 0;
+  const double jitter_span = job.options.jitter ? coarsest_step(job) : 0.0;
   for_each_pixel(
       TileGrid{cam.width(), cam.height(), job.options.tile}, threads,
-      [&] { return PixelCaster{trav, cam, job.options.background, image, std::vector<std::uint8_t>(index.blocks.size(), 0)}; },
+      [&] {
+        return PixelCaster{trav, cam, job.options.background, image, jitter_span, job.options.jitter_pass,
+                           std::vector<std::uint8_t>(index.blocks.size(), 0)};
+      },
       [&](const PixelCaster& c) {
         stats.rays += c.rays;
         stats.samples += c.samples;

@@ -110,6 +110,8 @@ RenderOptions render_options(const FrameSettings& s, const std::array<float, 4>&
   RenderOptions o;
   o.step = s.step;
   o.shading = s.shading;
+  o.jitter = s.jitter;
+  o.jitter_pass = s.pass;
   o.background = background;
   return o;
 }
@@ -120,11 +122,12 @@ const TransferFunction& frame_tf(const FrameSettings& settings) {
 }
 
 RayCaster& CasterSlot::get(const TransferFunction& tf, const RenderOptions& options) {
-  std::string key = fmt::format("{}|{}|{}", tf.to_json().dump(), options.step, options.shading);
+  std::string key = fmt::format("{}|{}|{}|{}", tf.to_json().dump(), options.step, options.shading, options.jitter);
   if (!caster_ || key != key_) {
     caster_ = std::make_unique<RayCaster>(tf, options);
     key_ = std::move(key);
   }
+  caster_->set_jitter_pass(options.jitter_pass);
   return *caster_;
 }
 

@@ -111,6 +111,16 @@ double box_exit(const Point& origin, const Point& dir, const Corner& lo, const C
 
 // ---- Pixels ---------------------------------------------------------------------------------
 
+// A pixel's sample-lattice offset in [0, 1), as a fraction of a step: interleaved gradient
+// noise (Jimenez 2014), whose neighbouring values differ by large, evenly spread amounts, so
+// the step's error shows as fine noise rather than rings. Pass k adds k times the golden-ratio
+// fraction: the offsets of passes 0..n-1 lie evenly spread in [0, 1) for every pixel.
+inline double lattice_offset(int px, int py, std::uint32_t pass) {
+  const double g = 52.9829189 * (0.06711056 * px + 0.00583715 * py - std::floor(0.06711056 * px + 0.00583715 * py));
+  const double u = g + 0.6180339887498949 * double(pass);
+  return u - std::floor(u);
+}
+
 // A colour channel in [0, 1] (clamped) as the nearest of 256 levels.
 inline std::uint8_t unit_to_byte(float v) { return std::uint8_t(std::lround(std::clamp(v, 0.0f, 1.0f) * 255.0f)); }
 

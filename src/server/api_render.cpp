@@ -10,6 +10,9 @@ namespace strata::server::detail {
 
 namespace {
 
+// The viewer stops refining long before this; beyond it a pass adds under an 8-bit level.
+constexpr std::int64_t kMaxRefinementPass = 255;
+
 struct FrameRequest {
   render::FrameSettings settings;
   bool jpeg = false;
@@ -39,7 +42,7 @@ void check_client(const std::string& client) {
 }
 
 FrameRequest parse_frame(const Dataset& d, const HttpRequest& r) {
-  const Params p(r, {"w", "h", "az", "el", "dist", "target", "fov", "tf", "rank", "lod", "fs", "lighting", "step", "shading", "quality",
+  const Params p(r, {"w", "h", "az", "el", "dist", "target", "fov", "tf", "rank", "lod", "fs", "lighting", "step", "shading", "pass", "quality",
                      "format", "client", "seq"});
   FrameRequest f;
   render::FrameSettings& s = f.settings;
@@ -56,6 +59,8 @@ FrameRequest parse_frame(const Dataset& d, const HttpRequest& r) {
                             " file; this one has none");
   s.step = p.number("step", {0.05, 4}, 0.5);
   s.shading = p.choice("shading", {"0", "1"}, "1") == "1";
+  // Refinement at rest: the viewer averages passes 0..n-1 of the same view (docs/viewer.md).
+  s.pass = std::uint32_t(p.integer("pass", 0, kMaxRefinementPass, 0));
   if (p.has("lighting")) {
     require_kind(d, {render::DatasetKind::labels}, "lighting");
     const std::string lighting = p.choice("lighting", {"auto", "gradient", "gradient-ao", "normals"}, "auto");

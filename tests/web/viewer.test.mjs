@@ -135,17 +135,20 @@ after(async () => {
 
 // --- page helpers ------------------------------------------------------------------------------
 
-// A small copy of a canvas (64 x 48 RGBA), enough to tell pictures apart.
-async function thumbnail(testId) {
-  return page.evaluate((id) => {
-    const source = document.querySelector(`[data-testid="${id}"]`);
+// A small copy of a canvas (64 x 48 RGBA), enough to tell pictures apart; with `url`, of the
+// image the page fetches from there instead.
+async function thumbnail(testId, url = null) {
+  return page.evaluate(async ([id, address]) => {
+    const source = address
+      ? await createImageBitmap(await (await fetch(address)).blob())
+      : document.querySelector(`[data-testid="${id}"]`);
     const small = document.createElement('canvas');
     small.width = 64;
     small.height = 48;
     const context = small.getContext('2d');
     context.drawImage(source, 0, 0, small.width, small.height);
     return Array.from(context.getImageData(0, 0, small.width, small.height).data);
-  }, testId);
+  }, [testId, url]);
 }
 
 function meanAbsDifference(a, b) {
@@ -238,6 +241,35 @@ test('the page loads, lists the datasets and shows a non-blank 3D view', async (
   await waitForSliceFrame('canvas-xy', 0);
   assert.ok(luminanceStdDev(await thumbnail('canvas-xy')) > 4, 'xy slice looks blank');
   assert.match(await page.getByTestId('status-frame').textContent(), /ms/);
+});
+
+test('at rest the 3D view refines its frame from 8 jittered passes', async () => {
+  const passes = [];
+  const seen = (request) => {
+    const pass = new URL(request.url()).searchParams.get('pass');
+    if (request.url().includes('/render') && pass) passes.push(Number(pass));
+  };
+  page.on('request', seen);
+  const frames = await frameCount('canvas-3d');
+  await page.evaluate(() => {
+    window.strataViewer.state.camera.az += 10;
+    window.strataViewer.changed({ camera: true });
+  });
+  await page.waitForFunction(
+    (n) => {
+      const canvas = document.getElementById('canvas-3d');
+      return Number(canvas.dataset.frames) > n && canvas.dataset.passes === '8';
+    },
+    frames,
+    { timeout: FRAME_TIMEOUT_MS },
+  );
+  page.off('request', seen);
+  assert.deepEqual([...new Set(passes)].sort((a, b) => a - b), [1, 2, 3, 4, 5, 6, 7]);
+  // The mean of the passes stays close to one pass: the jitter moves samples within a step.
+  const refined = await thumbnail('canvas-3d');
+  const single = await thumbnail(null, await page.evaluate(() => window.strataViewer.view3d.refined.key));
+  const change = meanAbsDifference(single, refined);
+  assert.ok(change < 4, `the mean of the passes differs from one pass by ${change} levels on average`);
 });
 
 test('dragging in the 3D view orbits the camera and produces new frames', async () => {

@@ -35,6 +35,21 @@ class Image {
   std::vector<Rgba8> pixels_;
 };
 
+/// @brief The per-channel mean of images of one size, kept in floats so that averaging many
+/// rounds once: the image at rest, refined from jittered passes (RenderOptions::jitter_pass).
+class ImageMean {
+ public:
+  /// @brief Adds `image`; throws Error when its size differs from the first one's.
+  void add(const Image& image);
+  int count() const { return count_; }
+  /// @brief The mean, each channel rounded to the nearest level; throws Error before any add().
+  Image mean() const;
+
+ private:
+  int width_ = 0, height_ = 0, count_ = 0;
+  std::vector<float> sum_;  // 4 channels per pixel
+};
+
 /// @brief Bilinear resampling to width x height, pixel centres aligned (edges clamp): shows a
 /// frame cast at a reduced image resolution (interactive image-space level of detail) at full size.
 Image resize_bilinear(const Image& image, int width, int height);

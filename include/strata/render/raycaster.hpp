@@ -59,6 +59,13 @@ struct RenderOptions {
   int threads = 0;              // 0 = strata::thread_count()
   int tile = 16;                // tile edge in pixels (dynamic OpenMP schedule over tiles)
   bool skip_cells = true;       // empty-space skipping inside bricks (exact; off for comparisons)
+  // Each pixel's sample lattice starts at its own fraction of a step (interleaved gradient
+  // noise): a lattice shared by neighbouring rays turns the step's error into coherent
+  // "wood-grain" rings on zoomed surfaces; offsets spread it into fine noise instead.
+  bool jitter = true;
+  // Which offset pattern: pass k adds k times the golden ratio to every pixel's offset, so the
+  // mean of passes 0..n-1 samples each ray at n evenly spread phases (refinement at rest).
+  std::uint32_t jitter_pass = 0;
 };
 
 /// @brief Counters and timings of one frame, written by RayCaster::render.
@@ -142,6 +149,9 @@ class RayCaster {
   /// @brief The transfer function and options fixed at construction.
   const TransferFunction& transfer_function() const { return tf_; }
   const RenderOptions& options() const { return options_; }
+  /// @brief Picks the jitter pattern of later renders (RenderOptions::jitter_pass): the one
+  /// option that changes from frame to frame without touching the caster's tables.
+  void set_jitter_pass(std::uint32_t pass) { options_.jitter_pass = pass; }
 
   /// @brief Renders the bricks of `frame` into a camera.width() x camera.height() image.
   /// Writes the frame's figures to `*stats` when it is not null. Throws Error when

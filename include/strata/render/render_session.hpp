@@ -88,6 +88,11 @@ struct FrameSettings {
   LabelLightingChoice label_lighting = LabelLightingChoice::automatic;  ///< label files, with shading
   double step = 0.5;                           ///< sample distance in voxels of the sampled level
   bool shading = true;
+  /// Scalar and plain files: per-pixel lattice offsets (RenderOptions::jitter), and the
+  /// refinement pass at rest that picks their pattern (RenderOptions::jitter_pass). The mean of
+  /// passes 0..n-1 converges to the image without sampling noise.
+  bool jitter = true;
+  std::uint32_t pass = 0;
   FrameQuality quality = FrameQuality::exact;
 };
 
