@@ -395,6 +395,11 @@ class Viewer {
       this.state.window = [...(this.scalarDataset()?.value_range ?? [0, 1])];
       this.changed({ window: true });
     });
+    $('window-percentile').addEventListener('click', () => {
+      const scalar = this.scalarDataset();
+      this.state.window = [...(scalar?.defaults?.window ?? scalar?.value_range ?? [0, 1])];
+      this.changed({ window: true });
+    });
   }
 
   setLayout(layout) {

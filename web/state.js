@@ -1,7 +1,7 @@
 // The whole view state, and its round trip through the URL hash so a reloaded or shared link
 // shows the same view. The hash reads like a query string:
 //   #v=0&l=1&cam=30,20,180.5&tgt=32,32,32&cur=32,32,32&tf=0:0:0:0:0;...&rank=8&...
-import { presetPoints, tfFromString, tfToString } from './transfer-function.js';
+import { PRESET_NAMES, presetPoints, tfFromString, tfToString } from './transfer-function.js';
 import { isHexColor } from './colors.js';
 
 export const LAYOUTS = ['quad', '3d', 'xy', 'xz', 'yz'];
@@ -13,24 +13,28 @@ export function nearestStep(steps, value) {
   return steps.reduce((best, v, i) => (Math.abs(v - value) < Math.abs(steps[best] - value) ? i : best), 0);
 }
 
-// Defaults for a scalar dataset (and an optional label dataset): the server's own defaults
-// (az 30, el 20, framing distance, ct preset, stored rank), the cursor at the volume centre.
+// Defaults for a scalar dataset (and an optional label dataset): the server's camera defaults
+// (az 30, el 20, framing distance, stored rank), the cursor at the volume centre, and what the
+// server read from the data (`defaults`): the TF preset for its modality over the value range,
+// and the slice window from the 0.5th to the 99.5th percentile of its values.
 export function defaultState(scalar, labels) {
   const reference = scalar ?? labels;
   const range = scalar?.value_range ?? [0, 1];
+  const preset = PRESET_NAMES.includes(scalar?.defaults?.tf) ? scalar.defaults.tf : 'ct';
+  const window = scalar?.defaults?.window?.length === 2 ? scalar.defaults.window : range;
   return {
     scalar: scalar?.slug ?? null,
     labels: labels?.slug ?? null,
     camera: { az: 30, el: 20, dist: null, target: null },
     cursor: reference ? reference.dims.map((d) => Math.floor(d / 2)) : [0, 0, 0],
-    tf: presetPoints('ct', range),
-    tfPreset: 'ct',
+    tf: presetPoints(preset, range),
+    tfPreset: preset,
     rank: scalar?.rank || 0,
     lod: 1,
     featureScale: 0,
     step: 0.5,
     shading: true,
-    window: [...range],
+    window: [...window],
     sliceMap: 'window',
     source3d: scalar ? 'scalar' : 'labels',
     scalarVisible: true,

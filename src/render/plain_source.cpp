@@ -4,6 +4,7 @@
 
 #include "render/frame_index.hpp"
 #include "render/render_source_kinds.hpp"
+#include "strata/render/display_defaults.hpp"
 #include "strata/io/volume_io.hpp"
 #include "strata/store/brick_histogram.hpp"
 #include "strata/ta/octree.hpp"
@@ -55,14 +56,9 @@ double PlainSource::frame_radius() const {
   return visible_cells_radius(coarse, level, volume_.dims(), volume_.spacing(), range_.first, range_.second);
 }
 
-// Exact voxel counts in 64 bins over the value range, binned as the compressor bins bricks;
-// NaN and infinite voxels (empty space) are not counted.
+// Exact voxel counts; NaN and infinite voxels (empty space) are not counted.
 std::vector<std::uint64_t> PlainSource::histogram() const {
-  std::vector<std::uint64_t> counts(store::kHistogramBins, 0);
-  const store::HistogramBinning binning(range_.first, range_.second);
-  for (float v : volume_.samples<float>())
-    if (std::isfinite(v)) ++counts[std::size_t(binning.bin(v))];
-  return counts;
+  return value_histogram(volume_.samples<float>(), range_.first, range_.second);
 }
 
 Slice<float> PlainSource::value_slice(const SliceSpec& spec) {

@@ -12,6 +12,7 @@
 #include "render/render_source.hpp"
 #include "strata/core/error.hpp"
 #include "strata/core/stopwatch.hpp"
+#include "strata/render/display_defaults.hpp"
 #include "strata/render/sampling_limits.hpp"
 #include "strata/ta/ta_volume.hpp"
 
@@ -30,6 +31,17 @@ namespace {
 
 nlohmann::json json_of(const Extent& e) { return {e.x, e.y, e.z}; }
 nlohmann::json json_of(const Spacing& s) { return {s.x, s.y, s.z}; }
+
+// The transfer-function editor's histogram.
+constexpr int kViewerHistogramBins = 64;
+
+// How the viewer first shows a scalar dataset (docs/viewer.md): {"tf", "window"}; {} for labels.
+nlohmann::json display_defaults(DatasetKind kind, const std::string& name, double lo, double hi,
+                                const std::vector<std::uint64_t>& histogram) {
+  if (kind == DatasetKind::labels) return nlohmann::json::object();
+  const auto [a, b] = percentile_window(histogram, lo, hi);
+  return {{"tf", default_preset(name, lo, hi)}, {"window", {a, b}}};
+}
 
 }  // namespace
 
@@ -104,6 +116,7 @@ bool RenderSession::has_feature_scale() const { return !source_->feature_scale_l
 
 nlohmann::json RenderSession::describe() const {
   const auto [lo, hi] = value_range();
+  const std::vector<std::uint64_t> fine = source_->histogram();
   std::string name = path_.filename().string();
   if (options_.volume) name += " (volume " + std::to_string(*options_.volume) + ")";
   return {{"name", name},
@@ -116,7 +129,8 @@ nlohmann::json RenderSession::describe() const {
           {"frame_radius", frame_radius_},
           {"feature_scale_ladder", source_->feature_scale_ladder()},
           {"value_range", {lo, hi}},
-          {"histogram", source_->histogram()},
+          {"histogram", coarser_histogram(fine, kViewerHistogramBins)},
+          {"defaults", display_defaults(kind(), name, lo, hi, fine)},
           {"label_count", source_->label_count()},
           {"normals", has_normals()}};
 }

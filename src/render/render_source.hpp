@@ -58,7 +58,8 @@ class RenderSource {
   virtual std::pair<double, double> value_range() const = 0;
   // The source's sample type: a plain file's on disk, a TA file's original, the label values'.
   virtual DType dtype() const = 0;
-  // describe()'s "histogram": counts in 64 bins over value_range(); none for labels.
+  // Counts of sample values in kValueHistogramBins bins over value_range() (display_defaults.hpp):
+  // describe()'s 64-bin "histogram" and the slice window come from it; none for labels.
   virtual std::vector<std::uint64_t> histogram() const { return {}; }
   // A ta-global file's feature-scale ladder (FrameSettings::feature_scale); empty otherwise.
   virtual std::vector<int> feature_scale_ladder() const { return {}; }

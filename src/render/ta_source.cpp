@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "render/render_source_kinds.hpp"
+#include "strata/render/display_defaults.hpp"
 #include "strata/core/error.hpp"
 #include "strata/core/stopwatch.hpp"
 #include "strata/lod/histogram_bins.hpp"
@@ -89,18 +90,17 @@ double TaSource::frame_radius() const {
   return visible_cells_radius(coarse, level, d0, volume_.source_info().spacing, volume_.value_min(), volume_.value_max());
 }
 
-// One count per level-0 brick and histogram bin it touches (the index's occupancy masks).
+// The values of the finest level of at most kHistogramVoxels voxels, decoded at the stored
+// rank: a true value histogram (the index's per-brick occupancy bits counted every bin a brick
+// touches once, which flattened it: 4.8% in the first bin of a CT whose voxels hold 73.6%),
+// at the cost of decoding about 2M voxels once, when a viewer first asks.
 std::vector<std::uint64_t> TaSource::histogram() const {
-  std::vector<std::uint64_t> counts(store::kHistogramBins, 0);
-  for (const store::BrickEntry& e : volume_.container().bricks()) {
-    if (e.key.level != 0) continue;
-    if (e.kind == store::PayloadKind::constant) {
-      if (std::isfinite(e.min)) ++counts[std::size_t(lod::histogram_bin(e.min, volume_.value_min(), volume_.value_max()))];
-      continue;  // all NaN or infinite: empty space, no value to count
-    }
-    for (int bin = 0; bin < store::kHistogramBins; ++bin) counts[std::size_t(bin)] += (e.histogram >> bin) & 1u;
-  }
-  return counts;
+  constexpr std::int64_t kHistogramVoxels = std::int64_t(1) << 21;
+  const ta::OctreeGeometry& g = volume_.geometry();
+  int level = 0;
+  while (level + 1 < g.level_count() && g.level(level).dims.voxel_count() > kHistogramVoxels) ++level;
+  const Volume values = volume_.decode_box(level, Box::whole(g.level(level).dims), volume_.rank());
+  return value_histogram(values.samples<float>(), volume_.value_min(), volume_.value_max());
 }
 
 template <class F>

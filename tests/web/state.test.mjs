@@ -119,3 +119,15 @@ test('a malformed escape or an impossible box in a hand-edited link falls back t
 test('a TF string whose first and last values coincide is refused (no range to map)', () => {
   assert.equal(tfFromString('5:0:0:0:0;5:1:1:1:1'), null);
 });
+
+test('a dataset opens with the preset and percentile window the server read from its data', () => {
+  const mri = { ...scalar, defaults: { tf: 'mri', window: [2.5, 61] } };
+  const state = defaultState(mri, null);
+  assert.equal(state.tfPreset, 'mri');
+  assert.deepEqual(state.tf, presetPoints('mri', mri.value_range));
+  assert.deepEqual(state.window, [2.5, 61]);
+  // An older server (no defaults) or an unknown preset name: the ct preset over the full range.
+  const old = defaultState({ ...scalar, defaults: { tf: 'sepia' } }, null);
+  assert.equal(old.tfPreset, 'ct');
+  assert.deepEqual(old.window, scalar.value_range);
+});

@@ -310,15 +310,18 @@ test('moving a transfer-function point changes the image', async () => {
   const tfBefore = (await viewState()).tf;
   const canvas = await page.getByTestId('tf-canvas').boundingBox();
   const handles = JSON.parse(await page.getByTestId('tf-canvas').getAttribute('data-handles'));
-  // The ct preset's opaque shoulder (value 0.55 of the range, opacity 0.5): pull it down and left.
-  const [hx, hy] = handles[4];
+  // The preset's most opaque point (the grayscale preset's, at the top of the range: x.strata's
+  // name says no modality): pull it down and left.
+  const top = handles.length - 1;
+  const [hx, hy] = handles[top];
   await page.mouse.move(canvas.x + hx, canvas.y + hy);
   await page.mouse.down();
-  for (let i = 1; i <= 6; i++) await page.mouse.move(canvas.x + hx - i * 4, canvas.y + hy + i * 8);
+  for (let i = 1; i <= 6; i++) await page.mouse.move(canvas.x + hx - i * 4, canvas.y + hy + i * 3);
   await page.mouse.up();
   await waitForExactFrame(frames);
   const tfAfter = (await viewState()).tf;
-  assert.ok(tfAfter[4].a < tfBefore[4].a, 'the point did not move down');
+  assert.equal((await viewState()).tfPreset, '');  // edited: no longer the preset
+  assert.ok(tfAfter[top].a < tfBefore[top].a, 'the point did not move down');
   assert.ok(meanAbsDifference(before, await thumbnail('canvas-3d')) > 1, 'the frame did not change');
 });
 
