@@ -1,3 +1,6 @@
+// Whole-file decoding: BM_DecodeWholeFile decodes level 0 of a 256^3 prisms file coded to
+// 40 dB PSNR (TaVolume::decode_box of the whole level: entropy decoding, reconstruction, the
+// copy into the output volume), per thread count.
 // Whole-file compression throughput: a generated prisms volume (128^3 u16) served from memory
 // through the streaming VolumeSource interface and compressed with the default settings (brick
 // 32, overlap 2, rank 16, u16,b8log+, one HOOI sweep, zstd 3) into a temporary .strata file.
@@ -15,6 +18,7 @@
 #include "strata/io/volume_io.hpp"
 #include "strata/ta/brick_codec.hpp"
 #include "strata/ta/compress.hpp"
+#include "strata/ta/ta_volume.hpp"
 
 namespace strata {
 namespace {
@@ -70,6 +74,37 @@ void BM_CompressPrisms128(benchmark::State& state) {
   state.counters["bits/voxel"] = 8.0 * double(report.file_bytes) / double(report.input_voxels);
 }
 BENCHMARK(BM_CompressPrisms128)->ArgName("threads")->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// The 256^3 file BM_DecodeWholeFile decodes, written once per run.
+const std::filesystem::path& prisms256_file() {
+  static io::TempFile file(std::filesystem::temp_directory_path(), "bench-decode");
+  static const bool written = [] {
+    gen::Params g;
+    g.kind = gen::Kind::prisms;
+    g.dims = {256, 256, 256};
+    g.seed = 1;
+    const Volume volume = gen::generate(g);
+    ta::CompressParams p = default_params();
+    p.codec.target = {ta::TargetKind::psnr, 40.0};
+    MemorySource source(volume);
+    ta::compress_volume(source, file.path(), p, silent_progress());
+    return true;
+  }();
+  (void)written;
+  return file.path();
+}
+
+// Arg: worker threads.
+void BM_DecodeWholeFile(benchmark::State& state) {
+  const ta::TaVolume volume(prisms256_file());
+  const Box whole = Box::whole(volume.geometry().level(0).dims);
+  set_thread_count(int(state.range(0)));
+  for (auto _ : state) benchmark::DoNotOptimize(volume.decode_box(0, whole, volume.rank()));
+  set_thread_count(0);
+  state.counters["Mvox/s"] = benchmark::Counter(double(whole.size().voxel_count()) * double(state.iterations()) / 1e6,
+                                                benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_DecodeWholeFile)->ArgName("threads")->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 // One brick's encoding (no decoding, no culling statistics): the compressor's per-brick work
 // minus what the level pipeline adds. Bricks are taken from the volume's interior.

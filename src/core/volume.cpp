@@ -7,6 +7,7 @@
 
 #include "strata/core/checked.hpp"
 #include "strata/core/error.hpp"
+#include "strata/core/threads.hpp"
 
 namespace strata {
 
@@ -126,6 +127,9 @@ Volume Volume::converted(DType to) const {
       const From* src = reinterpret_cast<const From*>(bytes_.data());
       To* dst = reinterpret_cast<To*>(out.bytes_.data());
       const std::int64_t n = voxel_count();
+      // Every thread: converting a decoded volume for output was a serial pass after a
+      // parallel decode (13% of `strata decompress` on 2 threads).
+#pragma omp parallel for schedule(static) num_threads(thread_count()) if (n >= (std::int64_t(1) << 20))
       for (std::int64_t i = 0; i < n; ++i) dst[i] = cast_sample<To>(double(src[i]));
     });
   });

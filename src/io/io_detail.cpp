@@ -4,6 +4,7 @@
 
 #include "strata/core/checked.hpp"
 #include "strata/core/text.hpp"
+#include "strata/core/threads.hpp"
 #include "strata/io/file_names.hpp"
 
 #include <zlib.h>
@@ -14,6 +15,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <exception>
 #include <functional>
 
 #include <fmt/format.h>
@@ -31,30 +33,83 @@ constexpr std::size_t kInflateBufferBytes = std::size_t(1) << 20;
 // ---------------------------------------------------------------------------------------------
 // GzipWriter
 
+// One gzip member whose deflate stream is cut into chunks of kGzipChunk input bytes, each
+// compressed on its own (pigz's scheme): a chunk starts from the 32 KiB before it as its
+// dictionary and ends on a byte boundary (Z_SYNC_FLUSH), so the chunks' outputs concatenate into
+// one stream any inflater reads, and a batch of chunks compresses on every thread. Chunk
+// boundaries depend on the bytes only, never on the thread count: the file is the same for any.
+// Measured: a 256^3 u16 NRRD (32 MB) compressed in 1.2 s as one stream, the whole
+// `strata decompress` taking 1.4 s on 1 thread and on 2 alike.
+constexpr std::size_t kGzipChunk = std::size_t(1) << 20;
+constexpr std::size_t kGzipWindow = std::size_t(1) << 15;  // deflate's largest distance
+constexpr int kGzipChunksPerThread = 4;  // a batch: enough chunks that threads rarely wait
+
 struct GzipWriter::Impl {
   AtomicOutputFile& out;
-  z_stream stream{};
-  std::vector<unsigned char> buffer = std::vector<unsigned char>(kInflateBufferBytes);
+  int level;
+  std::vector<unsigned char> pending;  // input not compressed yet
+  std::vector<unsigned char> window;   // the last kGzipWindow bytes compressed (the next dictionary)
+  uLong crc = crc32(0, nullptr, 0);
+  std::uint64_t total = 0;
   bool finished = false;
 
-  Impl(AtomicOutputFile& o, int level) : out(o) {
-    // windowBits 15 + 16 asks zlib for a gzip header and trailer instead of a zlib wrapper.
-    if (deflateInit2(&stream, level, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY) != Z_OK)
-      throw Error(fmt::format("{}: cannot initialise gzip compression", out.path().string()));
+  Impl(AtomicOutputFile& o, int l) : out(o), level(l) {
+    if (level < 0 || level > 9) throw Error(fmt::format("{}: gzip level {} is not 0..9", out.path().string(), level));
+    // RFC 1952 header: magic, deflate, no flags, no time, no extra flags, OS unknown.
+    const unsigned char header[10] = {0x1f, 0x8b, 8, 0, 0, 0, 0, 0, 0, 255};
+    out.write(header, sizeof header);
   }
-  ~Impl() { deflateEnd(&stream); }
 
-  // Runs deflate over the pending input with `flush`, writing every produced byte.
-  int pump(int flush) {
-    int status = Z_OK;
-    do {
-      stream.next_out = buffer.data();
-      stream.avail_out = uInt(buffer.size());
-      status = deflate(&stream, flush);
-      if (status == Z_STREAM_ERROR) throw Error(fmt::format("{}: gzip compression failed", out.path().string()));
-      out.write(buffer.data(), buffer.size() - stream.avail_out);
-    } while (stream.avail_out == 0 || (flush == Z_FINISH && status != Z_STREAM_END));
-    return status;
+  std::size_t batch_bytes() const { return kGzipChunk * std::size_t(kGzipChunksPerThread * std::max(1, thread_count())); }
+
+  // Raw deflate of [data, data + n) after `dictionary`, ending with `flush`.
+  std::vector<unsigned char> deflate_chunk(const unsigned char* data, std::size_t n, const unsigned char* dictionary,
+                                           std::size_t dictionary_bytes, int flush) const {
+    z_stream s{};
+    if (deflateInit2(&s, level, Z_DEFLATED, -15, 8, Z_DEFAULT_STRATEGY) != Z_OK)
+      throw Error(fmt::format("{}: cannot initialise gzip compression", out.path().string()));
+    if (dictionary_bytes > 0) deflateSetDictionary(&s, dictionary, uInt(dictionary_bytes));
+    std::vector<unsigned char> result(deflateBound(&s, uLong(n)) + 16);
+    s.next_in = const_cast<unsigned char*>(data);
+    s.avail_in = uInt(n);
+    s.next_out = result.data();
+    s.avail_out = uInt(result.size());
+    const int status = deflate(&s, flush);
+    const bool done = flush == Z_FINISH ? status == Z_STREAM_END : status == Z_OK && s.avail_in == 0;
+    result.resize(result.size() - s.avail_out);
+    deflateEnd(&s);
+    if (!done) throw Error(fmt::format("{}: gzip compression failed", out.path().string()));
+    return result;
+  }
+
+  // Compresses `pending` in chunks on every thread and writes them in order; with `last`, the
+  // final chunk ends the deflate stream (an empty input still gets its final block).
+  void compress_pending(bool last) {
+    const std::size_t n = pending.size();
+    const std::size_t chunks = last ? std::max<std::size_t>(1, (n + kGzipChunk - 1) / kGzipChunk) : n / kGzipChunk;
+    if (chunks == 0) return;
+    std::vector<std::vector<unsigned char>> parts(chunks);
+    std::exception_ptr failure;
+#pragma omp parallel for schedule(dynamic, 1) num_threads(thread_count())
+    for (std::int64_t c = 0; c < std::int64_t(chunks); ++c) {
+      try {
+        const std::size_t begin = std::size_t(c) * kGzipChunk, end = std::min(n, begin + kGzipChunk);
+        const bool final_chunk = last && std::size_t(c) + 1 == chunks;
+        const unsigned char* dictionary = c == 0 ? window.data() : pending.data() + begin - kGzipWindow;
+        const std::size_t dictionary_bytes = c == 0 ? window.size() : kGzipWindow;
+        parts[std::size_t(c)] = deflate_chunk(pending.data() + begin, end - begin, dictionary, dictionary_bytes,
+                                              final_chunk ? Z_FINISH : Z_SYNC_FLUSH);
+      } catch (...) {
+#pragma omp critical
+        if (!failure) failure = std::current_exception();
+      }
+    }
+    if (failure) std::rethrow_exception(failure);
+    for (const auto& part : parts) out.write(part.data(), part.size());
+    const std::size_t used = std::min(n, chunks * kGzipChunk);
+    const std::size_t keep = std::min(used, kGzipWindow);
+    window.assign(pending.begin() + std::ptrdiff_t(used - keep), pending.begin() + std::ptrdiff_t(used));
+    pending.erase(pending.begin(), pending.begin() + std::ptrdiff_t(used));
   }
 };
 
@@ -62,24 +117,32 @@ GzipWriter::GzipWriter(AtomicOutputFile& out, int level) : impl_(std::make_uniqu
 GzipWriter::~GzipWriter() = default;
 
 void GzipWriter::write(const void* data, std::size_t bytes) {
-  if (impl_->finished) throw Error(fmt::format("{}: gzip write after finish", impl_->out.path().string()));
+  Impl& g = *impl_;
+  if (g.finished) throw Error(fmt::format("{}: gzip write after finish", g.out.path().string()));
   auto* p = static_cast<const unsigned char*>(data);
   while (bytes > 0) {
-    std::size_t n = std::size_t(std::min<std::uint64_t>(bytes, kZlibChunk));
-    impl_->stream.next_in = const_cast<unsigned char*>(p);
-    impl_->stream.avail_in = uInt(n);
-    impl_->pump(Z_NO_FLUSH);
+    const std::size_t n = std::min(bytes, g.batch_bytes());  // pending stays under a batch and a chunk
+    g.crc = crc32_z(g.crc, p, n);
+    g.total += n;
+    g.pending.insert(g.pending.end(), p, p + n);
+    if (g.pending.size() >= g.batch_bytes()) g.compress_pending(false);
     p += n;
     bytes -= n;
   }
 }
 
 void GzipWriter::finish() {
-  if (impl_->finished) return;
-  impl_->stream.next_in = nullptr;
-  impl_->stream.avail_in = 0;
-  impl_->pump(Z_FINISH);
-  impl_->finished = true;
+  Impl& g = *impl_;
+  if (g.finished) return;
+  g.compress_pending(true);
+  // RFC 1952 trailer: CRC-32 and the input size modulo 2^32, little-endian.
+  unsigned char trailer[8];
+  for (int i = 0; i < 4; ++i) {
+    trailer[i] = static_cast<unsigned char>((g.crc >> (8 * i)) & 0xff);
+    trailer[4 + i] = static_cast<unsigned char>((g.total >> (8 * i)) & 0xff);
+  }
+  g.out.write(trailer, sizeof trailer);
+  g.finished = true;
 }
 
 // ---------------------------------------------------------------------------------------------

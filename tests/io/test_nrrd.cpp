@@ -8,6 +8,7 @@
 #include <set>
 
 #include "io/io_test_util.hpp"
+#include "strata/core/threads.hpp"
 #include "strata/io/volume_io.hpp"
 #include "support/test_support.hpp"
 
@@ -88,6 +89,62 @@ TEST(IoNrrd, GzipWriterOutputIsAGzipStreamAfterTheHeader) {
   ASSERT_LT(data + 2, file.size());
   EXPECT_EQ(static_cast<unsigned char>(file[data]), 0x1f);
   EXPECT_EQ(static_cast<unsigned char>(file[data + 1]), 0x8b);
+}
+
+TEST(IoGzipWriter, ChunkedStreamIsOneMemberThatZlibDecodesAndTheSameOnAnyThreadCount) {
+  // 9.5 MiB of compressible bytes, written in uneven pieces: several batches of 1 MiB chunks,
+  // each compressed on its own with the previous 32 KiB as its dictionary.
+  std::vector<unsigned char> data(std::size_t(19) << 19);
+  std::uint32_t state = 7;
+  for (std::size_t i = 0; i < data.size(); ++i) {
+    state = state * 1664525u + 1013904223u;
+    data[i] = static_cast<unsigned char>((i / 3) % 251 + ((state >> 28) & 1u));
+  }
+  test::TempDir dir;
+  auto write = [&](const std::filesystem::path& p) {
+    io::AtomicOutputFile out(p);
+    io::detail::GzipWriter gz(out);
+    for (std::size_t at = 0; at < data.size();) {
+      const std::size_t n = std::min<std::size_t>(data.size() - at, 3 * 1000 * 1000 + at % 7);
+      gz.write(data.data() + at, n);
+      at += n;
+    }
+    gz.finish();
+    out.commit();
+  };
+  set_thread_count(1);
+  write(dir / "one.gz");
+  set_thread_count(2);
+  write(dir / "two.gz");
+  set_thread_count(0);
+  const std::string one = read_text(dir / "one.gz");
+  EXPECT_EQ(one, read_text(dir / "two.gz"));
+  // Within 1% of one deflate stream over everything (the dictionaries carry the context).
+  uLongf whole = compressBound(uLong(data.size()));
+  std::vector<unsigned char> single(whole);
+  ASSERT_EQ(compress2(single.data(), &whole, data.data(), uLong(data.size()), 6), Z_OK);
+  EXPECT_LT(double(one.size()), 1.01 * double(whole));
+  // zlib's own gzip decoder (windowBits 15 + 16) reads it as one member, CRC and size checked.
+  std::vector<unsigned char> decoded(data.size() + 1);
+  z_stream s{};
+  ASSERT_EQ(inflateInit2(&s, 15 + 16), Z_OK);
+  s.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(one.data()));
+  s.avail_in = uInt(one.size());
+  s.next_out = decoded.data();
+  s.avail_out = uInt(decoded.size());
+  EXPECT_EQ(inflate(&s, Z_FINISH), Z_STREAM_END);
+  EXPECT_EQ(s.avail_in, 0u);  // one member: nothing after its trailer
+  decoded.resize(decoded.size() - s.avail_out);
+  inflateEnd(&s);
+  EXPECT_TRUE(decoded == data);
+}
+
+TEST(IoGzipWriter, EmptyInputIsAValidStream) {
+  test::TempDir dir;
+  write_gzipped(dir / "empty.gz", "", 0);
+  const std::string file = read_text(dir / "empty.gz");
+  const auto bytes = reinterpret_cast<const std::byte*>(file.data());
+  EXPECT_TRUE(io::detail::gunzip_to_memory(bytes, file.size(), "empty.gz", "data").empty());
 }
 
 TEST(IoNrrd, ReadsBigEndianRawAndGzip) {
