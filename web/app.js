@@ -41,6 +41,7 @@ class Viewer {
       opacity: $('label-opacity'), opacityOut: $('label-opacity-out'), defaultMode: $('label-default'),
       defaultColor: $('label-default-color'), search: $('label-search'), searchButton: $('label-search-button'),
       list: $('label-list'), paletteStatus: $('palette-status'), reset: $('label-reset'),
+      only: $('label-only'), hideSelected: $('label-hide-selected'), clearSelection: $('label-clear-selection'),
     });
     this.query = new QueryPanel(this, {
       box: $('query-box'), method: $('query-method'), run: $('query-run'), exact: $('query-exact'),
@@ -150,7 +151,6 @@ class Viewer {
   applyState({ postPalette }) {
     this.ready = true;
     this.syncControls();
-    this.labelLayer.pinned.clear();
     this.labelLayer.sync();
     this.query.sync();
     this.view3d.lastExact = null;
@@ -269,8 +269,8 @@ class Viewer {
     try {
       const [x, y, z] = voxel;
       const { label } = await getJson(apiUrl(labels.id, 'value', { x, y, z }));
-      this.labelLayer.pin(label);
-      this.status.message(`label ${label} listed in the label layer`);
+      this.labelLayer.select(label);
+      this.status.message(`label ${label} selected in the label layer`);
     } catch (error) {
       this.reportError(error);
     }
@@ -315,7 +315,7 @@ class Viewer {
   // Changing only the label layer keeps the camera, cursor and TF.
   chooseLabels(labelsId) {
     this.state.labels = this.labelChoices().some((d) => d.slug === labelsId) ? labelsId : null;
-    Object.assign(this.state, { labelColors: {}, hiddenLabels: [], box: null });
+    Object.assign(this.state, { labelColors: {}, hiddenLabels: [], selectedLabels: [], labelsOnly: false, box: null });
     if (!this.state.labels && this.state.source3d === 'labels') this.state.source3d = 'scalar';
     this.applyState({ postPalette: true });
   }

@@ -1,6 +1,9 @@
 // Label layer controls: default colouring (hash colours or one colour), per-label colour and
-// visibility, opacity. Every change is sent to the server as the whole palette (POST palette:
-// the Mixture Graph re-colours every mip level) and the label slices and 3D frames follow.
+// visibility, opacity, and the selection: labels found by id, Alt-clicked in a slice or listed
+// by a query, which 3D and the slices can show alone ("only selected") or hide. Every change is
+// sent to the server as the whole palette (POST palette: the Mixture Graph re-colours every mip
+// level, so even a selection out of tens of thousands of segments shows at once) and the label
+// slices and 3D frames follow.
 import { LatestChannel, apiUrl, postJson } from './api.js';
 import { hashLabelColor } from './colors.js';
 import { formatNumber } from './transfer-function.js';
@@ -8,9 +11,10 @@ import { formatNumber } from './transfer-function.js';
 export class LabelLayer {
   constructor(viewer, elements) {
     this.viewer = viewer;
-    this.el = elements; // {opacity, opacityOut, defaultMode, defaultColor, search, searchButton, list, paletteStatus, reset}
+    // {opacity, opacityOut, defaultMode, defaultColor, search, searchButton, list, paletteStatus,
+    //  reset, only, hideSelected, clearSelection}
+    this.el = elements;
     this.channel = new LatestChannel((error) => viewer.reportError(error));
-    this.pinned = new Set(); // ids listed because the user looked them up
     this.posts = 0;
     this.bind();
   }
@@ -30,16 +34,30 @@ export class LabelLayer {
     return this.state.hiddenLabels.includes(Number(label));
   }
 
-  // Lists a label (for a colour or visibility change) without changing it.
-  pin(label) {
-    this.pinned.add(Number(label));
+  isSelected(label) {
+    return this.state.selectedLabels.includes(Number(label));
+  }
+
+  // Adds a label to the selection (listed, for a colour or visibility change) without changing
+  // its colour; with "only selected" on, it shows at once.
+  select(label) {
+    const id = Number(label);
+    if (!this.isSelected(id)) {
+      this.state.selectedLabels = [...this.state.selectedLabels, id];
+      if (this.state.labelsOnly) this.changed();
+      else this.viewer.scheduleHash();
+    }
     this.render();
     this.el.list.querySelector(`[data-label="${label}"]`)?.scrollIntoView({ block: 'nearest' });
   }
 
+  deselect(label) {
+    this.state.selectedLabels = this.state.selectedLabels.filter((l) => l !== Number(label));
+  }
+
   setColor(label, color, { interactive = false } = {}) {
     this.state.labelColors[label] = color;
-    this.pinned.add(Number(label));
+    if (!this.isSelected(label)) this.state.selectedLabels = [...this.state.selectedLabels, Number(label)];
     this.changed({ interactive });
   }
 
@@ -47,21 +65,34 @@ export class LabelLayer {
     const id = Number(label);
     const others = this.state.hiddenLabels.filter((l) => l !== id);
     this.state.hiddenLabels = hidden ? [...others, id] : others;
-    this.pinned.add(id);
+    if (!this.isSelected(id)) this.state.selectedLabels = [...this.state.selectedLabels, id];
+    this.changed();
+  }
+
+  setOnly(only) {
+    this.state.labelsOnly = only;
+    this.changed();
+  }
+
+  hideSelected() {
+    this.state.hiddenLabels = [...new Set([...this.state.hiddenLabels, ...this.state.selectedLabels])];
+    this.changed();
+  }
+
+  clearSelection() {
+    this.state.selectedLabels = [];
     this.changed();
   }
 
   resetLabel(label) {
     delete this.state.labelColors[label];
     this.state.hiddenLabels = this.state.hiddenLabels.filter((l) => l !== Number(label));
-    this.pinned.delete(Number(label));
+    this.deselect(label);
     this.changed();
   }
 
   resetAll() {
-    this.state.labelColors = {};
-    this.state.hiddenLabels = [];
-    this.pinned.clear();
+    Object.assign(this.state, { labelColors: {}, hiddenLabels: [], selectedLabels: [], labelsOnly: false });
     this.changed();
   }
 
@@ -86,12 +117,15 @@ export class LabelLayer {
     const find = () => {
       const id = Number(el.search.value);
       if (!Number.isInteger(id) || el.search.value === '') return;
-      this.pin(id);
+      this.select(id);
       el.list.querySelector(`[data-label="${id}"] input[type=color]`)?.focus();
     };
     el.searchButton.addEventListener('click', find);
     el.search.addEventListener('keydown', (event) => event.key === 'Enter' && find());
     el.reset.addEventListener('click', () => this.resetAll());
+    el.only.addEventListener('change', () => this.setOnly(el.only.checked));
+    el.hideSelected.addEventListener('click', () => this.hideSelected());
+    el.clearSelection.addEventListener('click', () => this.clearSelection());
   }
 
   // Reflects the state in the controls (after a load from the URL or a dataset change).
@@ -101,11 +135,13 @@ export class LabelLayer {
     el.opacityOut.textContent = formatNumber(this.state.labelOpacity, 2);
     el.defaultMode.value = this.state.labelDefault === 'hash' ? 'hash' : 'single';
     if (this.state.labelDefault !== 'hash') el.defaultColor.value = this.state.labelDefault;
+    el.only.checked = this.state.labelsOnly;
     this.render();
   }
 
   listedLabels() {
-    const ids = new Set([...Object.keys(this.state.labelColors).map(Number), ...this.state.hiddenLabels, ...this.pinned]);
+    const state = this.state;
+    const ids = new Set([...Object.keys(state.labelColors).map(Number), ...state.hiddenLabels, ...state.selectedLabels]);
     return [...ids].sort((a, b) => a - b);
   }
 
@@ -113,6 +149,7 @@ export class LabelLayer {
     const list = this.el.list;
     list.replaceChildren(...this.listedLabels().map((id) => this.row(id)));
     list.classList.toggle('empty', list.children.length === 0);
+    this.el.only.checked = this.state.labelsOnly;
   }
 
   // One label row: colour, id, visibility, reset. Also used by the query table.
@@ -164,6 +201,7 @@ export class LabelLayer {
     return {
       colors: { ...state.labelColors },
       hidden: [...state.hiddenLabels],
+      ...(state.labelsOnly ? { only: [...state.selectedLabels] } : {}),
       default: state.labelDefault,
       opacity: state.labelOpacity,
     };

@@ -43,6 +43,8 @@ export function defaultState(scalar, labels) {
     labelDefault: 'hash',
     labelColors: {},
     hiddenLabels: [],
+    selectedLabels: [],
+    labelsOnly: false,
     layout: 'quad',
     box: null,
   };
@@ -77,6 +79,8 @@ export function encodeState(state) {
     ldef: state.labelDefault === 'hash' ? 'hash' : state.labelDefault.slice(1),
     lc: Object.entries(state.labelColors).map(([id, c]) => `${id}:${c.slice(1)}`).join(',') || null,
     lh: state.hiddenLabels.join(',') || null,
+    ls: state.selectedLabels.join(',') || null,
+    lonly: state.labelsOnly ? 1 : null,
     layout: state.layout,
     box: state.box ? state.box.join(',') : null,
   };
@@ -189,4 +193,6 @@ function applyLabelFields(state, fields) {
     if (/^-?\d+$/.test(id ?? '') && isHexColor(`#${color}`)) state.labelColors[id] = `#${color.toLowerCase()}`;
   }
   state.hiddenLabels = (fields.lh ?? '').split(',').filter((id) => /^-?\d+$/.test(id)).map(Number);
+  state.selectedLabels = (fields.ls ?? '').split(',').filter((id) => /^-?\d+$/.test(id)).map(Number);
+  state.labelsOnly = fields.lonly === '1';
 }

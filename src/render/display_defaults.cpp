@@ -5,6 +5,8 @@
 #include <cmath>
 #include <numeric>
 
+#include "strata/io/formats.hpp"
+
 namespace strata::render {
 
 int value_bin(double v, double lo, double hi, int bins) {
@@ -71,7 +73,8 @@ std::string default_preset(const std::string& file_name, double lo, double hi) {
   std::string name = file_name;
   std::transform(name.begin(), name.end(), name.begin(), [](unsigned char c) { return char(std::tolower(c)); });
   if ((lo < -500 && hi > 500) || names_any(name, {"ct", "cta", "hu"})) return "ct";
-  const bool nifti = name.ends_with(".nii") || name.ends_with(".nii.gz");
+  const io::VolumeFormat* format = io::format_by_extension(file_name);
+  const bool nifti = format && format->name == "nifti";
   if (nifti || names_any(name, {"mri", "mr", "t1", "t1w", "t2", "t2w", "flair", "dwi", "bold"})) return "mri";
   return "grayscale";
 }

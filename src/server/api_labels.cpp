@@ -40,8 +40,8 @@ render::LabelColorMap parse_palette(const Dataset& d, const std::string& body) {
   const nlohmann::json j = nlohmann::json::parse(body, nullptr, false);
   if (j.is_discarded() || !j.is_object()) bad_parameter("body", "expected a JSON object");
   for (const auto& [key, value] : j.items())
-    if (key != "colors" && key != "hidden" && key != "default" && key != "opacity")
-      bad_parameter(key, "unknown field (expected colors, hidden, default, opacity)");
+    if (key != "colors" && key != "hidden" && key != "only" && key != "default" && key != "opacity")
+      bad_parameter(key, "unknown field (expected colors, hidden, only, default, opacity)");
   float opacity = 1;
   if (j.contains("opacity")) {
     const nlohmann::json& o = j["opacity"];
@@ -55,6 +55,18 @@ render::LabelColorMap parse_palette(const Dataset& d, const std::string& body) {
     if (!j["colors"].is_object()) bad_parameter("colors", "expected an object {\"<label>\": \"#rrggbb\"}");
     for (const auto& [key, value] : j["colors"].items())
       map.set(parse_label(key, d, "colors." + key), parse_hex_color(value, opacity, "colors." + key));
+  }
+  if (j.contains("only")) {
+    // Show only these labels: each keeps the colour it has now, every other label (those to
+    // come, through the default) turns transparent. One list, whatever the label count.
+    if (!j["only"].is_array()) bad_parameter("only", "expected an array of labels");
+    std::vector<std::pair<std::int64_t, render::LabelRgba>> shown;
+    for (const nlohmann::json& label : j["only"]) {
+      const std::int64_t l = parse_label(label, d, "only");
+      shown.emplace_back(l, map.color_of(l));
+    }
+    map.set_default({0, 0, 0, 0});
+    for (const auto& [label, color] : shown) map.set(label, color);
   }
   if (j.contains("hidden")) {
     if (!j["hidden"].is_array()) bad_parameter("hidden", "expected an array of labels");

@@ -429,6 +429,37 @@ TEST(ServerApiPalette, RecoloursSlicesThroughTheGraph) {
   EXPECT_GT(red_pixels, 10u) << "the red label shows in 3D";
 }
 
+TEST(ServerApiPalette, OnlyShowsTheListedLabelsInTheirColours) {
+  // "only" turns every other label transparent, whatever their number: one short list instead
+  // of a "hidden" list of all the rest. Listed labels keep their colour (own, else the default);
+  // "hidden" still wins over it.
+  const auto api = make_api();
+  const Volume& v = ServerData::get().labels_source();
+  const std::int64_t red = std::int64_t(v.value(20, 18, 11)), green = std::int64_t(v.value(3, 30, 11)),
+                     gone = std::int64_t(v.value(30, 5, 11));
+  ASSERT_TRUE(red != green && green != gone && red != gone && gone != 0);
+  nlohmann::json body{{"colors", {{std::to_string(red), "#ff0000"}}},
+                      {"default", "#00ff00"},
+                      {"only", {red, green, gone}},
+                      {"hidden", {gone}}};
+  ASSERT_EQ(post(*api, dataset(kLabels, "palette"), body.dump()).status, 200);
+  const render::Image slice = png_of(get(*api, dataset(kLabels, "slice?axis=z&index=11")).body);
+  int shown = 0;
+  for (std::int64_t y = 0; y < 36; ++y)
+    for (std::int64_t x = 0; x < 40; ++x) {
+      const std::int64_t l = std::int64_t(v.value(x, y, 11));
+      const render::Rgba8 expected = l == red     ? render::Rgba8{255, 0, 0, 255}
+                                     : l == green ? render::Rgba8{0, 255, 0, 255}
+                                                  : render::Rgba8{0, 0, 0, 0};
+      ASSERT_EQ(slice.at(int(x), int(y)), expected) << x << "," << y << " label " << l;
+      shown += expected.a > 0;
+    }
+  EXPECT_GT(shown, 0);
+  const HttpResponse bad = post(*api, dataset(kLabels, "palette"), R"({"only": [999999]})");
+  EXPECT_EQ(bad.status, 400);
+  EXPECT_EQ(json_of(bad)["parameter"], "only");
+}
+
 TEST_F(ServerApi, BadPalettesAreNamed) {
   const std::string palette = dataset(kLabels, "palette");
   const std::vector<std::pair<std::string, std::string>> cases = {

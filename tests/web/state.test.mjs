@@ -33,6 +33,8 @@ function edited() {
     labelDefault: '#112233',
     labelColors: { 7: '#ff0000', 12: '#00ff7f' },
     hiddenLabels: [3, 9],
+    selectedLabels: [12, 40],
+    labelsOnly: true,
     layout: 'xz',
     box: [0, 1, 2, 30, 40, 20],
   });

@@ -225,6 +225,39 @@ async function labelSlicePixel(x, y) {
   }, [x, y]);
 }
 
+// The xy label slice's pixels: how many are opaque, and how many of those are not `rgb`.
+async function labelSliceCoverage(rgb) {
+  return page.evaluate((colour) => {
+    const { bitmap } = window.strataViewer.slices[0].images.labels;
+    const canvas = new OffscreenCanvas(bitmap.width, bitmap.height);
+    const context = canvas.getContext('2d');
+    context.drawImage(bitmap, 0, 0);
+    const data = context.getImageData(0, 0, bitmap.width, bitmap.height).data;
+    let opaque = 0;
+    let other = 0;
+    for (let i = 0; i < data.length; i += 4) {
+      if (data[i + 3] < 128) continue;
+      opaque += 1;
+      if (Math.abs(data[i] - colour[0]) + Math.abs(data[i + 1] - colour[1]) + Math.abs(data[i + 2] - colour[2]) > 6) other += 1;
+    }
+    return { opaque, other };
+  }, rgb);
+}
+
+// Clicks `testId` and waits until the page's palette reached the server and the xy slice followed.
+async function paletteChange(testId) {
+  const posts = Number((await page.getByTestId('palette-status').getAttribute('data-posts')) ?? 0);
+  const frames = await frameCount('canvas-xy');
+  await page.getByTestId(testId).click();
+  await page.waitForFunction(
+    (n) => Number(document.querySelector('[data-testid="palette-status"]').dataset.posts ?? 0) > n,
+    posts,
+    { timeout: FRAME_TIMEOUT_MS },
+  );
+  await waitForSliceFrame('canvas-xy', frames);
+  await page.waitForTimeout(300); // let the last slice of the palette settle
+}
+
 const viewState = () => page.evaluate(() => JSON.parse(JSON.stringify(window.strataViewer.state)));
 
 // --- tests -------------------------------------------------------------------------------------
@@ -352,6 +385,25 @@ test('a label colour change re-colours the label slices', async () => {
   assert.ok(meanAbsDifference(before, await thumbnail('canvas-xy')) > 0.5, 'the xy slice did not change colour');
 });
 
+test('"only selected" shows the selection alone, and "hide selected" hides it', async () => {
+  // The previous test selected the label under the cursor and coloured it red.
+  const [label] = (await viewState()).selectedLabels;
+  assert.equal((await viewState()).labelColors[label], '#ff0000');
+  const before = await labelSliceCoverage([255, 0, 0]);
+  assert.ok(before.other > 0, 'other labels show before');
+  await paletteChange('label-only');
+  assert.equal((await viewState()).labelsOnly, true);
+  const only = await labelSliceCoverage([255, 0, 0]);
+  assert.ok(only.opaque > 0, 'the selected label still shows');
+  assert.equal(only.other, 0, 'only the selected (red) label shows');
+  await paletteChange('label-hide-selected');
+  assert.deepEqual((await viewState()).hiddenLabels, [Number(label)]);
+  assert.equal((await labelSliceCoverage([255, 0, 0])).opaque, 0, 'the hidden selection leaves nothing');
+  await paletteChange('label-only'); // off again: every label but the hidden one
+  const after = await labelSliceCoverage([255, 0, 0]);
+  assert.ok(after.opaque > 0 && after.other === after.opaque, 'every other label shows, the hidden one not');
+});
+
 test('a box query lists labels whose exact counts sum to the box volume', async () => {
   const box = [8, 8, 8, 40, 36, 30];
   const volume = (box[3] - box[0]) * (box[4] - box[1]) * (box[5] - box[2]);
@@ -402,7 +454,7 @@ test('reloading the URL restores the view', async () => {
   const after = await viewState();
   assert.equal(page.url(), url);
   const fields = ['scalar', 'labels', 'camera', 'cursor', 'tf', 'rank', 'lod', 'step', 'shading', 'window',
-    'source3d', 'labelColors', 'hiddenLabels', 'labelOpacity', 'box', 'layout'];
+    'source3d', 'labelColors', 'hiddenLabels', 'selectedLabels', 'labelsOnly', 'labelOpacity', 'box', 'layout'];
   for (const field of fields) assert.deepEqual(after[field], before[field], `${field} not restored`);
   assert.equal(after.rank, 1);
   assert.ok(after.camera.dist > 0);
