@@ -244,11 +244,12 @@ async function labelSliceCoverage(rgb) {
   }, rgb);
 }
 
-// Clicks `testId` and waits until the page's palette reached the server and the xy slice followed.
-async function paletteChange(testId) {
+// Runs `act` (a change of the label palette) and waits until the page's palette reached the
+// server and the xy slice followed.
+async function paletteChange(act) {
   const posts = Number((await page.getByTestId('palette-status').getAttribute('data-posts')) ?? 0);
   const frames = await frameCount('canvas-xy');
-  await page.getByTestId(testId).click();
+  await act();
   await page.waitForFunction(
     (n) => Number(document.querySelector('[data-testid="palette-status"]').dataset.posts ?? 0) > n,
     posts,
@@ -361,8 +362,6 @@ test('moving a transfer-function point changes the image', async () => {
 test('a label colour change re-colours the label slices', async () => {
   const label = await hoverLabelNearCentre();
   const before = await thumbnail('canvas-xy');
-  const frames = await frameCount('canvas-xy');
-  const posts = Number((await page.getByTestId('palette-status').getAttribute('data-posts')) ?? 0);
   await page.getByTestId('label-search').fill(label);
   await page.getByTestId('label-search-button').click();
   const row = page.locator(`#label-list [data-label="${label}"]`);
@@ -372,14 +371,7 @@ test('a label colour change re-colours the label slices', async () => {
   const swatch = await row.getByTestId('label-color').inputValue();
   const expected = [1, 3, 5].map((i) => parseInt(swatch.slice(i, i + 2), 16));
   served.forEach((c, i) => assert.ok(Math.abs(c - expected[i]) <= 2, `swatch ${swatch} but the slice shows ${served}`));
-  await row.getByTestId('label-color').fill('#ff0000');
-  await page.waitForFunction(
-    (n) => Number(document.querySelector('[data-testid="palette-status"]').dataset.posts ?? 0) > n,
-    posts,
-    { timeout: FRAME_TIMEOUT_MS },
-  );
-  await waitForSliceFrame('canvas-xy', frames);
-  await page.waitForTimeout(300); // let the last slice of the palette settle
+  await paletteChange(() => row.getByTestId('label-color').fill('#ff0000'));
   assert.equal((await viewState()).labelColors[label], '#ff0000');
   assert.match(await page.getByTestId('palette-status').textContent(), /palette .* ms/);
   assert.ok(meanAbsDifference(before, await thumbnail('canvas-xy')) > 0.5, 'the xy slice did not change colour');
@@ -391,15 +383,15 @@ test('"only selected" shows the selection alone, and "hide selected" hides it', 
   assert.equal((await viewState()).labelColors[label], '#ff0000');
   const before = await labelSliceCoverage([255, 0, 0]);
   assert.ok(before.other > 0, 'other labels show before');
-  await paletteChange('label-only');
+  await paletteChange(() => page.getByTestId('label-only').click());
   assert.equal((await viewState()).labelsOnly, true);
   const only = await labelSliceCoverage([255, 0, 0]);
   assert.ok(only.opaque > 0, 'the selected label still shows');
   assert.equal(only.other, 0, 'only the selected (red) label shows');
-  await paletteChange('label-hide-selected');
+  await paletteChange(() => page.getByTestId('label-hide-selected').click());
   assert.deepEqual((await viewState()).hiddenLabels, [Number(label)]);
   assert.equal((await labelSliceCoverage([255, 0, 0])).opaque, 0, 'the hidden selection leaves nothing');
-  await paletteChange('label-only'); // off again: every label but the hidden one
+  await paletteChange(() => page.getByTestId('label-only').click()); // off again: every label but the hidden one
   const after = await labelSliceCoverage([255, 0, 0]);
   assert.ok(after.opaque > 0 && after.other === after.opaque, 'every other label shows, the hidden one not');
 });
