@@ -8,6 +8,10 @@ import { LatestChannel, apiUrl, postJson } from './api.js';
 import { hashLabelColor } from './colors.js';
 import { formatNumber } from './transfer-function.js';
 
+// A name search selects at most this many labels (a word common to thousands of segment names
+// would otherwise flood the list).
+const MAX_NAME_MATCHES = 200;
+
 export class LabelLayer {
   constructor(viewer, elements) {
     this.viewer = viewer;
@@ -49,6 +53,26 @@ export class LabelLayer {
     }
     this.render();
     this.el.list.querySelector(`[data-label="${label}"]`)?.scrollIntoView({ block: 'nearest' });
+  }
+
+  // Labels whose name (the file's label table) contains `text`, ignoring case.
+  labelsNamed(text) {
+    const names = this.viewer.labelDataset()?.label_names ?? {};
+    const wanted = text.toLowerCase();
+    return Object.entries(names)
+      .filter(([, name]) => name.toLowerCase().includes(wanted))
+      .map(([id]) => Number(id));
+  }
+
+  nameOf(label) {
+    return this.viewer.labelDataset()?.label_names?.[label] ?? '';
+  }
+
+  selectAll(labels) {
+    this.state.selectedLabels = [...new Set([...this.state.selectedLabels, ...labels])];
+    if (this.state.labelsOnly) this.changed();
+    else this.viewer.scheduleHash();
+    this.render();
   }
 
   deselect(label) {
@@ -115,10 +139,17 @@ export class LabelLayer {
       this.changed();
     });
     const find = () => {
-      const id = Number(el.search.value);
-      if (!Number.isInteger(id) || el.search.value === '') return;
-      this.select(id);
-      el.list.querySelector(`[data-label="${id}"] input[type=color]`)?.focus();
+      const text = el.search.value.trim();
+      if (text === '') return;
+      if (/^-?\d+$/.test(text)) {
+        this.select(Number(text));
+        el.list.querySelector(`[data-label="${text}"] input[type=color]`)?.focus();
+        return;
+      }
+      const found = this.labelsNamed(text);
+      this.selectAll(found.slice(0, MAX_NAME_MATCHES));
+      const more = found.length > MAX_NAME_MATCHES ? ` (the first ${MAX_NAME_MATCHES} selected)` : '';
+      this.viewer.status.message(`${found.length} labels named like "${text}"${more}`);
     };
     el.searchButton.addEventListener('click', find);
     el.search.addEventListener('keydown', (event) => event.key === 'Enter' && find());
@@ -158,7 +189,10 @@ export class LabelLayer {
     row.className = 'label-row';
     row.dataset.label = id;
     row.dataset.testid = 'label-row';
-    row.append(this.colorInput(id), text('span', 'label-id', `#${id}`), this.visibilityToggle(id));
+    const name = this.nameOf(id);
+    row.append(this.colorInput(id), text('span', 'label-id', `#${id}`));
+    if (name) row.append(text('span', 'label-name', name));
+    row.append(this.visibilityToggle(id));
     const reset = text('button', 'icon-button', '×');
     reset.title = 'Back to the default colour';
     reset.addEventListener('click', () => this.resetLabel(id));

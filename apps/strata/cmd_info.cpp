@@ -195,6 +195,7 @@ nlohmann::json container_report(const OpenContainer& open) {
       g["normals"] = m["normals"];
       g["normals"]["bytes"] = m["sections"]["normals"].value("size", std::uint64_t(0));
     }
+    if (m.contains("label_names") && m["label_names"].is_object()) g["label_names"] = m["label_names"].size();
     j["mixture_graph"] = g;
   }
   if (m.contains("source") && m["source"].contains("dims")) {
@@ -233,6 +234,7 @@ void print_container_report(const nlohmann::json& j) {
                 g.value("ids", std::string("?")).c_str());
     std::printf("mixtures:    %llu distinct, %llu input pairs\n", g.value("distinct_mixtures", 0ull), g.value("input_pairs", 0ull));
     if (g.contains("max_l1_error")) std::printf("error:       max l1 %.6f\n", g["max_l1_error"].get<double>());
+    if (g.contains("label_names")) std::printf("names:       %zu segment names\n", g["label_names"].get<std::size_t>());
     if (g.contains("normals"))
       std::printf("normals:     a normals graph of %s (window radius %d, band %d, dithered: %s) for pre-filtered lighting\n",
                   human_bytes(g["normals"].value("bytes", std::uint64_t(0))).c_str(), g["normals"].value("radius", 0),

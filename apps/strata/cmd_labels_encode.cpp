@@ -20,7 +20,9 @@ void run_labels_encode(const LabelsEncodeArgs& args, const GlobalOptions& global
   auto progress = global.make_progress();
   io::ReadOptions read = args.raw.to_read_options();
   read.progress = progress.get();
-  check_output_file(args.output, "--output", {args.input}, {io::kStrataExtension});
+  std::vector<std::string> inputs{args.input};
+  if (const auto table = names_table(args)) inputs.push_back(table->string());
+  check_output_file(args.output, "--output", inputs, {io::kStrataExtension});
   const auto encode = [&](io::VolumeSource& source, const std::filesystem::path& output, const std::string& name) {
     mixture::require_label_dtype(args.input, source.info().dtype);
     print_encode_report(name, source.info().dims, o, args, mixture::encode_labels(source, output, o, *progress));
@@ -41,7 +43,7 @@ void register_labels_encode(CLI::App& labels, const GlobalOptions& global) {
   add_labels_encode_flags(*cmd, *args);
   add_all_volumes_flag(*cmd, args->all_volumes);
   cmd->callback([args, &global] {
-    naming_files({args->input, args->output}, [&] { run_labels_encode(*args, global); });
+    naming_files({args->input, args->output, args->names}, [&] { run_labels_encode(*args, global); });
   });
 }
 

@@ -42,8 +42,18 @@ void add_labels_encode_flags(CLI::App& cmd, LabelsEncodeArgs& args) {
   cmd.add_option("--memory-limit", args.memory_limit,
                   "Bound on the streamed stages' memory, e.g. 4G: the coarser mip levels' ids plus input slabs, "
                   "which shrink to fit (the table of distinct mixtures and the factorisation come on top)");
+  cmd.add_option("--names", args.names,
+                  "Table of segment names to store in the file (JSON {\"label\": \"name\"}, CSV label,name, or text "
+                  "lines 'label name ...'); default: MRIcron's <input>.txt beside the input (aal.nii.gz: aal.nii.txt) "
+                  "when there is one; none: store no names");
   cmd.add_flag("--json", args.json, "Print the report as JSON");
   args.raw.add_to(cmd);
+}
+
+std::optional<std::filesystem::path> names_table(const LabelsEncodeArgs& args) {
+  if (args.names == "none") return std::nullopt;
+  if (!args.names.empty()) return std::filesystem::path(args.names);
+  return mixture::sidecar_label_names(args.input);
 }
 
 mixture::EncodeOptions to_encode_options(const LabelsEncodeArgs& args) {
@@ -62,6 +72,7 @@ mixture::EncodeOptions to_encode_options(const LabelsEncodeArgs& args) {
     throw UsageError("--normals-dither", "expected on or off, got '" + args.normals_dither + "'");
   o.normal_options.error_diffusion = args.normals_dither == "on";
   if (!args.memory_limit.empty()) o.memory_limit = parse_byte_size(args.memory_limit, "--memory-limit");
+  if (const auto table = names_table(args)) o.names = mixture::load_label_names(*table);
   as_usage_error([&] { mixture::validate(o); });
   return o;
 }
@@ -82,6 +93,7 @@ nlohmann::json encode_report_json(const std::string& name, const Extent& dims, c
                    {"factor_seconds", r.factor_seconds}};
   if (r.max_l1) j["max_l1_error"] = *r.max_l1;
   if (o.normals) j["normals"] = {{"bytes", r.normals_bytes}, {"seconds", r.normals_seconds}};
+  j["label_names"] = r.names;
   return j;
 }
 
@@ -96,6 +108,9 @@ void print_encode_report(const std::string& name, const Extent& dims, const mixt
               human_bytes(r.graph_bytes).c_str(), r.bits_per_voxel);
   if (r.max_l1) std::printf(", max l1 error %.5f", *r.max_l1);
   std::printf(", %.2f s (factorize %.2f s)\n", r.seconds, r.factor_seconds);
+  if (const auto table = names_table(args); table && !o.names.empty())
+    std::printf("names: %zu segment names from %s (%zu of its %zu labels occur)\n", r.names, table->string().c_str(),
+                r.names, o.names.size());
   if (o.normals)
     std::printf("normals graph: %s (%.3f bits/voxel), %.2f s\n", human_bytes(r.normals_bytes).c_str(),
                 8.0 * double(r.normals_bytes) / double(std::max<std::uint64_t>(1, r.level0_voxels)), r.normals_seconds);

@@ -3,6 +3,8 @@
 // the same names, defaults, checks and report.
 #include <CLI/CLI.hpp>
 
+#include <filesystem>
+#include <optional>
 #include <string>
 
 #include <nlohmann/json.hpp>
@@ -20,12 +22,16 @@ struct LabelsEncodeArgs {
   int normals_radius = 3, normals_diffusion = 0, normals_band = 1;
   std::string normals_dither = "on";
   std::string memory_limit;
+  std::string names;  // --names: a table of segment names ("none": no sidecar either)
   RawInputArgs raw;
   bool all_volumes = false;
 };
 
 // Adds input, -o, the encoding flags and the raw-input flags to `cmd` (not --all-volumes).
 void add_labels_encode_flags(CLI::App& cmd, LabelsEncodeArgs& args);
+
+// The names table the run stores (--names, else the input's MRIcron sidecar); none for "none".
+std::optional<std::filesystem::path> names_table(const LabelsEncodeArgs& args);
 
 // The options the flags ask for; a bad value throws UsageError naming its flag.
 mixture::EncodeOptions to_encode_options(const LabelsEncodeArgs& args);

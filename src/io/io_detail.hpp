@@ -15,6 +15,7 @@
 #include <string_view>
 #include <vector>
 
+#include "strata/io/file_names.hpp"
 #include "strata/io/files.hpp"
 #include "strata/io/touched_paths.hpp"
 #include "strata/io/volume_io.hpp"
@@ -28,7 +29,7 @@ std::string system_error_text();
 std::string ascii_lower(std::string text);
 
 // What gzip-compressed files add to their name (".nii.gz", a detached NRRD's ".raw.gz").
-inline constexpr std::string_view kGzipSuffix = ".gz";
+inline constexpr std::string_view kGzipSuffix = kGzSuffix;
 
 // Writes `text` to `<path>.tmp` and renames it to `path` (a sidecar, a detached header).
 void write_file_atomically(const std::filesystem::path& path, std::string_view text);

@@ -274,6 +274,13 @@ EncodeReport write_labels_file(StreamedLabels s, const VolumeInfo& info, const V
                       {"fractional", h.fractional()},
                       {"stats", stats}};
   if (normals_meta) meta["normals"] = *normals_meta;
+  // Names of labels that occur: the viewer selects by name, and a selection must name labels
+  // of the file (a names table often covers a whole atlas, of which a crop holds part).
+  LabelNames names;
+  for (const auto& [label, name] : options.names)
+    if (s.map.id_of(label)) names.emplace(label, name);
+  rep.names = names.size();
+  if (!names.empty()) meta["label_names"] = label_names_json(names);
   rep.file_bytes = writer.finish(meta);
   rep.bits_per_voxel = 8.0 * double(rep.file_bytes) / double(std::max<std::uint64_t>(1, rep.level0_voxels));
   rep.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -19,6 +19,8 @@ std::uint8_t unit_byte(float v) { return std::uint8_t(std::clamp(v, 0.0f, 1.0f) 
 LabelSource::LabelSource(std::filesystem::path path, std::unique_ptr<store::ContainerReader> input)
     : RenderSource(std::move(path)), labels_(std::move(input)), scene_(labels_, LabelColorMap{}) {
   if (labels_.has_normals()) normals_ = std::make_unique<LabelShading>(labels_.open_normals());
+  if (const auto names = labels_.metadata().find("label_names"); names != labels_.metadata().end())
+    names_ = mixture::label_names_from_json(*names, this->path().string());
 }
 
 std::pair<double, double> LabelSource::value_range() const {

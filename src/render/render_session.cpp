@@ -132,6 +132,7 @@ nlohmann::json RenderSession::describe() const {
           {"histogram", coarser_histogram(fine, kViewerHistogramBins)},
           {"defaults", display_defaults(kind(), name, lo, hi, fine)},
           {"label_count", source_->label_count()},
+          {"label_names", mixture::label_names_json(source_->label_names())},
           {"normals", has_normals()}};
 }
 

@@ -19,6 +19,7 @@
 
 #include "strata/core/extent.hpp"
 #include "strata/core/volume.hpp"
+#include "strata/mixture/label_names.hpp"
 #include "strata/render/camera.hpp"
 #include "strata/render/image.hpp"
 #include "strata/render/label_color_map.hpp"
@@ -66,6 +67,11 @@ class RenderSource {
   virtual std::size_t label_count() const { return 0; }
   virtual bool has_label(std::int64_t) const { return false; }
   virtual bool has_normals() const { return false; }
+  // Label files: the segment names the file stores (metadata.label_names); none otherwise.
+  virtual const mixture::LabelNames& label_names() const {
+    static const mixture::LabelNames none;
+    return none;
+  }
   // The radius the default camera frames (CameraSpec::frame_radius); asked once, on opening.
   virtual double frame_radius() const = 0;
 

@@ -160,6 +160,7 @@ class LabelSource final : public RenderSource {
   std::size_t label_count() const override { return labels_.label_map().size(); }
   bool has_label(std::int64_t label) const override { return labels_.label_map().id_of(label).has_value(); }
   bool has_normals() const override { return normals_ != nullptr; }
+  const mixture::LabelNames& label_names() const override { return names_; }
   double frame_radius() const override;
   Image frame(const Camera& camera, const FrameSettings& settings, const std::array<float, 4>& background,
               nlohmann::json& stats) override;
@@ -180,6 +181,7 @@ class LabelSource final : public RenderSource {
   mixture::EncodedLabels labels_;
   render::LabelScene scene_;
   std::unique_ptr<LabelShading> normals_;  // the file's normals graph, when it has one
+  mixture::LabelNames names_;              // metadata.label_names, checked on opening
   LabelColorMap colors_;
   // Per node, for slices: the dominant source (built on first use) and the colour of the
   // visible labels made opaque, so a slice shows coverage, not the 3D opacity.

@@ -73,6 +73,38 @@ TEST(CliLabels, EncodeDecodeRoundTripBothIdModes) {
   }
 }
 
+TEST(CliLabels, NamesTablesAreStoredForTheLabelsThatOccur) {
+  // MRIcron's sidecar (<volume>.nii.txt beside <volume>.nii.gz) is read unless --names says
+  // otherwise; a CSV with a header and a quoted comma, and a JSON object, read too; names of
+  // labels the volume does not hold are left out.
+  TempDir dir;
+  const std::string in = (dir / "v.nii.gz").string();
+  std::string out;
+  ASSERT_EQ(run_command(strata_cmd("generate voronoi --size 24 --count 5 -o " + in), &out), 0) << out;
+  std::ofstream(dir / "v.nii.txt") << "# index name\n1 Precentral_L 2001\n2\tPrecentral_R\n999 Absent\n";
+  std::ofstream(dir / "n.csv") << "label,name\n3,\"Frontal, superior\"\n";
+  std::ofstream(dir / "n.json") << R"({"4": "Insula_L"})";
+  const auto names_of = [&](const std::string& file) {
+    EXPECT_EQ(run_command(strata_cmd("info --json " + file), &out), 0) << out;
+    return nlohmann::json::parse(out)["mixture_graph"].value("label_names", 0);
+  };
+  const std::string sidecar = (dir / "a.strata").string();
+  ASSERT_EQ(run_command(strata_cmd("labels encode " + in + " -o " + sidecar), &out), 0) << out;
+  EXPECT_NE(out.find("names: 2 segment names from"), std::string::npos) << out;
+  EXPECT_EQ(names_of(sidecar), 2);
+  for (const std::string table : {"n.csv", "n.json"}) {
+    const std::string file = (dir / (table + ".strata")).string();
+    ASSERT_EQ(run_command(strata_cmd("labels encode " + in + " -o " + file + " --names " + (dir / table).string()), &out), 0) << out;
+    EXPECT_EQ(names_of(file), 1) << table;
+  }
+  const std::string none = (dir / "none.strata").string();
+  ASSERT_EQ(run_command(strata_cmd("labels encode " + in + " -o " + none + " --names none"), &out), 0) << out;
+  EXPECT_EQ(names_of(none), 0);
+  std::ofstream(dir / "bad.txt") << "1 a\n1 b\n";
+  EXPECT_NE(run_command(strata_cmd("labels encode " + in + " -o " + none + " --names " + (dir / "bad.txt").string()), &out), 0);
+  EXPECT_NE(out.find("bad.txt: line 2: label 1 is named twice"), std::string::npos) << out;
+}
+
 TEST(CliLabels, ExitCodes) {
   TempDir dir;
   std::string out;

@@ -60,7 +60,9 @@ function makeData(strata, dir) {
   run('generate', 'marschner-lobb', '--size', String(SIZE), '-o', 'x.nrrd');
   run('compress', 'x.nrrd', '-o', 'x.strata', '--rank', '8');
   run('generate', 'voronoi', '--size', String(SIZE), '-o', 'l.nrrd');
-  run('labels', 'encode', 'l.nrrd', '-o', 'l.strata');
+  // Segment names, as an atlas's table gives them: label 1 is the only hippocampus.
+  fs.writeFileSync(path.join(dir, 'names.csv'), 'label,name\n1,Hippocampus_L\n2,Precentral_L\n3,Precentral_R\n');
+  run('labels', 'encode', 'l.nrrd', '-o', 'l.strata', '--names', 'names.csv');
   run('compress', 'x.nrrd', '-o', 'g.strata', '--rank', '8', '--codec', 'ta-global');
 }
 
@@ -394,6 +396,20 @@ test('"only selected" shows the selection alone, and "hide selected" hides it', 
   await paletteChange(() => page.getByTestId('label-only').click()); // off again: every label but the hidden one
   const after = await labelSliceCoverage([255, 0, 0]);
   assert.ok(after.opaque > 0 && after.other === after.opaque, 'every other label shows, the hidden one not');
+});
+
+test('a name search selects the labels whose name matches, and their rows show the names', async () => {
+  const labels = (await page.evaluate(() => window.strataViewer.labelDataset())).label_names;
+  assert.deepEqual(labels, { 1: 'Hippocampus_L', 2: 'Precentral_L', 3: 'Precentral_R' });
+  const before = (await viewState()).selectedLabels;
+  await page.getByTestId('label-search').fill('precentral');
+  await page.getByTestId('label-search-button').click();
+  const selected = (await viewState()).selectedLabels;
+  assert.deepEqual(selected.filter((l) => !before.includes(l)).sort(), [2, 3]);
+  assert.equal(await page.locator('#label-list [data-label="3"] .label-name').textContent(), 'Precentral_R');
+  await page.getByTestId('label-search').fill('HIPPO');
+  await page.getByTestId('label-search-button').click();
+  assert.ok((await viewState()).selectedLabels.includes(1));
 });
 
 test('a box query lists labels whose exact counts sum to the box volume', async () => {

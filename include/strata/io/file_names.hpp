@@ -13,6 +13,12 @@ inline constexpr std::string_view kStrataExtension = ".strata";
 inline constexpr std::string_view kPngExtension = ".png";
 /// @brief JSON documents: raw sidecars, reports, statistics, colour maps.
 inline constexpr std::string_view kJsonExtension = ".json";
+/// @brief Tables of segment names (mixture/label_names.hpp): comma-separated, and
+/// whitespace-separated text (MRIcron keeps `<atlas>.nii.txt` beside `<atlas>.nii.gz`).
+inline constexpr std::string_view kCsvExtension = ".csv";
+inline constexpr std::string_view kTextExtension = ".txt";
+/// @brief The gzip suffix of compressed files (`.nii.gz`, `.raw.gz`).
+inline constexpr std::string_view kGzSuffix = ".gz";
 /// @brief What an output in progress is called until it is complete (`<name>.tmp`, renamed into
 /// place: AtomicOutputFile, the TIFF writers).
 inline constexpr std::string_view kTemporarySuffix = ".tmp";

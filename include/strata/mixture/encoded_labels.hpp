@@ -20,6 +20,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "strata/mixture/label_names.hpp"
 #include "strata/core/progress.hpp"
 #include "strata/core/volume.hpp"
 #include "strata/io/volume_io.hpp"
@@ -64,6 +65,8 @@ struct EncodeOptions {
   // 1/7 of level 0) plus the input slabs, whose size shrinks to fit. Throws ParameterError if
   // even one 8-slice slab cannot fit. With `normals` the whole volume is read as well.
   std::uint64_t memory_limit = 0;
+  // Segment names stored as metadata.label_names (label_names.hpp); empty = none.
+  LabelNames names;
 };
 
 /// @brief Most bits of a quantized interpolation weight (EncodeOptions::bits).
@@ -98,6 +101,7 @@ struct EncodeReport {
   double bits_per_voxel = 0.0;                // whole file / level-0 voxels
   double seconds = 0.0, factor_seconds = 0.0;
   std::uint64_t normals_bytes = 0;   // section "normals" (0 without normals)
+  std::size_t names = 0;             // segment names stored (EncodeOptions::names of labels that occur)
   double normals_seconds = 0.0;      // estimating, quantizing and encoding them
 };
 
