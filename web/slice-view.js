@@ -6,6 +6,7 @@
 import { LatestChannel, apiUrl, fetchImage } from './api.js';
 import { AXIS_COLORS } from './colors.js';
 import { formatNumber, tidy } from './transfer-function.js';
+import { axisLetters, scaleBar } from './orientation.js';
 
 const AXIS_NAMES = ['x', 'y', 'z'];
 // For a slice across `axis`: which volume axes run along the image's columns (u) and rows (v).
@@ -18,6 +19,7 @@ const PLANES = {
 const FIT_MARGIN = 0.94;
 const CROSSHAIR_GAP = 7;
 const WHEEL_NOTCH = 40; // pixel delta that counts as one step (mouse notches send 100 or more)
+const SCALE_BAR_PIXELS = 80; // about this long; the length is a round number of world units
 
 export class SliceView {
   constructor(viewer, section, axis) {
@@ -182,6 +184,56 @@ export class SliceView {
     context.strokeRect(x0 - 0.5, y0 - 0.5, width + 1, height + 1);
     this.drawBox(context, geometry);
     this.drawCrosshair(context, geometry);
+    this.drawOrientation(context, geometry);
+    this.drawScaleBar(context, geometry);
+  }
+
+  // Anatomical letters at the middle of each edge (R on the right of a radiological xy slice
+  // is L: the letters say which way the data runs, as the file's world space defines it).
+  drawOrientation(context, geometry) {
+    const letters = axisLetters(this.viewer.referenceDataset());
+    if (!letters) {
+      delete this.canvas.dataset.orientation;
+      return;
+    }
+    const { u, v } = this.plane;
+    // Screen up is +v for the flipped (z up) views, -v otherwise.
+    const top = geometry.flip ? letters[v].plus : letters[v].minus;
+    const bottom = geometry.flip ? letters[v].minus : letters[v].plus;
+    const marks = { left: letters[u].minus, right: letters[u].plus, top, bottom };
+    const { width, height } = this.size;
+    context.font = 'bold 12px system-ui, sans-serif';
+    context.fillStyle = 'rgba(255, 220, 120, 0.9)';
+    context.textAlign = 'center';
+    context.textBaseline = 'middle';
+    context.fillText(marks.left, 9, height / 2);
+    context.fillText(marks.right, width - 9, height / 2);
+    context.fillText(marks.top, width / 2, 10);
+    context.fillText(marks.bottom, width / 2, height - 10);
+    context.textAlign = 'start';
+    context.textBaseline = 'alphabetic';
+    this.canvas.dataset.orientation = [marks.left, marks.right, marks.top, marks.bottom].join(',');
+  }
+
+  // A bar of a round length in the file's unit, lower right.
+  drawScaleBar(context, geometry) {
+    const dataset = this.viewer.referenceDataset();
+    const spacing = (dataset.spacing ?? [1, 1, 1])[this.plane.u];
+    const bar = scaleBar(geometry.perVoxel[0] / spacing, SCALE_BAR_PIXELS, dataset.geometry?.unit);
+    const x1 = this.size.width - 12;
+    const y = this.size.height - 24;
+    context.strokeStyle = 'rgba(235, 238, 245, 0.9)';
+    context.lineWidth = 2;
+    context.beginPath();
+    context.moveTo(x1 - bar.pixels, y);
+    context.lineTo(x1, y);
+    context.stroke();
+    context.font = '10px system-ui, sans-serif';
+    context.fillStyle = 'rgba(235, 238, 245, 0.9)';
+    context.textAlign = 'right';
+    context.fillText(bar.label, x1, y - 4);
+    context.textAlign = 'start';
+    this.canvas.dataset.scaleBar = bar.label;
   }
 
   // A slice of level l has one pixel per 2^l level-0 voxels; the clip trims a partial last one.

@@ -5,6 +5,7 @@ import { LatestChannel, apiUrl, fetchImage } from './api.js';
 import { boxEdges, pannedTarget, project, resolveCamera, worldSize } from './camera.js';
 import { AXIS_COLORS } from './colors.js';
 import { tidy } from './transfer-function.js';
+import { axisLetters } from './orientation.js';
 
 const ORBIT_DEG_PER_PIXEL = 0.4;
 const ZOOM_PER_WHEEL_UNIT = 0.0015;
@@ -346,12 +347,15 @@ export class View3D {
     context.setLineDash([]);
   }
 
-  // Orientation triad in the lower-left corner: the world axes as the camera sees them.
+  // Orientation triad in the lower-left corner: the volume's axes as the camera sees them,
+  // named by the anatomical direction they point to when the file says (R, A, S ...).
   drawTriad(context, camera) {
     const origin = [34, this.size.height - 34];
     const length = 22;
+    const letters = axisLetters(this.viewer.dataset3d());
     context.font = '10px system-ui, sans-serif';
     context.lineWidth = 2;
+    this.overlay.dataset.triad = letters ? letters.map((l) => l.plus).join(',') : 'x,y,z';
     ['x', 'y', 'z'].forEach((axis, i) => {
       const unit = [0, 0, 0];
       unit[i] = 1;
@@ -364,7 +368,7 @@ export class View3D {
       context.moveTo(...origin);
       context.lineTo(...end);
       context.stroke();
-      context.fillText(axis, end[0] + sx * 6 - 3, end[1] - sy * 6 + 3);
+      context.fillText(letters ? letters[i].plus : axis, end[0] + sx * 6 - 3, end[1] - sy * 6 + 3);
     });
   }
 }

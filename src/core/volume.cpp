@@ -120,6 +120,7 @@ Volume Volume::crop(const Box& box) const {
 
 Volume Volume::converted(DType to) const {
   Volume out(info_.dims, to, info_.spacing);
+  out.info_.geometry = info_.geometry;  // the same volume in other sample values: same place in space
   visit_dtype(info_.dtype, [&](auto from_tag) {
     using From = decltype(from_tag);
     visit_dtype(to, [&](auto to_tag) {

@@ -69,13 +69,18 @@ std::pair<double, double> percentile_window(std::span<const std::uint64_t> count
   return {std::max(lo, a), std::min(hi, b)};
 }
 
-std::string default_preset(const std::string& file_name, double lo, double hi) {
+std::pair<double, double> whole_window(std::pair<double, double> window, bool integer_samples) {
+  if (!integer_samples) return window;
+  return {std::floor(window.first), std::ceil(window.second)};
+}
+
+std::string default_preset(const std::string& file_name, double lo, double hi, bool anatomical) {
   std::string name = file_name;
   std::transform(name.begin(), name.end(), name.begin(), [](unsigned char c) { return char(std::tolower(c)); });
   if ((lo < -500 && hi > 500) || names_any(name, {"ct", "cta", "hu"})) return "ct";
   const io::VolumeFormat* format = io::format_by_extension(file_name);
   const bool nifti = format && format->name == "nifti";
-  if (nifti || names_any(name, {"mri", "mr", "t1", "t1w", "t2", "t2w", "flair", "dwi", "bold"})) return "mri";
+  if (nifti || anatomical || names_any(name, {"mri", "mr", "t1", "t1w", "t2", "t2w", "flair", "dwi", "bold"})) return "mri";
   return "grayscale";
 }
 

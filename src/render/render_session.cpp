@@ -32,15 +32,27 @@ namespace {
 nlohmann::json json_of(const Extent& e) { return {e.x, e.y, e.z}; }
 nlohmann::json json_of(const Spacing& s) { return {s.x, s.y, s.z}; }
 
+// Where the volume lies, for the viewer's orientation marks and scale bar (docs/viewer.md).
+nlohmann::json geometry_json(const Geometry& g) {
+  nlohmann::json direction = nlohmann::json::array();
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) direction.push_back(g.direction[std::size_t(r)][std::size_t(c)]);
+  return {{"space", std::string(world_space_name(g.space))},
+          {"direction", direction},
+          {"origin", {g.origin[0], g.origin[1], g.origin[2]}},
+          {"unit", g.unit}};
+}
+
 // The transfer-function editor's histogram.
 constexpr int kViewerHistogramBins = 64;
 
 // How the viewer first shows a scalar dataset (docs/viewer.md): {"tf", "window"}; {} for labels.
-nlohmann::json display_defaults(DatasetKind kind, const std::string& name, double lo, double hi,
+nlohmann::json display_defaults(const RenderSource& source, const std::string& name, double lo, double hi,
                                 const std::vector<std::uint64_t>& histogram) {
-  if (kind == DatasetKind::labels) return nlohmann::json::object();
-  const auto [a, b] = percentile_window(histogram, lo, hi);
-  return {{"tf", default_preset(name, lo, hi)}, {"window", {a, b}}};
+  if (source.kind() == DatasetKind::labels) return nlohmann::json::object();
+  const auto [a, b] = whole_window(percentile_window(histogram, lo, hi), !dtype_is_float(source.dtype()));
+  const bool anatomical = source.geometry().space != WorldSpace::unspecified;
+  return {{"tf", default_preset(name, lo, hi, anatomical)}, {"window", {a, b}}};
 }
 
 }  // namespace
@@ -123,6 +135,7 @@ nlohmann::json RenderSession::describe() const {
           {"kind", dataset_kind_name(kind())},
           {"dims", json_of(dims())},
           {"spacing", json_of(spacing())},
+          {"geometry", geometry_json(source_->geometry())},
           {"dtype", dtype_name(source_->dtype())},
           {"levels", level_count()},
           {"rank", stored_rank()},
@@ -130,7 +143,7 @@ nlohmann::json RenderSession::describe() const {
           {"feature_scale_ladder", source_->feature_scale_ladder()},
           {"value_range", {lo, hi}},
           {"histogram", coarser_histogram(fine, kViewerHistogramBins)},
-          {"defaults", display_defaults(kind(), name, lo, hi, fine)},
+          {"defaults", display_defaults(*source_, name, lo, hi, fine)},
           {"label_count", source_->label_count()},
           {"label_names", mixture::label_names_json(source_->label_names())},
           {"normals", has_normals()}};

@@ -50,6 +50,8 @@ class RenderSource {
 
   virtual DatasetKind kind() const = 0;
   virtual Spacing spacing() const = 0;
+  // Where level 0 lies in world space (origin, axis directions, space, unit): the source file's.
+  virtual Geometry geometry() const = 0;
   virtual int level_count() const = 0;
   // Voxels of `level`, 0 <= level < level_count() (RenderSession checks).
   virtual Extent level_dims(int level) const = 0;

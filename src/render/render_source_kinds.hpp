@@ -85,6 +85,7 @@ class TaSource final : public RenderSource {
 
   DatasetKind kind() const override { return DatasetKind::scalar; }
   Spacing spacing() const override { return volume_.source_info().spacing; }
+  Geometry geometry() const override { return volume_.source_info().geometry; }
   int level_count() const override { return volume_.geometry().level_count(); }
   Extent level_dims(int level) const override { return volume_.geometry().level(level).dims; }
   int stored_rank() const override { return volume_.rank(); }
@@ -126,6 +127,7 @@ class PlainSource final : public RenderSource {
 
   DatasetKind kind() const override { return DatasetKind::plain; }
   Spacing spacing() const override { return volume_.spacing(); }
+  Geometry geometry() const override { return volume_.info().geometry; }
   int level_count() const override { return 1; }
   Extent level_dims(int) const override { return volume_.dims(); }
   std::pair<double, double> value_range() const override { return range_; }
@@ -153,6 +155,7 @@ class LabelSource final : public RenderSource {
 
   DatasetKind kind() const override { return DatasetKind::labels; }
   Spacing spacing() const override { return labels_.spacing(); }
+  Geometry geometry() const override { return labels_.geometry(); }
   int level_count() const override { return labels_.level_count(); }
   Extent level_dims(int level) const override { return labels_.level_dims(level); }
   std::pair<double, double> value_range() const override;

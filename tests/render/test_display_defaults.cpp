@@ -48,4 +48,11 @@ TEST(RenderDisplayDefaults, PresetFollowsUnitsAndName) {
   EXPECT_EQ(default_preset("fibsem_medulla_250.nrrd", 26, 217), "grayscale");
   EXPECT_EQ(default_preset("smrt_density.raw", 0, 1), "grayscale");    // "mr" inside a word
   EXPECT_EQ(default_preset("cta_run.h5", 0, 1), "ct");
+  EXPECT_EQ(default_preset("brain.strata", 0, 130, true), "mri");  // placed in RAS or LPS
+  EXPECT_EQ(default_preset("head.strata", -1024, 2000, true), "ct");
+}
+
+TEST(RenderDisplayDefaults, IntegerSamplesGetWholeWindows) {
+  EXPECT_EQ(whole_window({0.0013, 119.6}, true), std::make_pair(0.0, 120.0));
+  EXPECT_EQ(whole_window({0.0013, 119.6}, false), std::make_pair(0.0013, 119.6));
 }

@@ -133,3 +133,17 @@ test('a dataset opens with the preset and percentile window the server read from
   assert.equal(old.tfPreset, 'ct');
   assert.deepEqual(old.window, scalar.value_range);
 });
+
+test('anatomical letters follow the file\'s world space and axis directions', async () => {
+  const { axisLetters, scaleBar } = await import('../../web/orientation.js');
+  const identity = [1, 0, 0, 0, 1, 0, 0, 0, 1];
+  assert.equal(axisLetters({ geometry: { space: 'unspecified', direction: identity } }), null);
+  assert.deepEqual(axisLetters({ geometry: { space: 'RAS', direction: identity } }).map((l) => l.plus + l.minus), ['RL', 'AP', 'SI']);
+  assert.deepEqual(axisLetters({ geometry: { space: 'LPS', direction: identity } }).map((l) => l.plus + l.minus), ['LR', 'PA', 'SI']);
+  // A radiological volume: x runs to the left, an oblique y mostly posterior, z inferior.
+  const flipped = [-1, 0, 0, 0, -0.9, 0.1, 0, 0.3, -1];
+  assert.deepEqual(axisLetters({ geometry: { space: 'RAS', direction: flipped } }).map((l) => l.plus), ['L', 'P', 'I']);
+  assert.deepEqual(scaleBar(4, 80, 'mm'), { pixels: 80, label: '20 mm' });
+  assert.deepEqual(scaleBar(0.3, 80, 'um'), { pixels: 60, label: '200 µm' });
+  assert.deepEqual(scaleBar(33, 80, ''), { pixels: 66, label: '2 units' });
+});

@@ -58,6 +58,12 @@ function freePort() {
 function makeData(strata, dir) {
   const run = (...args) => execFileSync(strata, ['--progress', 'none', ...args], { cwd: dir, stdio: ['ignore', 'ignore', 'pipe'] });
   run('generate', 'marschner-lobb', '--size', String(SIZE), '-o', 'x.nrrd');
+  // Placed in RAS space in millimetres, as a scanner's file would be: the views mark directions.
+  const file = fs.readFileSync(path.join(dir, 'x.nrrd'));
+  const end = file.indexOf('\n\n') + 1;
+  const header = file.subarray(0, end).toString().replace(/spacings: .*\n/,
+    'space: right-anterior-superior\nspace directions: (1,0,0) (0,1,0) (0,0,1)\nspace units: "mm" "mm" "mm"\n');
+  fs.writeFileSync(path.join(dir, 'x.nrrd'), Buffer.concat([Buffer.from(header), file.subarray(end)]));
   run('compress', 'x.nrrd', '-o', 'x.strata', '--rank', '8');
   run('generate', 'voronoi', '--size', String(SIZE), '-o', 'l.nrrd');
   // Segment names, as an atlas's table gives them: label 1 is the only hippocampus.
@@ -277,6 +283,16 @@ test('the page loads, lists the datasets and shows a non-blank 3D view', async (
   await waitForSliceFrame('canvas-xy', 0);
   assert.ok(luminanceStdDev(await thumbnail('canvas-xy')) > 4, 'xy slice looks blank');
   assert.match(await page.getByTestId('status-frame').textContent(), /ms/);
+});
+
+test('the views mark anatomical directions and a scale bar from the file\'s geometry', async () => {
+  const xy = await page.getByTestId('canvas-xy').getAttribute('data-orientation');
+  const xz = await page.getByTestId('canvas-xz').getAttribute('data-orientation');
+  // left, right, top, bottom: the xy slice has +y down (A at the bottom), the xz slice z up.
+  assert.equal(xy, 'L,R,P,A');
+  assert.equal(xz, 'L,R,S,I');
+  assert.match(await page.getByTestId('canvas-xy').getAttribute('data-scale-bar'), /^\d+ mm$/);
+  assert.equal(await page.locator('#overlay-3d').getAttribute('data-triad'), 'R,A,S');
 });
 
 test('at rest the 3D view refines its frame from 8 jittered passes', async () => {

@@ -36,8 +36,14 @@ std::pair<double, double> percentile_window(std::span<const std::uint64_t> count
 
 /// @brief The transfer-function preset a dataset opens with: "ct" for values in Hounsfield
 /// units (below -500 and above 500) or a name that says CT; "mri" for a name that says MR
-/// (mri, mr, t1, t2, flair, dwi, bold) or a NIfTI file, MR's usual container; otherwise
-/// "grayscale" (electron microscopy, density and simulation fields).
-std::string default_preset(const std::string& file_name, double lo, double hi);
+/// (mri, mr, t1, t2, flair, dwi, bold), a NIfTI file (MR's usual container) or a volume placed
+/// in an anatomical space (`anatomical`: RAS or LPS, which a compressed file keeps when its
+/// name no longer says); otherwise "grayscale" (electron microscopy, density and simulation
+/// fields).
+std::string default_preset(const std::string& file_name, double lo, double hi, bool anatomical = false);
+
+/// @brief `window` widened to whole numbers for integer samples (a window edge between two
+/// sample values means nothing, and reads badly: 0.0013 instead of 0).
+std::pair<double, double> whole_window(std::pair<double, double> window, bool integer_samples);
 
 }  // namespace strata::render
