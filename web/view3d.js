@@ -163,6 +163,11 @@ export class View3D {
     if (interactive) {
       this.send('coarse');
       this.exactTimer = setTimeout(() => this.send('exact'), EXACT_DELAY_MS);
+    } else if (!this.bitmap) {
+      // Nothing shown yet (the page or the dataset just opened): a coarse frame first, drawn
+      // from the top-level bricks within a few hundred ms, while the exact one waits its turn.
+      this.send('coarse');
+      this.send('exact');
     } else {
       this.send('exact');
     }

@@ -68,7 +68,8 @@ bool BrickProvider::stand_in(const CutBrick& brick, int rank, ResidentBrick& out
     return true;
   }
   const int top = volume_.geometry().level_count() - 1;
-  for (store::BrickKey key = brick.key; key.level < top;) {
+  store::BrickKey key = brick.key;
+  while (key.level < top) {
     key = parent_of(key);
     const store::BrickEntry* entry = volume_.container().find(key);
     if (!entry) return false;
@@ -83,7 +84,14 @@ bool BrickProvider::stand_in(const CutBrick& brick, int rank, ResidentBrick& out
     // Coarse bricks load first (queue order), so a cold start shows a coarse picture early.
     requests.push_back({{key, rank}, brick.depth});
   }
-  return false;
+  // A cold start: nothing of this brick's line is resident. Its top-level ancestor (a handful
+  // of bricks hold the whole volume there) is decoded now, so the first progressive frame shows
+  // the volume coarsely instead of nothing until the loader catches up (a viewer's first
+  // frame was black for 1.4-3.5 s).
+  const store::BrickEntry* root = volume_.container().find(key);
+  if (!root || root->kind == store::PayloadKind::constant) return false;
+  out = {key, rank, decode({key, rank}, reconstructor_, scratch_), 0};
+  return true;
 }
 
 void BrickProvider::submit(const std::vector<LoadRequest>& requests, bool wait_for_bytes) {

@@ -38,11 +38,14 @@ std::vector<float> bilinear_cells(const PreintegratedTable& t) {
 
 std::vector<LevelParams> level_params(std::vector<std::unique_ptr<LevelTables>>& tables,
                                       const TransferFunction& tf, const RenderOptions& options, int max_level,
-                                      double min_spacing) {
+                                      double min_spacing, const std::vector<bool>& used) {
   std::vector<LevelParams> levels(std::size_t(max_level) + 1);
   if (tables.size() < levels.size()) tables.resize(levels.size());
   for (std::size_t l = 0; l < levels.size(); ++l) {
     const double ratio = options.step * std::ldexp(1.0, int(l));
+    levels[l].h = ratio * min_spacing;
+    levels[l].shade_threshold = correct_opacity(kShadeThreshold, ratio);
+    if (l >= used.size() || !used[l]) continue;
     if (!tables[l]) {
       auto t = std::make_unique<LevelTables>();
       if (options.preintegrated) {
@@ -53,8 +56,6 @@ std::vector<LevelParams> level_params(std::vector<std::unique_ptr<LevelTables>>&
       tables[l] = std::move(t);
     }
     const LevelTables& t = *tables[l];
-    levels[l].h = ratio * min_spacing;
-    levels[l].shade_threshold = correct_opacity(kShadeThreshold, ratio);
     // The pre-integrated table is options.table_size^2 entries (read through its cells only).
     levels[l].classify = options.preintegrated
                              ? Classifier{nullptr, options.table_size, float(options.table_size - 1), t.cells.data()}

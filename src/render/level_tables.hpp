@@ -17,10 +17,12 @@ struct LevelTables {
   LookupTable lookup;
 };
 
-// Levels 0..max_level: world step and classification tables (built into `tables` on first
-// use; the step ratio, and so the table, differs per level).
+// Levels 0..max_level: world step, and classification tables for the levels `used` marks
+// (built into `tables` on first use; the step ratio, and so the table, differs per level).
+// A level no block of the frame holds gets no table: building one costs tens of milliseconds,
+// which a first frame drawn from the top level alone should not pay for every level.
 std::vector<LevelParams> level_params(std::vector<std::unique_ptr<LevelTables>>& tables,
                                       const TransferFunction& tf, const RenderOptions& options, int max_level,
-                                      double min_spacing);
+                                      double min_spacing, const std::vector<bool>& used);
 
 }  // namespace strata::render::detail

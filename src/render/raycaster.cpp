@@ -106,7 +106,10 @@ Image RayCaster::render(const Camera& camera, const FrameInput& frame, RenderSta
 
 Image RayCaster::cast(const Camera& camera, const FrameIndex& index, const ValueMapping& mapping,
                       SteadyClock::time_point t0, RenderStats& local, RenderStats* stats) {
-  const std::vector<LevelParams> levels = level_params(tables_, tf_, options_, index.max_level, index.min_spacing);
+  std::vector<bool> used(std::size_t(index.max_level) + 1, false);
+  for (const detail::Block& b : index.blocks) used[std::size_t(b.level)] = true;
+  const std::vector<LevelParams> levels =
+      level_params(tables_, tf_, options_, index.max_level, index.min_spacing, used);
   local.setup_ms = ms_since(t0);
   const auto t1 = SteadyClock::now();
   Image image = run({*transparency_, camera, index, options_, levels, float(mapping.lo), float(mapping.scale())}, local);

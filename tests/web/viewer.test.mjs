@@ -357,18 +357,22 @@ test('the error control is off for a file without a feature-scale table', async 
 });
 
 test('moving a transfer-function point changes the image', async () => {
+  // x.strata opens with the mri preset (it lies in RAS space); start from the ct preset.
+  assert.equal((await viewState()).tfPreset, 'mri');
+  let frames = await frameCount('canvas-3d');
+  await page.getByTestId('tf-preset').selectOption('ct');
+  await waitForExactFrame(frames);
   const before = await thumbnail('canvas-3d');
-  const frames = await frameCount('canvas-3d');
+  frames = await frameCount('canvas-3d');
   const tfBefore = (await viewState()).tf;
   const canvas = await page.getByTestId('tf-canvas').boundingBox();
   const handles = JSON.parse(await page.getByTestId('tf-canvas').getAttribute('data-handles'));
-  // The preset's most opaque point (the grayscale preset's, at the top of the range: x.strata's
-  // name says no modality): pull it down and left.
-  const top = handles.length - 1;
+  // The ct preset's opaque shoulder (value 0.55 of the range, opacity 0.5): pull it down and left.
+  const top = 4;
   const [hx, hy] = handles[top];
   await page.mouse.move(canvas.x + hx, canvas.y + hy);
   await page.mouse.down();
-  for (let i = 1; i <= 6; i++) await page.mouse.move(canvas.x + hx - i * 4, canvas.y + hy + i * 3);
+  for (let i = 1; i <= 6; i++) await page.mouse.move(canvas.x + hx - i * 4, canvas.y + hy + i * 8);
   await page.mouse.up();
   await waitForExactFrame(frames);
   const tfAfter = (await viewState()).tf;
