@@ -89,7 +89,7 @@ export class QueryPanel {
     const rows = entries.slice(0, MAX_ROWS).map((entry) => this.row(entry, estimate ? entry : null, exactOf(entry.label)));
     if (entries.length > MAX_ROWS) {
       const more = document.createElement('tr');
-      more.innerHTML = `<td colspan="4" class="muted">… ${entries.length - MAX_ROWS} more labels</td>`;
+      more.innerHTML = `<td colspan="6" class="muted">… ${entries.length - MAX_ROWS} more labels</td>`;
       rows.push(more);
     }
     return rows;
@@ -105,11 +105,34 @@ export class QueryPanel {
     const colorCell = document.createElement('td');
     // Label 0 is the background: transparent unless coloured, so it gets no swatch.
     if (entry.label !== 0) colorCell.append(layer.colorInput(entry.label));
-    const name = entry.label === 0 ? '0 background' : `#${entry.label}`;
+    const segment = layer.nameOf(entry.label);
+    const name = entry.label === 0 ? '0 background' : `#${entry.label}${segment ? ` ${segment}` : ''}`;
     const estimateText = estimate ? `${estimate.count.toFixed(1)} ± ${estimate.sigma.toFixed(1)}` : '—';
     const exactText = exactCount === undefined ? '—' : String(exactCount);
-    tr.append(colorCell, cell(name, 'label-id'), cell(estimateText, 'num'), cell(exactText, 'num'));
+    // Per-segment statistics from the best count at hand (exact when scanned): its share of the
+    // box and its volume in the file's unit.
+    const count = exactCount ?? estimate?.count ?? 0;
+    const voxels = (this.results.estimate ?? this.results.exact)?.voxels ?? 1;
+    const share = (100 * count) / voxels;
+    tr.dataset.share = share;
+    const idCell = cell(name, 'label-id');
+    if (entry.label !== 0) {
+      idCell.title = 'Click to select this label';
+      idCell.classList.add('clickable');
+      idCell.addEventListener('click', () => layer.select(entry.label));
+    }
+    tr.append(colorCell, idCell, cell(estimateText, 'num'), cell(exactText, 'num'),
+      cell(`${share.toFixed(1)} %`, 'num'), cell(this.physicalVolume(count), 'num'));
     return tr;
+  }
+
+  // `count` level-0 voxels as a volume in the file's unit ("1.2e+03 mm³"; "vox" without a unit).
+  physicalVolume(count) {
+    const dataset = this.viewer.labelDataset();
+    const unit = dataset?.geometry?.unit;
+    if (!unit) return `${formatNumber(count, 4)} vox`;
+    const [sx, sy, sz] = dataset.spacing ?? [1, 1, 1];
+    return `${formatNumber(count * sx * sy * sz, 4)} ${unit === 'um' ? 'µm' : unit}³`;
   }
 }
 

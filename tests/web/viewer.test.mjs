@@ -448,6 +448,17 @@ test('a box query lists labels whose exact counts sum to the box volume', async 
   assert.ok(Math.abs(estimates.reduce((s, c) => s + c, 0) - volume) < volume * 0.05, 'estimates far from the volume');
   assert.match(await page.getByTestId('query-summary').textContent(), /naive: [\d.]+ ms/);
   assert.match(await page.getByTestId('query-table').textContent(), /±/);
+  // Per-segment statistics: shares of the exact counts add up to the whole box, names show.
+  const shares = await rows.evaluateAll((trs) => trs.map((tr) => Number(tr.dataset.share)));
+  assert.ok(Math.abs(shares.reduce((s, c) => s + c, 0) - 100) < 1e-6, `shares sum to ${shares.reduce((s, c) => s + c, 0)}`);
+  if (exact.length > 0 && (await rows.evaluateAll((trs) => trs.some((tr) => tr.dataset.label === '2'))))
+    assert.match(await page.locator('[data-testid="query-row"][data-label="2"] .label-id').textContent(), /#2 Precentral_L/);
+  // A click on a label selects it.
+  const label = await rows.nth(0).getAttribute('data-label');
+  const target = label === '0' ? rows.nth(1) : rows.nth(0);
+  const id = Number(await target.getAttribute('data-label'));
+  await target.locator('.label-id').click();
+  assert.ok((await viewState()).selectedLabels.includes(id));
 });
 
 test('the help overlay opens with ? and closes with Escape', async () => {
