@@ -26,13 +26,15 @@ namespace fs = std::filesystem;
 
 namespace {
 
+// --tf: the preset the data suggests (RenderSession::default_preset).
+constexpr std::string_view kAutoPreset = "auto";
 // --orbit: at most one frame per tenth of a degree.
 constexpr int kMaxOrbitFrames = 3600;
 // --passes: beyond this the mean of jittered passes changes by less than an 8-bit level.
 constexpr int kMaxPasses = 256;
 
 struct RenderArgs {
-  std::string input, output, size = "1024x768", tf = "ct", shading = "on", stats, colors, background = "0,0,0",
+  std::string input, output, size = "1024x768", tf = std::string(kAutoPreset), shading = "on", stats, colors, background = "0,0,0",
       lighting = "auto";
   double azimuth = 30, elevation = 20, distance = 0, fov = 30, lod = 1.0, step = 0.5, lod_bias = 0.0, target_fps = 0,
          feature_scale = 0;
@@ -168,7 +170,8 @@ render::FrameSettings frame_settings(const RenderArgs& a) {
       render::validate(f);
     }
   });
-  f.tf = std::make_shared<const render::TransferFunction>(render::TransferFunction::from_argument(a.tf));
+  if (a.tf != kAutoPreset)  // else chosen once the input is open (run_render)
+    f.tf = std::make_shared<const render::TransferFunction>(render::TransferFunction::from_argument(a.tf));
   return f;
 }
 
@@ -176,7 +179,7 @@ render::FrameSettings frame_settings(const RenderArgs& a) {
 // input, has the wrong extension or cannot be written.
 void check_outputs(const RenderArgs& a) {
   std::vector<std::string> inputs{a.input, a.colors};
-  if (!render::TransferFunction::is_preset(a.tf)) inputs.push_back(a.tf);
+  if (a.tf != kAutoPreset && !render::TransferFunction::is_preset(a.tf)) inputs.push_back(a.tf);
   if (a.orbit > 0) {
     check_output_folder(a.output, "--output", inputs);
     std::vector<fs::path> frames;
@@ -225,6 +228,8 @@ void run_render(const RenderArgs& a, const GlobalOptions&) {
   const render::SessionOptions options = session_options(a);
   check_outputs(a);
   render::RenderSession session(a.input, options);
+  if (!settings.tf)
+    settings.tf = std::make_shared<const render::TransferFunction>(render::TransferFunction::preset(session.default_preset()));
   check_rank_flag(a.rank, session.stored_rank(), a.input);
   if (settings.label_lighting == render::LabelLightingChoice::normals &&
       !session.has_normals())
@@ -296,7 +301,10 @@ void register_render(CLI::App& app, const GlobalOptions& global) {
       ->capture_default_str();
   cmd->add_option("--fov", a->fov, "Vertical field of view in degrees (perspective; between 0 and 180)")->capture_default_str();
   cmd->add_flag("--ortho", a->ortho, "Orthographic projection");
-  cmd->add_option("--tf", a->tf, "Transfer function: a preset (grayscale, ct, bone, mri, fire) or a JSON file")
+  cmd->add_option("--tf", a->tf,
+                  "Transfer function: auto (the preset for the data: ct for Hounsfield units or a CT name, mri for an "
+                  "MR name, a NIfTI file or a volume in RAS/LPS space, else grayscale), a preset (grayscale, ct, bone, "
+                  "mri, fire) or a JSON file")
       ->capture_default_str();
   cmd->add_option("--rank", a->rank,
                   "Reconstruction rank K, 1..the stored rank (0 = the stored rank): the feature-scale slider")

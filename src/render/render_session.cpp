@@ -47,12 +47,11 @@ nlohmann::json geometry_json(const Geometry& g) {
 constexpr int kViewerHistogramBins = 64;
 
 // How the viewer first shows a scalar dataset (docs/viewer.md): {"tf", "window"}; {} for labels.
-nlohmann::json display_defaults(const RenderSource& source, const std::string& name, double lo, double hi,
+nlohmann::json display_defaults(const RenderSource& source, const std::string& preset, double lo, double hi,
                                 const std::vector<std::uint64_t>& histogram) {
   if (source.kind() == DatasetKind::labels) return nlohmann::json::object();
   const auto [a, b] = whole_window(percentile_window(histogram, lo, hi), !dtype_is_float(source.dtype()));
-  const bool anatomical = source.geometry().space != WorldSpace::unspecified;
-  return {{"tf", default_preset(name, lo, hi, anatomical)}, {"window", {a, b}}};
+  return {{"tf", preset}, {"window", {a, b}}};
 }
 
 }  // namespace
@@ -120,6 +119,12 @@ int RenderSession::stored_rank() const { return source_->stored_rank(); }
 
 std::pair<double, double> RenderSession::value_range() const { return source_->value_range(); }
 
+std::string RenderSession::default_preset() const {
+  const auto [lo, hi] = value_range();
+  const bool anatomical = source_->geometry().space != WorldSpace::unspecified;
+  return render::default_preset(path_.filename().string(), lo, hi, anatomical);
+}
+
 bool RenderSession::has_label(std::int64_t label) const { return source_->has_label(label); }
 
 bool RenderSession::has_normals() const { return source_->has_normals(); }
@@ -143,7 +148,7 @@ nlohmann::json RenderSession::describe() const {
           {"feature_scale_ladder", source_->feature_scale_ladder()},
           {"value_range", {lo, hi}},
           {"histogram", coarser_histogram(fine, kViewerHistogramBins)},
-          {"defaults", display_defaults(*source_, name, lo, hi, fine)},
+          {"defaults", display_defaults(*source_, default_preset(), lo, hi, fine)},
           {"label_count", source_->label_count()},
           {"label_names", mixture::label_names_json(source_->label_names())},
           {"normals", has_normals()}};

@@ -46,6 +46,24 @@ class CliRender : public ::testing::Test {
   fs::path file = dir / "sphere.strata";
 };
 
+TEST_F(CliRender, DefaultTransferFunctionIsThePresetForTheData) {
+  // No --tf: the preset the data suggests, as the viewer opens it. sphere.strata names no
+  // modality and has no world space (grayscale); the same volume as a NIfTI file is MR's usual
+  // container (mri).
+  const std::string nifti = (dir / "sphere.nii.gz").string();
+  std::string out;
+  ASSERT_EQ(run_command(strata_cmd("convert " + (dir / "sphere.nrrd").string() + " " + nifti), &out), 0) << out;
+  const auto render = [&](const std::string& input, const std::string& tf, const std::string& name) {
+    const fs::path png = dir / name;
+    EXPECT_EQ(run_command(strata_cmd("render " + input + " -o " + png.string() + " --size 48x36" + tf), &out), 0) << out;
+    return strata::render::read_png(png).pixels();
+  };
+  EXPECT_EQ(render(file.string(), "", "a.png"), render(file.string(), " --tf grayscale", "b.png"));
+  EXPECT_NE(render(file.string(), "", "a.png"), render(file.string(), " --tf ct", "c.png"));
+  EXPECT_EQ(render(nifti, "", "d.png"), render(nifti, " --tf mri", "e.png"));
+  EXPECT_EQ(render(nifti, " --tf auto", "f.png"), render(nifti, " --tf mri", "e.png"));
+}
+
 TEST_F(CliRender, StillImageAndStatistics) {
   const fs::path png = dir / "still.png", stats = dir / "stats.json";
   std::string out;

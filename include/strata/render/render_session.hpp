@@ -132,6 +132,10 @@ class RenderSession {
   int stored_rank() const;
   /// @brief The sample range (scalar, plain) or the smallest and largest label (labels).
   std::pair<double, double> value_range() const;
+  /// @brief The transfer-function preset this data opens with (render::default_preset of
+  /// display_defaults.hpp: from the file's name, value range and world space): what the viewer
+  /// and `strata render --tf auto` show first.
+  std::string default_preset() const;
   /// @brief Whether `label` occurs in a label file (false for other kinds).
   bool has_label(std::int64_t label) const;
   /// @brief Whether a label file carries a normals graph (`labels encode --normals`).
