@@ -98,11 +98,14 @@ nlohmann::json compress_and_evaluate(const std::string& name, const fs::path& in
           {"ranks", rows}};
 }
 
-// Encodes a label volume as a Mixture Graph, checks level 0 decodes bit-exactly, and answers
-// a box-histogram query by footprint assembly next to the exact level-0 scan.
+// Encodes a label volume as a Mixture Graph (with the segment names of `names`, when given),
+// checks level 0 decodes bit-exactly, and answers a box-histogram query by footprint assembly
+// next to the exact level-0 scan.
 nlohmann::json encode_and_query_labels(const std::string& name, const Volume& labels, const fs::path& output,
-                                       ProgressSink& progress) {
-  const mixture::EncodeReport r = mixture::encode_labels(labels, output, {}, progress);
+                                       ProgressSink& progress, const std::optional<fs::path>& names = {}) {
+  mixture::EncodeOptions options;
+  if (names) options.names = mixture::load_label_names(*names);
+  const mixture::EncodeReport r = mixture::encode_labels(labels, output, options, progress);
   mixture::EncodedLabels encoded(output);
   const bool exact = encoded.decode_level0() == labels;
   if (!exact) throw Error("demo: level 0 of " + output.string() + " does not decode to the input labels");
@@ -220,7 +223,9 @@ void run_demo(const DemoArgs& args, const GlobalOptions& global) {
 
   std::printf("Mixture Graph for label volumes (9-bit weights, block-palette ids)\n");
   report["labels"].push_back(encode_and_query_labels("cells (generated)", cells, out / "cells.strata", *progress));
-  if (atlas) report["labels"].push_back(encode_and_query_labels("aal atlas", *atlas, out / "aal.strata", *progress));
+  if (atlas)  // with MRIcron's region names (aal.nii.txt beside it), which the viewer searches
+    report["labels"].push_back(
+        encode_and_query_labels("aal atlas", *atlas, out / "aal.strata", *progress, mixture::sidecar_label_names(aal)));
 
   std::printf("Rendering from the compressed files (CPU ray casting, 512x384)\n");
   report["renders"] = render_samples(out);
