@@ -6,7 +6,6 @@
 #include "render/render_source_kinds.hpp"
 #include "strata/render/display_defaults.hpp"
 #include "strata/io/volume_io.hpp"
-#include "strata/store/brick_histogram.hpp"
 #include "strata/ta/octree.hpp"
 
 namespace strata::render {

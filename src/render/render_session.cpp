@@ -14,6 +14,7 @@
 #include "strata/core/stopwatch.hpp"
 #include "strata/render/display_defaults.hpp"
 #include "strata/render/sampling_limits.hpp"
+#include "strata/store/geometry_json.hpp"
 #include "strata/ta/ta_volume.hpp"
 
 namespace strata::render {
@@ -31,17 +32,6 @@ namespace {
 
 nlohmann::json json_of(const Extent& e) { return {e.x, e.y, e.z}; }
 nlohmann::json json_of(const Spacing& s) { return {s.x, s.y, s.z}; }
-
-// Where the volume lies, for the viewer's orientation marks and scale bar (docs/viewer.md).
-nlohmann::json geometry_json(const Geometry& g) {
-  nlohmann::json direction = nlohmann::json::array();
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) direction.push_back(g.direction[std::size_t(r)][std::size_t(c)]);
-  return {{"space", std::string(world_space_name(g.space))},
-          {"direction", direction},
-          {"origin", {g.origin[0], g.origin[1], g.origin[2]}},
-          {"unit", g.unit}};
-}
 
 // The transfer-function editor's histogram.
 constexpr int kViewerHistogramBins = 64;
@@ -140,7 +130,7 @@ nlohmann::json RenderSession::describe() const {
           {"kind", dataset_kind_name(kind())},
           {"dims", json_of(dims())},
           {"spacing", json_of(spacing())},
-          {"geometry", geometry_json(source_->geometry())},
+          {"geometry", store::geometry_to_json(source_->geometry())},  // as `.strata` metadata writes it
           {"dtype", dtype_name(source_->dtype())},
           {"levels", level_count()},
           {"rank", stored_rank()},

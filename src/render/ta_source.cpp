@@ -11,8 +11,6 @@
 #include "strata/render/display_defaults.hpp"
 #include "strata/core/error.hpp"
 #include "strata/core/stopwatch.hpp"
-#include "strata/lod/histogram_bins.hpp"
-#include "strata/store/brick_histogram.hpp"
 
 namespace strata::render {
 
