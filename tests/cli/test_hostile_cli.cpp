@@ -108,6 +108,9 @@ TEST_F(HostileCli, RenderBoundsSamplesPerRayAndFrames) {
   refused("render " + q("p.strata") + " -o " + q("frames") + " --size 16x16 --orbit -1", 2, "--orbit: ");
   EXPECT_FALSE(fs::exists(file("frames")));
   refused("render " + q("p.strata") + png + "--cache inf", 2, "--cache: ");
+  for (const std::string passes : {"0", "257", "-1", "nan", "1e9"})
+    refused("render " + q("p.strata") + png + "--passes " + passes, 2, "--passes: ");
+  refused("render " + q("p.strata") + png + "--jitter maybe", 2, "--jitter: ");
   refused("render " + q("p.strata") + png + "--cache 1", 1, "--cache: ");
 }
 

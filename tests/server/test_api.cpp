@@ -192,6 +192,7 @@ TEST_F(ServerApi, BadRenderParametersAreNamed) {
       {"step=0.01", "step"}, {"step=5", "step"},    {"shading=2", "shading"}, {"quality=fast", "quality"},
       {"format=gif", "format"}, {"client=a", "seq"}, {"seq=1", "client"},     {"client=a%20b&seq=1", "client"},
       {"client=a&seq=-1", "seq"}, {"foo=1", "foo"}, {"w=10&w=20", "w"},     {"w=", "w"},
+      {"pass=-1", "pass"},    {"pass=256", "pass"}, {"pass=1e99", "pass"},  {"pass=nan", "pass"},
   };
   for (const auto& [query, parameter] : cases) expect_bad(render + query, parameter);
   expect_bad(dataset(kLabels, "render?tf=ct"), "tf");
