@@ -2,7 +2,9 @@
 # Strata against VTK's CPU ray caster at equal image error (docs/benchmarks.md, "At equal image
 # error"). Opt-in, never run in CI: needs libvtk9-dev, xvfb, xauth (the VTK side) and
 # python3-numpy, python3-pil (image errors; ./setup.sh --bench).
-#   bench/vtk_equal_error.sh [volumes...]     default: prisms256 prisms512 ch2better
+#   bench/vtk_equal_error.sh [volumes...]     default: vtkjs_lidc2_ct ch2better vtk_ironprot
+# (the shared CT with a thin metal stent, the 0.5 mm MRI, an electron-density field; also
+# prisms<N>, generated, and vtkjs_headsq_mri)
 #
 # Per volume and per view of a VIEWS-frame orbit (azimuth 30° + 360°/VIEWS per frame, elevation
 # 20°, 1024×768, both renderers at the distance strata's default framing picks):
@@ -18,7 +20,8 @@
 #     reconstruction for strata, gradients for VTK) of it, of strata's defaults and of VTK at
 #     0.5, alternated REPEATS times, with the load average before each round.
 # Environment: VIEWS (4), REF_STEP (0.0625), STEPS ("0.5 0.75 1 1.5"), LODS ("1 2"),
-# COMPRESS ("default;--rank 24;--psnr 50": `compress` options per file, ';'-separated),
+# COMPRESS ("default;--psnr 50;none": `compress` options per file, ';'-separated; "none" renders
+# the uncompressed volume itself; the first entry is "strata defaults" in the timing table),
 # FRAMES (24), REPEATS (3), IMAGE (1024x768), THREADS (2), BUILD (build/vtk; configured with
 # the VTK benchmark on), KEEP (a folder to keep the frames in; default: a temporary one),
 # PYTHON (/usr/bin/python3: Debian's, which has the packages above).
@@ -28,13 +31,13 @@ BUILD=${BUILD:-$ROOT/build/vtk}
 VIEWS=${VIEWS:-4}
 REF_STEP=${REF_STEP:-0.0625}
 STEPS=${STEPS:-0.5 0.75 1 1.5}
-COMPRESS=${COMPRESS:-default;--rank 24;--psnr 50}
+COMPRESS=${COMPRESS:-default;--psnr 50;none}
 LODS=${LODS:-1 2}
 FRAMES=${FRAMES:-24}
 REPEATS=${REPEATS:-3}
 IMAGE=${IMAGE:-1024x768}
 THREADS=${THREADS:-2}
-VOLUMES=("${@:-prisms256 prisms512 ch2better}")
+VOLUMES=("${@:-vtkjs_lidc2_ct ch2better vtk_ironprot}")
 WORK=${KEEP:-$(mktemp -d)}
 [ -n "${KEEP:-}" ] || trap 'rm -rf "$WORK"' EXIT
 mkdir -p "$WORK"
@@ -45,6 +48,7 @@ STRATA=("$BUILD/strata" --progress none --threads "$THREADS")
 VTK="$BUILD/bench/vtk/vtk_raycast"
 ERROR="$ROOT/bench/image_error.py"
 PYTHON=${PYTHON:-/usr/bin/python3}
+DATA=${DATA:-$ROOT/../shared/data}
 
 json() { "$PYTHON" -c "import json,sys; d=json.load(open(sys.argv[1])); print(eval(sys.argv[2], {'d': d}))" "$1" "$2"; }
 after_first_vtk() { json "$1" "'%.3f' % (sum(f['cpu_s'] for f in d['per_frame'][1:]) / (len(d['per_frame']) - 1))"; }
@@ -57,7 +61,11 @@ source_of() {
   case "$1" in
     prisms*) echo "$WORK/$1.nrrd ct" ;;
     ch2better) echo "/usr/share/mricron/templates/ch2better.nii.gz mri" ;;
-    *) echo "unknown volume $1 (prisms<N>, ch2better)" >&2; exit 2 ;;
+    vtkjs_lidc2_ct) echo "$DATA/$1.nrrd ct" ;;                          # CT with a thin metal stent
+    vtkjs_headsq_mri) echo "$DATA/$1.nrrd mri" ;;
+    vtk_ironprot) echo "$DATA/$1.nrrd grayscale" ;;                     # electron density
+    *) echo "unknown volume $1 (prisms<N>, ch2better, vtkjs_lidc2_ct, vtkjs_headsq_mri, vtk_ironprot)" >&2
+       exit 2 ;;
   esac
 }
 
@@ -82,15 +90,18 @@ for volume in ${VOLUMES[*]}; do
   mkdir -p "$dir"
   [[ $volume == prisms* ]] && "${STRATA[@]}" generate prisms --size "${volume#prisms}" -o "$raw" > /dev/null
   IFS=';' read -r -a variants <<< "$COMPRESS"
+  files=()
   for i in "${!variants[@]}"; do
     opts=${variants[$i]}
+    files[i]=$dir/c$i.strata
+    if [ "$opts" = none ]; then files[i]=$raw; continue; fi  # the uncompressed volume
     [ "$opts" = default ] && opts=""
     # shellcheck disable=SC2086  # the options are separate words
-    "${STRATA[@]}" compress "$raw" -o "$dir/c$i.strata" $opts > /dev/null
+    "${STRATA[@]}" compress "$raw" -o "${files[i]}" $opts > /dev/null
   done
   voxels=$("${STRATA[@]}" info "$raw" --json | "$PYTHON" -c "import json,sys; d=json.load(sys.stdin)['dims']; print(d[0]*d[1]*d[2])")
   # The distance strata's default framing picks (same aspect ratio at any size).
-  "${STRATA[@]}" render "$dir/c0.strata" -o "$dir/fit.png" --size 64x48 --tf "$tf" --stats "$dir/fit.json" > /dev/null
+  "${STRATA[@]}" render "$raw" -o "$dir/fit.png" --size 64x48 --tf "$tf" --stats "$dir/fit.json" > /dev/null
   distance=$(json "$dir/fit.json" "d['frames'][0]['distance']")
 
   echo "## $volume ($raw, tf $tf, distance $distance, $VIEWS views, reference step $REF_STEP, load $(load))"
@@ -102,7 +113,7 @@ for volume in ${VOLUMES[*]}; do
   for i in "${!variants[@]}"; do
     for step in $STEPS; do
       for lod in $LODS; do
-        strata_frames "c${i}_s${step}_l${lod}" "$dir/c$i.strata" "$step" "$lod" "$VIEWS"
+        strata_frames "c${i}_s${step}_l${lod}" "${files[i]}" "$step" "$lod" "$VIEWS"
         candidates+=("c${i}_s${step}_l${lod}")
       done
     done
@@ -120,7 +131,7 @@ for volume in ${VOLUMES[*]}; do
   for c in "${candidates[@]}"; do
     i=${c%%_*}; i=${i#c}; rest=${c#*_s}
     row "strata, step ${rest%_l*}, --lod ${rest##*_l}" "$c" ref \
-      "${variants[$i]} ($(bits_per_voxel "$dir/c$i.strata" "$voxels"))" "$(after_first "$dir/$c.json")"
+      "${variants[$i]} ($(bits_per_voxel "${files[i]}" "$voxels"))" "$(after_first "$dir/$c.json")"
   done
   "$PYTHON" "$ERROR" "$dir/ref" "$dir/vtk" > "$dir/vtk.cross.json"
   echo
@@ -150,8 +161,8 @@ EOF
   echo "| --- | --- | --- | --- | --- | --- | --- |"
   for r in $(seq 1 "$REPEATS"); do
     l=$(load)
-    strata_frames time_best "$dir/c$i.strata" "$step" "$lod" "$FRAMES"
-    strata_frames time_default "$dir/c0.strata" 0.5 1 "$FRAMES"
+    strata_frames time_best "${files[i]}" "$step" "$lod" "$FRAMES"
+    strata_frames time_default "${files[0]}" 0.5 1 "$FRAMES"
     vtk_frames time_vtk 0.5 "$FRAMES"
     s=$(json "$dir/time_best.json" "d['summary']['cpu_s_per_frame']")
     s0=$(json "$dir/time_default.json" "d['summary']['cpu_s_per_frame']")

@@ -25,26 +25,33 @@ struct Marcher {
   // Classifies the segment from `front` to the sample at (x, y, z), `ratio` steps long
   // (1 inside a block; other values only where a segment meets an entry, exit or level
   // change), shades it and composites it under `acc`. Returns the sample's normalised value.
-  // `half_step` is half of one step in local voxels: the segment is shaded by the gradient at
-  // its midpoint, (x, y, z) - ratio * half_step. Shading it by its back sample's gradient
-  // would shift the lighting half a step along the ray, an error proportional to the step.
+  // `half_step` is half of one step in local voxels: a pre-integrated segment is classified
+  // through its midpoint value (split_pair) and shaded by the gradient there, (x, y, z) - ratio
+  // * half_step. Shading it by its back sample's gradient would shift the lighting half a step
+  // along the ray, an error proportional to the step.
   [[gnu::always_inline]] static inline float segment(const Sampler& sample, const Block& b, const LevelParams& lp, const MarchParams& mp,
                        const RayContext& ray, float x, float y, float z, float front, double ratio,
                        const float half_step[3], Rgbaf& acc) {
     const float v = normalised_sample(sample, x, y, z, mp.value_lo, mp.value_scale);
+    const float r = float(ratio);
+    const float mx = x - half_step[0] * r, my = y - half_step[1] * r, mz = z - half_step[2] * r;
+    const float mid = Preint ? normalised_sample(sample, mx, my, mz, mp.value_lo, mp.value_scale) : v;
     // NaN or infinite voxels (masked cells, outside a field of view) are empty space, and so is a
-    // segment that starts or ends in them.
-    if (!std::isfinite(v) || (Preint && !std::isfinite(front))) return v;
-    const float lo = Preint ? std::min(front, v) : v, hi = Preint ? std::max(front, v) : v;
+    // segment that starts, passes or ends in them.
+    if (!std::isfinite(v) || (Preint && !(std::isfinite(front) && std::isfinite(mid)))) return v;
+    const float lo = Preint ? std::min(std::min(front, v), mid) : v, hi = Preint ? std::max(std::max(front, v), mid) : v;
     if (mp.next_visible[Transparency::bin(lo)] > Transparency::bin(hi)) return v;
-    Rgbaf c = Preint ? lp.classify.pair(front, v) : lp.classify.single(v);
-    if (ratio != 1.0) c = rescale_segment(c, ratio);
+    Rgbaf c;
+    if constexpr (Preint) {
+      c = split_pair(lp.classify, front, mid, v, ratio);
+    } else {
+      c = lp.classify.single(v);
+      if (ratio != 1.0) c = rescale_segment(c, ratio);
+    }
     if (c.a <= 0.0f) return v;
     if constexpr (Shade) {
       if (c.a > lp.shade_threshold) {
         float g[3];
-        const float r = float(ratio);
-        const float mx = x - half_step[0] * r, my = y - half_step[1] * r, mz = z - half_step[2] * r;
         sample.gradient(mx, my, mz, g);
         if (!std::isfinite(g[0]) || !std::isfinite(g[1]) || !std::isfinite(g[2])) sample.finite_gradient(mx, my, mz, g);
         g[0] *= b.gradient_scale[0];

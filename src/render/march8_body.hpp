@@ -13,13 +13,10 @@ STRATA_MARCH8_ATTRS std::int64_t STRATA_MARCH8_NAME(const GridSampler& s, const 
   const __m256 lane = _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7);
   const __m256i lane_i = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
   const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f);
-  const __m256 max_x = _mm256_set1_ps(s.max_x), max_y = _mm256_set1_ps(s.max_y), max_z = _mm256_set1_ps(s.max_z);
   const __m256i sx = _mm256_set1_epi32(int(s.dx)), sy = _mm256_set1_epi32(int(s.dy)), sz = _mm256_set1_epi32(int(s.dz));
-  const int ox = int(s.dx), oy = int(s.dy), oz = int(s.dz);
+  const int oy = int(s.dy), oz = int(s.dz);
   const __m256 vlo = _mm256_set1_ps(mp.value_lo), vscale = _mm256_set1_ps(mp.value_scale);
   const Classifier& cl = lp.classify;
-  const __m256 last_f = _mm256_set1_ps(cl.last);
-  const __m256i size2 = _mm256_set1_epi32(cl.size - 2), cells_i = _mm256_set1_epi32(cl.size - 1);
   const __m256 bins_f = _mm256_set1_ps(float(Transparency::kBins));
   const __m256i bin_max = _mm256_set1_epi32(Transparency::kBins - 1), low16 = _mm256_set1_epi32(0xffff);
   const int* next_visible = reinterpret_cast<const int*>(mp.next_visible);
@@ -30,8 +27,7 @@ STRATA_MARCH8_ATTRS std::int64_t STRATA_MARCH8_NAME(const GridSampler& s, const 
                 cell_max_z = _mm256_set1_epi32(b.cells[2] - 1);
   __m128 acc = _mm_setr_ps(acc_io.r, acc_io.g, acc_io.b, acc_io.a);
   bool have_front = true;
-  alignas(32) float xs[8], ys[8], zs[8], vs[8], wus[8], wvs[8];
-  alignas(32) int idx[8];
+  alignas(32) float xs[8], ys[8], zs[8], vs[8];
   while (k < k1) {
     const int n = int(std::min<std::int64_t>(8, k1 - k));
     const __m256 j = _mm256_add_ps(_mm256_set1_ps(float(k - k0)), lane);
@@ -68,46 +64,26 @@ STRATA_MARCH8_ATTRS std::int64_t STRATA_MARCH8_NAME(const GridSampler& s, const 
       ++taken;
       have_front = true;
     }
-    // Trilinear values (GridSampler::operator()).
-    x = _mm256_min_ps(_mm256_max_ps(x, zero), max_x);
-    y = _mm256_min_ps(_mm256_max_ps(y, zero), max_y);
-    z = _mm256_min_ps(_mm256_max_ps(z, zero), max_z);
-    const __m256i ix = _mm256_cvttps_epi32(x), iy = _mm256_cvttps_epi32(y), iz = _mm256_cvttps_epi32(z);
-    const __m256 fx = _mm256_sub_ps(x, _mm256_cvtepi32_ps(ix)), fy = _mm256_sub_ps(y, _mm256_cvtepi32_ps(iy)),
-                 fz = _mm256_sub_ps(z, _mm256_cvtepi32_ps(iz));
-    const __m256i base = _mm256_add_epi32(_mm256_add_epi32(_mm256_mullo_epi32(ix, sx), _mm256_mullo_epi32(iy, sy)),
-                                          _mm256_mullo_epi32(iz, sz));
-#define STRATA_TAP(off) _mm256_i32gather_ps(s.data, _mm256_add_epi32(base, _mm256_set1_epi32(off)), 4)
-#define STRATA_LERP(a, b, w) _mm256_add_ps((a), _mm256_mul_ps((w), _mm256_sub_ps((b), (a))))
-    __m256 p000, p100, p010, p110, p001, p101, p011, p111;
-    if (ox == 1) {  // x neighbours adjacent: pairs
-      const __m256i all = _mm256_set1_epi32(-1);
-      gather_pairs(s.data, base, all, p000, p100);
-      gather_pairs(s.data, _mm256_add_epi32(base, _mm256_set1_epi32(oy)), all, p010, p110);
-      gather_pairs(s.data, _mm256_add_epi32(base, _mm256_set1_epi32(oz)), all, p001, p101);
-      gather_pairs(s.data, _mm256_add_epi32(base, _mm256_set1_epi32(oy + oz)), all, p011, p111);
-    } else {
-      p000 = STRATA_TAP(0), p100 = STRATA_TAP(ox), p010 = STRATA_TAP(oy), p110 = STRATA_TAP(oy + ox);
-      p001 = STRATA_TAP(oz), p101 = STRATA_TAP(oz + ox), p011 = STRATA_TAP(oz + oy), p111 = STRATA_TAP(oz + oy + ox);
-    }
-    const __m256 c00 = STRATA_LERP(p000, p100, fx), c10 = STRATA_LERP(p010, p110, fx);
-    const __m256 c01 = STRATA_LERP(p001, p101, fx), c11 = STRATA_LERP(p011, p111, fx);
-    const __m256 c0 = STRATA_LERP(c00, c10, fy), c1 = STRATA_LERP(c01, c11, fy);
-    const __m256 v = _mm256_mul_ps(_mm256_sub_ps(STRATA_LERP(c0, c1, fz), vlo), vscale);
-#undef STRATA_TAP
-#undef STRATA_LERP
+    // Trilinear values (GridSampler::operator()) at the lattice points and at the segments'
+    // midpoints, half a step back (Marcher::segment, split_pair).
+    const __m256 v = trilinear8(s, x, y, z, vlo, vscale);
+    const __m256 half = _mm256_set1_ps(0.5f);
+    const __m256 mid = trilinear8(s, _mm256_sub_ps(x, _mm256_mul_ps(_mm256_set1_ps(dp[0]), half)),
+                                  _mm256_sub_ps(y, _mm256_mul_ps(_mm256_set1_ps(dp[1]), half)),
+                                  _mm256_sub_ps(z, _mm256_mul_ps(_mm256_set1_ps(dp[2]), half)), vlo, vscale);
     _mm256_store_ps(vs, v);
     // Fronts: the previous lane's value; lane 0 takes the carried front.
     const __m256 fr = _mm256_blend_ps(_mm256_permutevar8x32_ps(v, _mm256_setr_epi32(0, 0, 1, 2, 3, 4, 5, 6)),
                                       _mm256_set1_ps(front), 0x01);
     // Transparency bins (Transparency::bin, next_visible).
-    const __m256 lo = _mm256_min_ps(fr, v), hi = _mm256_max_ps(fr, v);
+    const __m256 lo = _mm256_min_ps(_mm256_min_ps(fr, v), mid), hi = _mm256_max_ps(_mm256_max_ps(fr, v), mid);
     const __m256i blo = _mm256_min_epi32(_mm256_cvttps_epi32(_mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(lo, zero), one), bins_f)), bin_max);
     const __m256i bhi = _mm256_min_epi32(_mm256_cvttps_epi32(_mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(hi, zero), one), bins_f)), bin_max);
     // Lanes whose segment starts or ends at a NaN or infinite value (x - x is 0 only for finite
     // x) are empty space, as in the scalar march.
-    const __m256 finite = _mm256_and_ps(_mm256_cmp_ps(_mm256_sub_ps(v, v), zero, _CMP_EQ_OQ),
-                                        _mm256_cmp_ps(_mm256_sub_ps(fr, fr), zero, _CMP_EQ_OQ));
+    const __m256 finite = _mm256_and_ps(_mm256_and_ps(_mm256_cmp_ps(_mm256_sub_ps(v, v), zero, _CMP_EQ_OQ),
+                                                      _mm256_cmp_ps(_mm256_sub_ps(fr, fr), zero, _CMP_EQ_OQ)),
+                                        _mm256_cmp_ps(_mm256_sub_ps(mid, mid), zero, _CMP_EQ_OQ));
     const __m256i valid =
         _mm256_and_si256(_mm256_cmpgt_epi32(_mm256_set1_epi32(n), lane_i), _mm256_castps_si256(finite));
     const __m256i nv = _mm256_and_si256(_mm256_i32gather_epi32(next_visible, blo, 2), low16);
@@ -120,29 +96,21 @@ STRATA_MARCH8_ATTRS std::int64_t STRATA_MARCH8_NAME(const GridSampler& s, const 
       k += n;
       continue;
     }
-    // Pre-integrated table coordinates (Classifier::pair).
-    const __m256 u = _mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(fr, zero), one), last_f);
-    const __m256 w = _mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(v, zero), one), last_f);
-    const __m256i ti = _mm256_min_epi32(_mm256_cvttps_epi32(u), size2), tj = _mm256_min_epi32(_mm256_cvttps_epi32(w), size2);
-    _mm256_store_ps(wus, _mm256_sub_ps(u, _mm256_cvtepi32_ps(ti)));
-    _mm256_store_ps(wvs, _mm256_sub_ps(w, _mm256_cvtepi32_ps(tj)));
-    _mm256_store_si256(reinterpret_cast<__m256i*>(idx), _mm256_add_epi32(_mm256_mullo_epi32(ti, cells_i), tj));
-    // Classification of all 8 lanes without branches (the indices are clamped into the table,
-    // so lanes outside `keep` read valid entries and are zeroed afterwards), then transposed to
-    // one vector per channel.
+    // Pre-integrated classification of the two halves of every lane's segment (split_pair; the
+    // table indices are clamped, so lanes outside `keep` read valid entries and are zeroed
+    // afterwards).
     __m256 cr, cg, cb, ca;
     {
-      __m128 cs[8];
-      for (int l = 0; l < 8; ++l) {
-        // Cell (ti, tj): [entry (i, j), entry (i + 1, j)] and [(i, j + 1), (i + 1, j + 1)]; one
-        // lerp along j gives both rows' values (Classifier::pair's l0 and l1).
-        const float* c = cl.cells + std::ptrdiff_t(idx[l]) * 16;
-        const __m256 x0 = _mm256_loadu_ps(c), x1 = _mm256_loadu_ps(c + 8);
-        const __m256 rows = _mm256_add_ps(x0, _mm256_mul_ps(_mm256_set1_ps(wvs[l]), _mm256_sub_ps(x1, x0)));
-        const __m128 l0 = _mm256_castps256_ps128(rows), l1 = _mm256_extractf128_ps(rows, 1);
-        cs[l] = _mm_add_ps(l0, _mm_mul_ps(_mm_set1_ps(wus[l]), _mm_sub_ps(l1, l0)));
-      }
-      transpose_rgba(cs, cr, cg, cb, ca);
+      __m256 r1, g1, b1, a1, r2, g2, b2, a2;
+      classify8(cl, fr, mid, r1, g1, b1, a1);
+      classify8(cl, mid, v, r2, g2, b2, a2);
+      half_segment8(r1, g1, b1, a1);
+      half_segment8(r2, g2, b2, a2);
+      const __m256 t = _mm256_sub_ps(one, a1);
+      cr = _mm256_add_ps(r1, _mm256_mul_ps(t, r2));
+      cg = _mm256_add_ps(g1, _mm256_mul_ps(t, g2));
+      cb = _mm256_add_ps(b1, _mm256_mul_ps(t, b2));
+      ca = _mm256_add_ps(a1, _mm256_mul_ps(t, a2));
       // Lanes past the block's end, transparent segments and zero opacity contribute nothing.
       const __m256 live = _mm256_and_ps(_mm256_castsi256_ps(_mm256_and_si256(visible, valid)),
                                         _mm256_cmp_ps(ca, zero, _CMP_GT_OQ));
@@ -157,7 +125,6 @@ STRATA_MARCH8_ATTRS std::int64_t STRATA_MARCH8_NAME(const GridSampler& s, const 
         // Gradients at the segments' midpoints, half a step back (Marcher::segment): the 32-voxel
         // stencil (GridSampler::gradient) for lanes inside the grid's interior, by masked
         // gathers, the midpoint's trilinear taps gathered afresh; other lanes scalar.
-        const __m256 half = _mm256_set1_ps(0.5f);
         alignas(32) float mxs[8], mys[8], mzs[8];
         const __m256 xu = _mm256_sub_ps(_mm256_load_ps(xs), _mm256_mul_ps(_mm256_set1_ps(dp[0]), half));
         const __m256 yu = _mm256_sub_ps(_mm256_load_ps(ys), _mm256_mul_ps(_mm256_set1_ps(dp[1]), half));

@@ -173,6 +173,32 @@ inline Rgbaf rescale_segment(const Rgbaf& c, double ratio) {
   return {c.r * k, c.g * k, c.b * k, a};
 }
 
+// Half of a one-step segment: opacity 1 - sqrt(1 - a) and the colour scaled alike (rescale_segment
+// at ratio 1/2, by a square root instead of a power so the 8-lane march computes it identically).
+inline Rgbaf half_segment(const Rgbaf& c) {
+  const float a = 1.0f - std::sqrt(std::max(1.0f - c.a, 0.0f));
+  const float k = c.a > 0.0f ? a / c.a : 0.0f;
+  return {c.r * k, c.g * k, c.b * k, a};
+}
+
+// `front` composited over `back` (premultiplied colours).
+inline Rgbaf over(const Rgbaf& front, const Rgbaf& back) {
+  const float t = 1.0f - front.a;
+  return {front.r + t * back.r, front.g + t * back.g, front.b + t * back.b, front.a + t * back.a};
+}
+
+// A pre-integrated segment `ratio` steps long whose values go from `front` through `mid` (the
+// value at its midpoint) to `back`: two half segments, each linear. Between two samples the
+// trilinear field is not linear: across a thin bright structure its peak lies above the chord
+// through the two samples, so one linear segment misses opacity and darkens thin bone or
+// vessels by an error of the order of the step squared; the midpoint cuts that error fourfold
+// for one more trilinear sample and no more gradients.
+inline Rgbaf split_pair(const Classifier& cl, float front, float mid, float back, double ratio) {
+  const Rgbaf c1 = cl.pair(front, mid), c2 = cl.pair(mid, back);
+  if (ratio == 1.0) return over(half_segment(c1), half_segment(c2));
+  return over(rescale_segment(c1, 0.5 * ratio), rescale_segment(c2, 0.5 * ratio));
+}
+
 // Transparent-segment test without touching the classification tables: a segment whose value
 // range lies in bins where the TF is zero contributes nothing (pre-integrated or not).
 struct Transparency {
