@@ -42,10 +42,12 @@ WORK=${KEEP:-$(mktemp -d)}
 [ -n "${KEEP:-}" ] || trap 'rm -rf "$WORK"' EXIT
 mkdir -p "$WORK"
 
-cmake -S "$ROOT" -B "$BUILD" -G Ninja -DCMAKE_BUILD_TYPE=Release -DSTRATA_BUILD_VTK_BENCH=ON > /dev/null
-cmake --build "$BUILD" --target strata vtk_raycast > /dev/null
-STRATA=("$BUILD/strata" --progress none --threads "$THREADS")
-VTK="$BUILD/bench/vtk/vtk_raycast"
+if [ -z "${STRATA_BIN:-}" ]; then
+  cmake -S "$ROOT" -B "$BUILD" -G Ninja -DCMAKE_BUILD_TYPE=Release -DSTRATA_BUILD_VTK_BENCH=ON > /dev/null
+  cmake --build "$BUILD" --target strata vtk_raycast > /dev/null
+fi
+STRATA=("${STRATA_BIN:-$BUILD/strata}" --progress none --threads "$THREADS")
+VTK=${VTK_BIN:-$BUILD/bench/vtk/vtk_raycast}
 ERROR="$ROOT/bench/image_error.py"
 PYTHON=${PYTHON:-/usr/bin/python3}
 DATA=${DATA:-$ROOT/../shared/data}

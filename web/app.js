@@ -276,6 +276,36 @@ class Viewer {
     }
   }
 
+  // Alt-click in the 3D view: the first voxel the pixel shows solid (a visible label, or where
+  // the rendered opacity reaches one half) becomes the cursor, so the slices move to it; on the
+  // label layer its label is also selected, as an Alt-click in a slice selects it.
+  async pick3d(x, y) {
+    const dataset = this.dataset3d();
+    if (!dataset) return;
+    try {
+      const pick = await getJson(apiUrl(dataset.id, 'pick', this.view3d.pickParams(x, y)));
+      this.view3d.body.dataset.picked = pick.hit ? pick.voxel.join(',') : 'none';
+      if (!pick.hit) {
+        this.status.message('nothing visible under the pointer');
+        return;
+      }
+      // The cursor lives in the reference grid: the picked voxel's centre, through world space.
+      const reference = this.referenceDataset();
+      this.setCursor(pick.voxel.map((v, i) => {
+        const world = (v + 0.5) * dataset.spacing[i];
+        return Math.min(Math.max(Math.floor(world / reference.spacing[i]), 0), reference.dims[i] - 1);
+      }));
+      if (pick.label !== undefined) {
+        this.labelLayer.select(pick.label);
+        this.status.message(`label ${pick.label} at voxel ${pick.voxel.join(', ')} selected in the label layer`);
+      } else {
+        this.status.message(`voxel ${pick.voxel.join(', ')}: value ${formatNumber(pick.value, 5)}`);
+      }
+    } catch (error) {
+      this.reportError(error);
+    }
+  }
+
   updateReadouts() {
     const { az, el, dist } = this.state.camera;
     const resolvedDist = this.dataset3d() ? this.view3d.resolved().dist : dist;

@@ -50,6 +50,14 @@ export class View3D {
     this.body.addEventListener('contextmenu', (event) => event.preventDefault());
     this.body.addEventListener('pointerdown', (event) => {
       if (!this.viewer.dataset3d()) return;
+      if (event.button === 0 && event.altKey) {
+        // Alt-click picks what the pixel shows (the server walks the pixel's ray).
+        event.preventDefault();
+        const rect = this.body.getBoundingClientRect();
+        const at = (v, size) => Math.min(Math.max(v - 0.5, -0.5), size - 0.5 - 1e-3);
+        this.viewer.pick3d(at(event.clientX - rect.left, this.size.width), at(event.clientY - rect.top, this.size.height));
+        return;
+      }
       const pan = event.button === 2 || event.button === 1 || event.shiftKey;
       if (event.button !== 0 && !pan) return;
       event.preventDefault();
@@ -198,6 +206,13 @@ export class View3D {
       if (state.featureScale > 0) params.fs = state.featureScale;
     }
     return params;
+  }
+
+  // The pick endpoint's parameters for pixel (x, y) of the current frame: its camera, and for a
+  // scalar layer the transfer function and rank, so the pick stops where the picture turns solid.
+  pickParams(x, y) {
+    const { w, h, az, el, dist, target, tf, rank } = this.frameParams();
+    return { w, h, az, el, dist, target, tf, rank, x: round(x, 2), y: round(y, 2) };
   }
 
   send(quality, pass = 0) {

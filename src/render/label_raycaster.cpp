@@ -44,6 +44,7 @@ struct LevelView {
 struct Layer {
   std::vector<LevelView> levels;
   const float* palette = nullptr;
+  bool smooth_finest = false;  // level 0 by the cubic B-spline (LabelRenderOptions::smooth)
 };
 
 // Everything a ray needs, fixed for the frame.
@@ -93,9 +94,66 @@ std::int64_t clamp_floor(double v, std::int64_t n) {
   return std::clamp<std::int64_t>(floor_above_minus_one(v), 0, n - 1);
 }
 
+// Cubic B-spline weights of the four nodes base - 1 .. base + 2 for a fraction t in [0, 1).
+void bspline_weights(float t, float w[4]) {
+  const float t2 = t * t, t3 = t2 * t, s = 1.0f - t;
+  w[0] = s * s * s / 6.0f;
+  w[1] = (3.0f * t3 - 6.0f * t2 + 4.0f) / 6.0f;
+  w[2] = (-3.0f * t3 + 3.0f * t2 + 3.0f * t + 1.0f) / 6.0f;
+  w[3] = t3 / 6.0f;
+}
+
+// The 4x4x4 level-0 voxels the B-spline at u weighs (voxel centres at integer + 0.5; clamped
+// to the edge): their node ids and per-axis weights; `uniform` when all 64 nodes agree.
+struct SplineStencil {
+  std::uint32_t ids[64];
+  float w[3][4];
+  bool uniform = true;
+
+  SplineStencil(const LevelView& L, const Vec3& u) {
+    const double v[3] = {u.x - 0.5, u.y - 0.5, u.z - 0.5};
+    const std::int64_t n[3] = {L.nx, L.ny, L.nz};
+    std::int64_t at[3][4];
+    for (int a = 0; a < 3; ++a) {
+      const std::int64_t base = floor_above_minus_one(v[a]);
+      bspline_weights(float(v[a] - double(base)), w[a]);
+      for (int i = 0; i < 4; ++i) at[a][i] = std::clamp<std::int64_t>(base - 1 + i, 0, n[a] - 1);
+    }
+    for (int c = 0; c < 64; ++c) {
+      ids[c] = L.ids[std::size_t((at[2][c >> 4] * L.ny + at[1][(c >> 2) & 3]) * L.nx + at[0][c & 3])];
+      uniform = uniform && ids[c] == ids[0];
+    }
+  }
+};
+
+// The palette colours of the 4x4x4 level-0 voxels around u weighted by the cubic B-spline.
+// Where a voxel covers several pixels (zoomed in, level 0), trilinear interpolation of a
+// label's coverage draws its boundary as the voxel staircase; the B-spline is a low-pass filter
+// of the same coverage with a C2-smooth boundary, at most about a voxel rounder at corners. It
+// reads no voxel the trilinear sample at level 1 would not, so the skip grids still hold.
+Rgbaf sample_smooth(const Layer& layer, const Vec3& u) {
+  const SplineStencil st(layer.levels[0], u);
+  if (st.uniform) {
+    const float* p = layer.palette + std::size_t(st.ids[0]) * 4;
+    return {p[0], p[1], p[2], p[3]};
+  }
+  Rgbaf s;
+  for (int c = 0; c < 64; ++c) {
+    const float weight = st.w[0][c & 3] * st.w[1][(c >> 2) & 3] * st.w[2][c >> 4];
+    const float* p = layer.palette + std::size_t(st.ids[c]) * 4;
+    s.r += weight * p[0];
+    s.g += weight * p[1];
+    s.b += weight * p[2];
+    s.a += weight * p[3];
+  }
+  return s;
+}
+
 // Trilinear interpolation of the palette colours of the 8 voxels of level `k` around the
-// level-0 voxel-space point u (voxel centres at integer + 0.5; clamp to the edge).
+// level-0 voxel-space point u (voxel centres at integer + 0.5; clamp to the edge); level 0 by
+// the B-spline instead when the layer asks for smooth boundaries.
 Rgbaf sample_level(const Layer& layer, int k, const Vec3& u) {
+  if (k == 0 && layer.smooth_finest) return sample_smooth(layer, u);
   const LevelView& L = layer.levels[std::size_t(k)];
   const double v[3] = {u.x * L.scale - 0.5, u.y * L.scale - 0.5, u.z * L.scale - 0.5};
   const std::int64_t n[3] = {L.nx, L.ny, L.nz};
@@ -159,6 +217,11 @@ Rgbaf sample(const Frame& f, const LevelChoice& c, const Vec3& u) { return sampl
 // The world-space gradient of the interpolated opacity at level `k` (central differences one
 // level voxel apart).
 Vec3 opacity_gradient(const Frame& f, const LevelChoice& c, const Vec3& u) {
+  // A smooth level 0 is lit by level 1's gradient, two level-0 voxels either side: the
+  // B-spline's own derivative still shows every voxel's bump of the surface, and six samples of
+  // 64 voxels would cost more than the sample itself.
+  if (c.level == 0 && c.next_weight <= 0 && f.labels.smooth_finest && f.top >= 1)
+    return opacity_gradient(f, LevelChoice{1, 0.0f}, u);
   const double h = f.labels.levels[std::size_t(c.level)].size;
   double g[3];
   for (int a = 0; a < 3; ++a) {
@@ -188,8 +251,10 @@ float ambient_light(const Frame& f, const LevelChoice& c, const Vec3& u, const V
   for (const Vec3& d : directions) {
     const Vec3 step = hadamard(d, f.inv_spacing) * (h * f.voxel_world);  // h level-0 voxels of world length
     double through = 1;
-    // From 1.5 level voxels out: the sample itself lies in its surface's one-voxel opacity ramp.
-    for (int k = 1; k <= kOcclusionSteps; ++k) through *= 1 - std::min(1.0f, sample(f, c, u + step * (k + 0.5)).a);
+    // From 1.5 level voxels out: the sample itself lies in its surface's one-voxel opacity ramp
+    // (at a smooth level 0 the B-spline's ramp is two voxels wide: one voxel further).
+    const double start = c.level == 0 && f.labels.smooth_finest ? 1.5 : 0.5;
+    for (int k = 1; k <= kOcclusionSteps; ++k) through *= 1 - std::min(1.0f, sample(f, c, u + step * (k + start)).a);
     light += through;
   }
   return float(light / 3);
@@ -364,6 +429,7 @@ int frame_finest_level(const Frame& f, const Spacing& s) {
 // `skip`).
 void bind_levels(const Frame& f, const LabelScene& scene, bool skip, Layer& layer) {
   layer.palette = scene.palette().data();
+  layer.smooth_finest = f.options.smooth;
   std::vector<LevelView>& levels = layer.levels;
   levels.resize(std::size_t(scene.level_count()));
   for (int l = f.finest; l <= f.top; ++l) {

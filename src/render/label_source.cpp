@@ -56,6 +56,9 @@ Image LabelSource::frame(const Camera& camera, const FrameSettings& settings, co
   options.lod_bias = settings.lod_bias;
   options.step = settings.step;
   options.shading = settings.shading;
+  // Smooth boundaries cost several times a trilinear sample where labels meet: still frames
+  // have them, frames taken while the camera moves keep their rate.
+  options.smooth = settings.quality != FrameQuality::interactive;
   // Files with a normals graph are lit from it unless the frame asks for gradients.
   const bool gradients = settings.label_lighting == LabelLightingChoice::gradient ||
                          settings.label_lighting == LabelLightingChoice::gradient_occlusion;
@@ -68,6 +71,7 @@ Image LabelSource::frame(const Camera& camera, const FrameSettings& settings, co
   LabelRenderStats st;
   Image image = render_labels(scene_, camera, options, &st, normals_.get());
   stats = stats_json(st);
+  stats["render"]["smooth"] = options.smooth;
   stats["render"]["lighting"] = options.lighting == LabelLighting::normals ? "normals"
                                 : options.occlusion                          ? "gradient-ao"
                                                                              : "gradient";

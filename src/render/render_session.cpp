@@ -224,6 +224,42 @@ Image RenderSession::palette_slice(const SliceSpec& spec) { return source_->pale
 
 double RenderSession::value_at(const Extent& voxel, int rank) { return source_->value_at(voxel, rank); }
 
+std::optional<Pick> RenderSession::pick(const CameraSpec& spec, double px, double py, const TransferFunction& tf,
+                                        int rank) {
+  ta::reconstruction_rank(rank, stored_rank(), path_.string());
+  CameraSpec cast = spec;
+  if (cast.frame_radius == 0) cast.frame_radius = frame_radius_;
+  const Ray ray = Camera(cast, dims(), spacing()).ray(px, py);
+  Pick pick;
+  std::optional<VoxelHit> hit;
+  if (kind() == DatasetKind::labels) {
+    hit = walk_voxels(ray, dims(), spacing(), [&](const Extent& voxel, double) {
+      const std::int64_t label = source_->label_at(voxel);
+      if (!source_->label_visible(label)) return false;
+      pick.label = label;
+      return true;
+    });
+  } else {
+    // Opacities are per level-0 voxel of the smallest spacing, as the ray caster's.
+    const auto [lo, hi] = value_range();
+    const ValueMapping mapping = tf.mapping(lo, hi);
+    const Spacing s = spacing();
+    const double unit = std::min({s.x, s.y, s.z});
+    double transmittance = 1;
+    hit = walk_voxels(ray, dims(), s, [&](const Extent& voxel, double length) {
+      const double value = source_->value_at(voxel, rank);
+      const float alpha = std::isfinite(value) ? tf.evaluate(mapping.normalise(value)).a : 0.0f;
+      transmittance *= 1.0 - double(correct_opacity(alpha, length / unit));
+      if (1.0 - transmittance < kPickOpacity) return false;
+      pick.value = value;
+      return true;
+    });
+  }
+  if (!hit) return std::nullopt;
+  pick.hit = *hit;
+  return pick;
+}
+
 std::int64_t RenderSession::label_at(const Extent& voxel) const { return source_->label_at(voxel); }
 
 double RenderSession::set_label_colors(LabelColorMap colors) { return source_->set_label_colors(std::move(colors)); }

@@ -91,6 +91,8 @@ class RenderSource {
   virtual Slice<float> label_fraction_slice(const SliceSpec& spec, std::int64_t label);
   virtual Image palette_slice(const SliceSpec& spec);
   virtual std::int64_t label_at(const Extent& voxel) const;
+  // Label files: whether `label` shows in the current colours (set_label_colors).
+  virtual bool label_visible(std::int64_t) const { return false; }
   virtual double set_label_colors(LabelColorMap colors);
   virtual const mixture::EncodedLabels& labels() const;
 

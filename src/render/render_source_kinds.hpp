@@ -173,6 +173,7 @@ class LabelSource final : public RenderSource {
   Slice<float> label_fraction_slice(const SliceSpec& spec, std::int64_t label) override;
   Image palette_slice(const SliceSpec& spec) override;
   std::int64_t label_at(const Extent& voxel) const override;
+  bool label_visible(std::int64_t label) const override { return colors_.color_of(label).a > 0; }
   double set_label_colors(LabelColorMap colors) override;
   const mixture::EncodedLabels& labels() const override { return labels_; }
 

@@ -228,10 +228,12 @@ HttpResponse Api::Impl::list_datasets() const {
 
 HttpResponse Api::Impl::dataset_endpoint(Dataset& d, const std::string& endpoint, const HttpRequest& r) {
   const bool post = endpoint == "palette";
-  if (endpoint != "render" && endpoint != "slice" && endpoint != "value" && endpoint != "query" && !post)
+  if (endpoint != "render" && endpoint != "pick" && endpoint != "slice" && endpoint != "value" && endpoint != "query" &&
+      !post)
     throw ApiError(404, "", "no such endpoint: " + endpoint);
   if (r.method != (post ? "POST" : "GET")) return method_not_allowed(post ? "POST" : "GET", endpoint);
   if (endpoint == "render") return detail::render_frame(d, queue, r);
+  if (endpoint == "pick") return detail::pick_voxel(d, r);
   if (endpoint == "slice") return detail::slice_image(d, r);
   if (endpoint == "value") return detail::voxel_value(d, r);
   if (endpoint == "query") return detail::query_box(d, r);

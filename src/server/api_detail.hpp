@@ -56,6 +56,7 @@ std::shared_ptr<const render::TransferFunction> parse_tf(const std::string& text
 int parse_rank(const Params& p, const Dataset& d);
 
 HttpResponse render_frame(Dataset& d, RenderQueue& queue, const HttpRequest& r);
+HttpResponse pick_voxel(Dataset& d, const HttpRequest& r);
 HttpResponse slice_image(Dataset& d, const HttpRequest& r);
 HttpResponse voxel_value(Dataset& d, const HttpRequest& r);
 HttpResponse set_palette(Dataset& d, const HttpRequest& r);

@@ -1,4 +1,5 @@
-// GET /api/datasets/{id}/render: one 3D frame through the render queue.
+// GET /api/datasets/{id}/render: one 3D frame through the render queue; GET .../pick: what a
+// pixel of that frame shows.
 #include <algorithm>
 #include <cctype>
 
@@ -130,6 +131,33 @@ HttpResponse render_frame(Dataset& d, RenderQueue& queue, const HttpRequest& r) 
     return response;
   };
   return queue.run(f.client, f.seq, std::move(job));
+}
+
+HttpResponse pick_voxel(Dataset& d, const HttpRequest& r) {
+  const Params p(r, {"x", "y", "w", "h", "az", "el", "dist", "target", "fov", "tf", "rank"});
+  render::CameraSpec camera;
+  parse_camera(p, camera);
+  // Pixel coordinates of the frame (pixel (0, 0) spans [-0.5, 0.5) about its centre).
+  const double x = p.required_number("x", {-0.5, double(camera.width) - 0.5, false, true});
+  const double y = p.required_number("y", {-0.5, double(camera.height) - 0.5, false, true});
+  std::shared_ptr<const render::TransferFunction> tf;
+  if (const auto text = p.text("tf")) {
+    require_kind(d, {render::DatasetKind::scalar, render::DatasetKind::plain}, "tf");
+    tf = parse_tf(*text);
+  }
+  const int rank = parse_rank(p, d);
+  std::lock_guard lock(d.mutex);
+  if (!tf) tf = std::make_shared<const render::TransferFunction>(render::TransferFunction::preset(d.session->default_preset()));
+  const std::optional<render::Pick> pick = d.session->pick(camera, x, y, *tf, rank);
+  if (!pick) return json_response({{"hit", false}});
+  const render::VoxelHit& h = pick->hit;
+  nlohmann::json body{{"hit", true},
+                      {"voxel", {h.voxel.x, h.voxel.y, h.voxel.z}},
+                      {"point", {h.point.x, h.point.y, h.point.z}},
+                      {"distance", h.distance}};
+  if (pick->label) body["label"] = *pick->label;
+  if (pick->value) body["value"] = *pick->value;
+  return json_response(body);
 }
 
 }  // namespace strata::server::detail

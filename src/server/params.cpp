@@ -87,6 +87,11 @@ std::int64_t Params::required_integer(std::string_view name, std::int64_t lo, st
   return *integer(name, lo, hi);
 }
 
+double Params::required_number(std::string_view name, const NumberRange& range) const {
+  if (!has(name)) bad_parameter(std::string(name), "required (a number in " + range.describe() + ")");
+  return *number(name, range);
+}
+
 std::optional<double> Params::number(std::string_view name, const NumberRange& range) const {
   const std::string* v = find(name);
   if (!v) return std::nullopt;

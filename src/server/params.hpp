@@ -53,6 +53,7 @@ class Params {
   // Finite decimal numbers within `range`.
   std::optional<double> number(std::string_view name, const NumberRange& range) const;
   double number(std::string_view name, const NumberRange& range, double fallback) const;
+  double required_number(std::string_view name, const NumberRange& range) const;
   // Exactly `count` comma-separated finite numbers / integers.
   std::optional<std::vector<double>> numbers(std::string_view name, std::size_t count) const;
   std::optional<std::vector<std::int64_t>> integers(std::string_view name, std::size_t count) const;

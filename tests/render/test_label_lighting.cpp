@@ -78,17 +78,23 @@ TEST(RenderLabelLighting, NormalsShadeABallSmoothlyWhereGradientsShowTheVoxels) 
   LabelScene scene(*file.labels, LabelColorMap::uniform({1, 1, 1, 1}));
   LabelShading shading(file.labels->open_normals());
   const Image normals = render_labels(scene, front(), lit(LabelLighting::normals), nullptr, &shading);
-  const Image gradient = render_labels(scene, front(), lit(LabelLighting::gradient));
-  const std::vector<double> n = centre_row(normals), g = centre_row(gradient);
+  // Gradients of the trilinear coverage (smooth boundaries off) show the voxels; those of the
+  // B-spline coverage (the default) are lit by level 1's gradient and stay smooth too.
+  LabelRenderOptions trilinear = lit(LabelLighting::gradient);
+  trilinear.smooth = false;
+  const Image gradient = render_labels(scene, front(), trilinear);
+  const Image smooth = render_labels(scene, front(), lit(LabelLighting::gradient));
+  const std::vector<double> n = centre_row(normals), g = centre_row(gradient), sm = centre_row(smooth);
   // Inside the silhouette, away from its rim (3 voxels) where the surface turns away.
   const double ambient = LabelRenderOptions{}.ambient;
-  double worst_step_n = 0, worst_step_g = 0, error = 0;
+  double worst_step_n = 0, worst_step_g = 0, worst_step_smooth = 0, error = 0;
   int count = 0;
   for (int px = 0; px + 1 < kPixels; ++px) {
     const double x = (px + 0.5) * kN / kPixels - kCentre;
     if (std::abs(x) > kRadius - 3) continue;
     worst_step_n = std::max(worst_step_n, std::abs(n[std::size_t(px + 1)] - n[std::size_t(px)]));
     worst_step_g = std::max(worst_step_g, std::abs(g[std::size_t(px + 1)] - g[std::size_t(px)]));
+    worst_step_smooth = std::max(worst_step_smooth, std::abs(sm[std::size_t(px + 1)] - sm[std::size_t(px)]));
     // A ball lit by a headlight: |n·l| = sqrt(1 − (x/R)²) on the centre row.
     const double expected = 255 * (ambient + (1 - ambient) * std::sqrt(1 - (x / kRadius) * (x / kRadius)));
     error += (n[std::size_t(px)] - expected) * (n[std::size_t(px)] - expected);
@@ -101,6 +107,7 @@ TEST(RenderLabelLighting, NormalsShadeABallSmoothlyWhereGradientsShowTheVoxels) 
   const double slope = (1 - ambient) * 255 * (x_max / (kRadius * kRadius)) / std::sqrt(1 - x_max * x_max / (kRadius * kRadius)) / 4;
   EXPECT_LT(worst_step_n, 2 * slope + 2) << "normals: a step edge along the scanline";
   EXPECT_GT(worst_step_g, 2 * slope + 2) << "gradients were expected to show voxel steps (the test would be moot)";
+  EXPECT_LT(worst_step_smooth, 2 * slope + 2) << "smooth boundaries: a step edge along the scanline";
   EXPECT_LT(std::sqrt(error / count), 8.0) << "normals: the profile of a lit ball (measured 3.7)";
 }
 

@@ -3,6 +3,8 @@
 // client sees for bad parameters, unknown datasets and paths.
 #include <gtest/gtest.h>
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -428,6 +430,60 @@ TEST(ServerApiPalette, RecoloursSlicesThroughTheGraph) {
     red_pixels += p.r > 40 && p.g < p.r / 2;
   }
   EXPECT_GT(red_pixels, 10u) << "the red label shows in 3D";
+}
+
+TEST(ServerApiPick, PicksTheLabelAPixelShowsAndPassesHiddenOnes) {
+  // The centre pixel of a view along -x (azimuth 90, elevation 0): the first voxel whose label
+  // is visible; hiding that label moves the pick deeper, to a voxel of another label.
+  const auto api = make_api();
+  const std::string view = "pick?w=64&h=48&az=90&el=0&x=31.5&y=23.5";
+  const nlohmann::json first = json_of(get(*api, dataset(kLabels, view)));
+  ASSERT_TRUE(first["hit"].get<bool>()) << first.dump();
+  const std::int64_t label = first["label"];
+  const auto& voxel = first["voxel"];
+  const std::string at = fmt::format("value?x={}&y={}&z={}", voxel[0].get<std::int64_t>(), voxel[1].get<std::int64_t>(),
+                                     voxel[2].get<std::int64_t>());
+  EXPECT_EQ(json_of(get(*api, dataset(kLabels, at)))["label"], label);
+  EXPECT_EQ(voxel[0], 39) << "a label fills the volume's +x face";
+  const nlohmann::json palette{{"hidden", {label}}};
+  ASSERT_EQ(post(*api, dataset(kLabels, "palette"), palette.dump()).status, 200);
+  const nlohmann::json second = json_of(get(*api, dataset(kLabels, view)));
+  ASSERT_TRUE(second["hit"].get<bool>()) << second.dump();
+  EXPECT_NE(second["label"], label);
+  EXPECT_GT(second["distance"].get<double>(), first["distance"].get<double>());
+  // A corner pixel looks past the volume.
+  EXPECT_FALSE(json_of(get(*api, dataset(kLabels, "pick?w=64&h=48&az=90&el=0&x=0&y=0")))["hit"].get<bool>());
+}
+
+TEST(ServerApiPick, PicksWhereAScalarViewTurnsOpaque) {
+  const auto api = make_api();
+  const nlohmann::json hit = json_of(get(*api, dataset(kPlain, "pick?w=64&h=48&x=31.5&y=23.5&tf=0:1:1:1:0;0.5:1:1:1:0;0.6:1:1:1:0.9;1:1:1:1:0.9")));
+  ASSERT_TRUE(hit["hit"].get<bool>()) << hit.dump();
+  const auto& voxel = hit["voxel"];
+  const std::string at = fmt::format("value?x={}&y={}&z={}", voxel[0].get<std::int64_t>(), voxel[1].get<std::int64_t>(),
+                                     voxel[2].get<std::int64_t>());
+  EXPECT_DOUBLE_EQ(json_of(get(*api, dataset(kPlain, at)))["value"].get<double>(), hit["value"].get<double>());
+  const nlohmann::json clear = json_of(get(*api, dataset(kPlain, "pick?w=64&h=48&x=31.5&y=23.5&tf=0:1:1:1:0;1:1:1:1:0")));
+  EXPECT_FALSE(clear["hit"].get<bool>());
+}
+
+TEST(ServerApiPick, BadPickParametersAreNamed) {
+  const auto api = make_api();
+  auto expect_bad = [&](const std::string& url, const std::string& parameter) {
+    const HttpResponse r = get(*api, url);
+    EXPECT_EQ(r.status, 400) << url;
+    EXPECT_EQ(json_of(r)["parameter"], parameter) << url << ": " << r.body;
+  };
+  expect_bad(dataset(kScalar, "pick?y=1"), "x");
+  expect_bad(dataset(kScalar, "pick?x=1"), "y");
+  expect_bad(dataset(kScalar, "pick?w=64&h=48&x=63.5&y=1"), "x");
+  expect_bad(dataset(kScalar, "pick?w=64&h=48&x=1&y=-0.6"), "y");
+  expect_bad(dataset(kScalar, "pick?x=nan&y=1"), "x");
+  expect_bad(dataset(kScalar, "pick?x=1&y=1&step=1"), "step");
+  expect_bad(dataset(kScalar, "pick?x=1&y=1&rank=9"), "rank");
+  expect_bad(dataset(kLabels, "pick?x=1&y=1&tf=ct"), "tf");
+  expect_bad(dataset(kPlain, "pick?x=1&y=1&rank=1"), "rank");
+  EXPECT_EQ(post(*api, dataset(kScalar, "pick?x=1&y=1"), "").status, 405);
 }
 
 TEST(ServerApiPalette, OnlyShowsTheListedLabelsInTheirColours) {

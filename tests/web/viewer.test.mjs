@@ -432,6 +432,39 @@ test('a name search selects the labels whose name matches, and their rows show t
   assert.ok((await viewState()).selectedLabels.includes(1));
 });
 
+// Alt-clicks the middle of the 3D view and waits for the pick's answer; returns the voxel.
+async function altClick3d() {
+  const [x, y] = await centreOf('canvas-3d');
+  const before = await page.locator('#canvas-3d').evaluate((c) => c.parentElement.dataset.picked ?? '');
+  await page.keyboard.down('Alt');
+  await page.mouse.click(x, y);
+  await page.keyboard.up('Alt');
+  await page.waitForFunction((previous) => {
+    const picked = document.querySelector('#canvas-3d').parentElement.dataset.picked;
+    return picked !== undefined && picked !== previous;
+  }, before);
+  const picked = await page.locator('#canvas-3d').evaluate((c) => c.parentElement.dataset.picked);
+  assert.notEqual(picked, 'none', 'the middle of the 3D view shows the volume');
+  return picked.split(',').map(Number);
+}
+
+test('Alt-click in 3D moves the slices to the picked voxel and selects its label', async () => {
+  const voxel = await altClick3d();
+  assert.deepEqual((await viewState()).cursor, voxel, 'the cursor moved to the picked voxel');
+  assert.match(await page.getByTestId('status-message').textContent(), /voxel .*: value/);
+  await page.getByTestId('source-3d').selectOption('labels');
+  await waitForExactFrame(1);
+  const labelVoxel = await altClick3d();
+  const labels = await page.evaluate(() => window.strataViewer.labelDataset().id);
+  const { label } = await page.evaluate(
+    async ([id, [x, y, z]]) => (await fetch(`/api/datasets/${id}/value?x=${x}&y=${y}&z=${z}`)).json(),
+    [labels, labelVoxel],
+  );
+  assert.ok((await viewState()).selectedLabels.includes(label), `label ${label} under the pointer was not selected`);
+  assert.deepEqual((await viewState()).cursor, labelVoxel);
+  await page.getByTestId('source-3d').selectOption('scalar');
+});
+
 test('a box query lists labels whose exact counts sum to the box volume', async () => {
   const box = [8, 8, 8, 40, 36, 30];
   const volume = (box[3] - box[0]) * (box[4] - box[1]) * (box[5] - box[2]);

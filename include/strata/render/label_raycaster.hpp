@@ -39,6 +39,10 @@ struct LabelRenderOptions {
   double step = 0.5;           // step length in voxels of the sampled level, > 0
   double termination = 0.99;   // stop a ray once its accumulated opacity reaches this
   bool skip_empty = true;      // jump over cubes the opacity hierarchy proves transparent
+  // Level 0 reconstructed by the cubic B-spline of the palette (64 voxels where labels meet,
+  // one read inside a label) instead of trilinearly: zoomed in, label boundaries and their
+  // lighting are smooth instead of the voxel staircase. Coarser levels are pre-filtered already.
+  bool smooth = true;
   // Headlight shading from the opacity gradient (labels have no meaningful value gradient,
   // paper §4): colour x (ambient + (1 - ambient) |n . view|). Costs 6 extra palette samples
   // per visible sample.

@@ -28,6 +28,7 @@
 #include "strata/render/camera.hpp"
 #include "strata/render/image.hpp"
 #include "strata/render/label_color_map.hpp"
+#include "strata/render/pick.hpp"
 #include "strata/render/slices.hpp"
 #include "strata/render/transfer_function.hpp"
 
@@ -172,6 +173,15 @@ class RenderSession {
   double value_at(const Extent& voxel, int rank = 0);
   /// @brief Label files: the label at a level-0 voxel. Throws as value_at.
   std::int64_t label_at(const Extent& voxel) const;
+
+  /// @brief What pixel (px, py) of the frame `camera` describes shows (Camera::ray; the camera
+  /// resolved as frame() resolves it): the first level-0 voxel along the pixel's ray that is
+  /// solid in the picture. Label files: a voxel whose label is visible in the current colours
+  /// (set_label_colors; "only selected" and hidden labels count as the frames show them).
+  /// Scalar and plain files: the voxel where the opacity accumulated under `tf` (per voxel
+  /// crossed, corrected for the length inside it; values at rank `rank`) reaches kPickOpacity.
+  /// Nothing when the ray meets no such voxel. Throws ParameterError("rank") as value_at.
+  std::optional<Pick> pick(const CameraSpec& camera, double px, double py, const TransferFunction& tf, int rank = 0);
 
   /// @brief Label files: new label colours for frames and palette slices, propagated through
   /// the Mixture Graph now; returns the milliseconds that took. Error for other kinds.
