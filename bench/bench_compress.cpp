@@ -1,4 +1,4 @@
-// Whole-file decoding: BM_DecodeWholeFile decodes level 0 of a 256^3 prisms file coded to
+// Whole-file decoding: BM_DecodeWholeFile decodes level 0 of a 256^3 or 512^3 prisms file coded to
 // 40 dB PSNR (TaVolume::decode_box of the whole level: entropy decoding, reconstruction, the
 // copy into the output volume), per thread count.
 // Whole-file compression throughput: a generated prisms volume (128^3 u16) served from memory
@@ -10,6 +10,8 @@
 #include <benchmark/benchmark.h>
 
 #include <filesystem>
+#include <map>
+#include <memory>
 
 #include "strata/core/progress.hpp"
 #include "strata/core/threads.hpp"
@@ -75,28 +77,28 @@ void BM_CompressPrisms128(benchmark::State& state) {
 }
 BENCHMARK(BM_CompressPrisms128)->ArgName("threads")->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
 
-// The 256^3 file BM_DecodeWholeFile decodes, written once per run.
-const std::filesystem::path& prisms256_file() {
-  static io::TempFile file(std::filesystem::temp_directory_path(), "bench-decode");
-  static const bool written = [] {
+// The size^3 prisms file BM_DecodeWholeFile decodes, written once per run and size.
+const std::filesystem::path& prisms_file(std::int64_t size) {
+  static std::map<std::int64_t, std::unique_ptr<io::TempFile>> files;
+  std::unique_ptr<io::TempFile>& file = files[size];
+  if (!file) {
+    file = std::make_unique<io::TempFile>(std::filesystem::temp_directory_path(), "bench-decode");
     gen::Params g;
     g.kind = gen::Kind::prisms;
-    g.dims = {256, 256, 256};
+    g.dims = {size, size, size};
     g.seed = 1;
     const Volume volume = gen::generate(g);
     ta::CompressParams p = default_params();
     p.codec.target = {ta::TargetKind::psnr, 40.0};
     MemorySource source(volume);
-    ta::compress_volume(source, file.path(), p, silent_progress());
-    return true;
-  }();
-  (void)written;
-  return file.path();
+    ta::compress_volume(source, file->path(), p, silent_progress());
+  }
+  return file->path();
 }
 
-// Arg: worker threads.
+// Args: worker threads, volume edge.
 void BM_DecodeWholeFile(benchmark::State& state) {
-  const ta::TaVolume volume(prisms256_file());
+  const ta::TaVolume volume(prisms_file(state.range(1)));
   const Box whole = Box::whole(volume.geometry().level(0).dims);
   set_thread_count(int(state.range(0)));
   for (auto _ : state) benchmark::DoNotOptimize(volume.decode_box(0, whole, volume.rank()));
@@ -104,7 +106,14 @@ void BM_DecodeWholeFile(benchmark::State& state) {
   state.counters["Mvox/s"] = benchmark::Counter(double(whole.size().voxel_count()) * double(state.iterations()) / 1e6,
                                                 benchmark::Counter::kIsRate);
 }
-BENCHMARK(BM_DecodeWholeFile)->ArgName("threads")->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_DecodeWholeFile)
+    ->ArgNames({"threads", "size"})
+    ->Args({1, 256})
+    ->Args({2, 256})
+    ->Args({1, 512})
+    ->Args({2, 512})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 // One brick's encoding (no decoding, no culling statistics): the compressor's per-brick work
 // minus what the level pipeline adds. Bricks are taken from the volume's interior.

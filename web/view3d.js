@@ -244,6 +244,8 @@ export class View3D {
     this.message.hidden = true;
     this.redrawFrame();
     this.frames += 1;
+    // Milliseconds from the page's first request to its first picture (bench/viewer/first_frame.mjs).
+    if (this.frames === 1) this.canvas.dataset.firstFrameMs = Math.round(performance.now());
     Object.assign(this.canvas.dataset, { frames: this.frames, quality, seq, passes: quality === 'exact' ? 1 : 0 });
     this.viewer.status.frameShown(parseStats(frame.headers), quality, elapsed);
     if (quality === 'exact' && this.state.source3d === 'scalar') {
