@@ -6,37 +6,18 @@
 #include <cmath>
 #include <limits>
 
+#include "render/traversal.hpp"
+
 namespace strata::render {
-
-namespace {
-
-// The ray's parameter interval inside the box [0, size) (slab test); empty when it misses.
-bool clip_to_box(const Ray& ray, const std::array<double, 3>& size, double& t0, double& t1) {
-  t0 = 0;
-  t1 = std::numeric_limits<double>::infinity();
-  for (int a = 0; a < 3; ++a) {
-    const double o = ray.origin[a], d = ray.direction[a];
-    if (d == 0) {
-      if (o < 0 || o >= size[std::size_t(a)]) return false;
-      continue;
-    }
-    double lo = (0 - o) / d, hi = (size[std::size_t(a)] - o) / d;
-    if (lo > hi) std::swap(lo, hi);
-    t0 = std::max(t0, lo);
-    t1 = std::min(t1, hi);
-  }
-  return t0 < t1;
-}
-
-}  // namespace
 
 std::optional<VoxelHit> walk_voxels(const Ray& ray, const Extent& dims, const Spacing& spacing,
                                     const std::function<bool(const Extent& voxel, double length)>& stop) {
   const std::array<double, 3> cell{spacing.x, spacing.y, spacing.z};
   const std::array<std::int64_t, 3> n{dims.x, dims.y, dims.z};
   const std::array<double, 3> size{cell[0] * double(n[0]), cell[1] * double(n[1]), cell[2] * double(n[2])};
-  double t, t_exit;
-  if (!clip_to_box(ray, size, t, t_exit)) return std::nullopt;
+  auto [t, t_exit] = detail::clip_to_box(ray.origin, ray.direction, Vec3{size[0], size[1], size[2]},
+                                        detail::DividedByDirection<Vec3>{ray.direction});
+  if (!(t < t_exit)) return std::nullopt;
   // The voxel the ray enters first (its entry point may sit on the far face by rounding).
   std::array<std::int64_t, 3> v{};
   std::array<std::int64_t, 3> step{};
